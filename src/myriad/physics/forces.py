@@ -1,0 +1,98 @@
+"""Generalized forces of one substep: user forces, actuators, joint springs/dampers, tendon springs.
+
+Writes the explicit force `qfrc` (already minus the bias forces) and `implicit_diag`, the diagonal
+joint-space terms h·d + h²·k that the solve adds to the mass matrix. Implicit terms are exact for
+the linearized update qd' = qd + h·qacc, q' = q + h·qd':
+  joint damping d:        f = -d·qd'                      -> rhs -d·qd,            diag h·d
+  position actuator:      f = g·(kp·(u - g·q') - kv·g·qd') -> rhs g·(kp·(u - g·q - h·g·qd) - kv·g·qd),
+                                                             diag g²·(h·kv + h²·kp)
+  velocity actuator:      f = g·kv·(u - g·qd')            -> rhs g·kv·(u - g·qd),  diag g²·h·kv
+An actuator whose predicted force (qacc = 0) exceeds its force range applies the clamped force
+explicitly instead. Joint and tendon springs are explicit, as in MuJoCo.
+"""
+
+import warp as wp
+
+from . import model as M
+from .structs import EnvParams, ModelArrays
+
+HINGE = wp.constant(M.JOINT_HINGE)
+SLIDE = wp.constant(M.JOINT_SLIDE)
+MOTOR = wp.constant(M.ACTUATOR_MOTOR)
+POSITION = wp.constant(M.ACTUATOR_POSITION)
+
+
+@wp.kernel
+def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
+                       q: wp.array2d(dtype=float), qd: wp.array2d(dtype=float),
+                       ctrl: wp.array2d(dtype=float), joint_force: wp.array2d(dtype=float),
+                       bias: wp.array2d(dtype=float),
+                       qfrc_actuator: wp.array2d(dtype=float),
+                       qfrc: wp.array2d(dtype=float), implicit_diag: wp.array2d(dtype=float)):
+    e = wp.tid()
+    for i in range(m.nv):
+        d = p.dof_damping[e, i]
+        qfrc[e, i] = joint_force[e, i] - bias[e, i] - d * qd[e, i]
+        implicit_diag[e, i] = h * d
+        qfrc_actuator[e, i] = 0.0
+
+    for j in range(m.njnt):
+        t = m.jnt_type[j]
+        if t == HINGE or t == SLIDE:
+            k = p.jnt_stiffness[e, j]
+            a = m.jnt_qposadr[j]
+            i = m.jnt_dofadr[j]
+            qfrc[e, i] = qfrc[e, i] - k * (q[e, a] - m.jnt_springref[j])
+
+    for a in range(m.nu):
+        i = m.actuator_dof[a]
+        g = p.actuator_gear[e, a]
+        u = ctrl[e, a]
+        if m.actuator_ctrllimited[a] != 0:
+            r = m.actuator_ctrlrange[a]
+            u = wp.clamp(u, r[0], r[1])
+        kind = m.actuator_kind[a]
+        force = float(0.0)
+        stiff = float(0.0)
+        damp = float(0.0)
+        if kind == MOTOR:
+            force = p.actuator_gain[e, a] * u
+        else:
+            kv = p.actuator_kv[e, a]
+            if kind == POSITION:
+                kp = p.actuator_kp[e, a]
+                length = g * q[e, m.actuator_qposadr[a]]
+                force = kp * (u - length - h * g * qd[e, i]) - kv * g * qd[e, i]
+                stiff = kp
+            else:
+                force = kv * (u - g * qd[e, i])
+            damp = kv
+        if m.actuator_forcelimited[a] != 0:
+            r = m.actuator_forcerange[a]
+            if force < r[0] or force > r[1]:
+                force = wp.clamp(force, r[0], r[1])
+                stiff = 0.0
+                damp = 0.0
+        qfrc_actuator[e, i] = qfrc_actuator[e, i] + g * force
+        qfrc[e, i] = qfrc[e, i] + g * force
+        implicit_diag[e, i] = implicit_diag[e, i] + g * g * (h * damp + h * h * stiff)
+
+    # fixed tendons: spring with a rest-length dead band, and damper (MuJoCo semantics)
+    for t in range(m.ntendon):
+        length = float(0.0)
+        speed = float(0.0)
+        for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
+            j = m.wrap_jnt[w]
+            c = m.wrap_coef[w]
+            length = length + c * q[e, m.jnt_qposadr[j]]
+            speed = speed + c * qd[e, m.jnt_dofadr[j]]
+        band = m.tendon_lengthspring[t]
+        stretch = float(0.0)
+        if length < band[0]:
+            stretch = length - band[0]
+        if length > band[1]:
+            stretch = length - band[1]
+        tension = -p.tendon_stiffness[e, t] * stretch - p.tendon_damping[e, t] * speed
+        for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
+            i = m.jnt_dofadr[m.wrap_jnt[w]]
+            qfrc[e, i] = qfrc[e, i] + m.wrap_coef[w] * tension

@@ -1,0 +1,274 @@
+"""MJCF and URDF import: MuJoCo's compiler parses the file, we read the compiled `MjModel`.
+
+MuJoCo resolves defaults, `fromto`, inertias from geoms, meshes and URDF conversion; we only
+check that what it produced is something our engine simulates faithfully. Anything else raises
+`ModelError` naming the file and the element, so that a model never runs silently approximated.
+"""
+
+from __future__ import annotations
+
+import os
+
+import mujoco
+import numpy as np
+
+from .model import (ACTUATOR_MOTOR, ACTUATOR_POSITION, ACTUATOR_VELOCITY, JOINT_BALL, JOINT_FREE,
+                    JOINT_HINGE, JOINT_SLIDE, Model, ModelError)
+
+
+def load(path: str | os.PathLike) -> Model:
+    """Read an MJCF (.xml) or URDF (.urdf) file into a `Model`."""
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise ModelError(f"{path}: no such model file")
+    try:
+        mj_model = mujoco.MjModel.from_xml_path(path)
+    except Exception as err:  # MuJoCo raises ValueError with the element and line in the text
+        raise ModelError(f"{path}: MuJoCo rejected the model: {err}") from err
+    return from_mujoco(mj_model, source=path)
+
+
+def load_xml(xml: str, source: str = "<string>") -> Model:
+    """Read MJCF text (handy for models generated in code)."""
+    try:
+        mj_model = mujoco.MjModel.from_xml_string(xml)
+    except Exception as err:
+        raise ModelError(f"{source}: MuJoCo rejected the model: {err}") from err
+    return from_mujoco(mj_model, source=source)
+
+
+def _name(m, objtype, i: int) -> str:
+    return mujoco.mj_id2name(m, objtype, i) or ""
+
+
+def _label(m, objtype, i: int, kind: str) -> str:
+    name = _name(m, objtype, i)
+    return f"{kind} {name!r}" if name else f"{kind} #{i} (unnamed)"
+
+
+def _xyzw(wxyz: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(wxyz[..., [1, 2, 3, 0]], dtype=np.float32)
+
+
+def _f32(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float32)
+
+
+def _i32(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.int32)
+
+
+def _check_supported(m, source: str) -> None:
+    """Reject every feature whose physics we would otherwise silently drop or change."""
+    o = mujoco.mjtObj
+
+    def fail(what: str) -> None:
+        raise ModelError(f"{source}: {what}")
+
+    if m.neq:
+        fail(f"{_label(m, o.mjOBJ_EQUALITY, 0, 'equality constraint')}: equality constraints "
+             "(connect/weld/joint/tendon) are not supported")
+    if m.nflex:
+        fail("flex (deformable) elements are not supported")
+    if m.nmocap:
+        fail("mocap bodies are not supported")
+    if m.nplugin:
+        fail("engine plugins are not supported")
+    if m.npair:
+        fail("explicit <contact><pair> elements are not supported yet (use contype/conaffinity "
+             "and <exclude>)")
+    if np.any(m.opt.wind != 0) or m.opt.density != 0 or m.opt.viscosity != 0:
+        fail("<option> wind/density/viscosity (fluid forces) are not supported")
+    for b in range(1, m.nbody):
+        if m.body_gravcomp[b] != 0:
+            fail(f"{_label(m, o.mjOBJ_BODY, b, 'body')}: gravcomp is not supported")
+    for j in range(m.njnt):
+        label = _label(m, o.mjOBJ_JOINT, j, "joint")
+        if m.jnt_type[j] in (JOINT_FREE, JOINT_BALL) and m.jnt_stiffness[j] != 0:
+            fail(f"{label}: stiffness on free and ball joints is not supported")
+        if m.jnt_actfrclimited[j]:
+            fail(f"{label}: actuatorfrcrange is not supported yet (limit the actuator's forcerange)")
+        if np.any(m.jnt_stiffnesspoly[j] != 0):
+            fail(f"{label}: polynomial stiffness is not supported")
+    if np.any(m.dof_dampingpoly != 0):
+        fail("polynomial joint damping is not supported")
+    for t in range(m.ntendon):
+        label = _label(m, o.mjOBJ_TENDON, t, "tendon")
+        adr, num = m.tendon_adr[t], m.tendon_num[t]
+        if np.any(m.wrap_type[adr:adr + num] != mujoco.mjtWrap.mjWRAP_JOINT):
+            fail(f"{label}: spatial tendons are not supported (fixed tendons only)")
+        for w in range(adr, adr + num):
+            if m.jnt_type[m.wrap_objid[w]] not in (JOINT_HINGE, JOINT_SLIDE):
+                fail(f"{label}: a fixed tendon may only span hinge and slide joints")
+        if m.tendon_armature[t] != 0 or np.any(m.tendon_stiffnesspoly[t] != 0) \
+                or np.any(m.tendon_dampingpoly[t] != 0):
+            fail(f"{label}: tendon armature and polynomial springs are not supported")
+    for a in range(m.nu):
+        label = _label(m, o.mjOBJ_ACTUATOR, a, "actuator")
+        if m.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
+            fail(f"{label}: only joint transmissions are supported")
+        if m.jnt_type[m.actuator_trnid[a, 0]] not in (JOINT_HINGE, JOINT_SLIDE):
+            fail(f"{label}: actuators may only drive hinge and slide joints")
+        if m.actuator_dyntype[a] != mujoco.mjtDyn.mjDYN_NONE:
+            fail(f"{label}: actuator dynamics (dyntype) are not supported")
+        if m.actuator_delay[a] != 0 or m.actuator_damping[a] != 0 or m.actuator_armature[a] != 0:
+            fail(f"{label}: actuator delay, damping and armature are not supported")
+        _actuator_kind(m, a, fail)
+    for s in range(m.nsensor):
+        st = m.sensor_type[s]
+        if st not in (mujoco.mjtSensor.mjSENS_FORCE, mujoco.mjtSensor.mjSENS_TORQUE):
+            fail(f"{_label(m, o.mjOBJ_SENSOR, s, 'sensor')}: sensor type "
+                 f"{mujoco.mjtSensor(st).name} is not supported (force and torque sensors only)")
+    for g in range(m.ngeom):
+        if m.geom_type[g] not in range(8):
+            fail(f"{_label(m, o.mjOBJ_GEOM, g, 'geom')}: geom type {mujoco.mjtGeom(m.geom_type[g]).name} "
+                 "is not supported")
+
+
+def _actuator_kind(m, a: int, fail) -> int:
+    """Classify a general actuator as motor, position or velocity (MuJoCo's shortcuts)."""
+    gain, bias = m.actuator_gainprm[a], m.actuator_biasprm[a]
+    label = _label(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a, "actuator")
+    if m.actuator_gaintype[a] != mujoco.mjtGain.mjGAIN_FIXED:
+        fail(f"{label}: only fixed gains are supported")
+    if m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE:
+        return ACTUATOR_MOTOR
+    if m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE and bias[0] == 0:
+        if np.isclose(bias[1], -gain[0]) and bias[1] != 0:
+            return ACTUATOR_POSITION  # force = kp*(ctrl - length) - kv*velocity
+        if bias[1] == 0 and np.isclose(bias[2], -gain[0]):
+            return ACTUATOR_VELOCITY  # force = kv*(ctrl - velocity)
+    fail(f"{label}: a general actuator that is not a motor, position or velocity actuator is "
+         "not supported")
+    return -1
+
+
+def _mesh_hulls(m, source: str):
+    """Convex hull triangles of every mesh, from MuJoCo's hull graph."""
+    faces, faceadr, facenum = [], [], []
+    nface = 0
+    for i in range(m.nmesh):
+        adr = m.mesh_graphadr[i]
+        if adr < 0:
+            raise ModelError(f"{source}: {_label(m, mujoco.mjtObj.mjOBJ_MESH, i, 'mesh')}: MuJoCo "
+                             "computed no convex hull for it")
+        g = m.mesh_graph[adr:]
+        numvert, numface = int(g[0]), int(g[1])
+        # layout: numvert, numface, vert_edgeadr[numvert], vert_globalid[numvert],
+        #         edge_localid[numvert + 3*numface], face_globalid[3*numface]
+        face_globalid = g[2 + 3 * numvert + 3 * numface: 2 + 3 * numvert + 6 * numface]
+        tri = face_globalid.reshape(numface, 3) + m.mesh_vertadr[i]
+        faces.append(tri)
+        faceadr.append(nface)
+        facenum.append(numface)
+        nface += numface
+    face = np.concatenate(faces) if faces else np.zeros((0, 3))
+    return _i32(face), _i32(faceadr), _i32(facenum)
+
+
+def from_mujoco(m, source: str = "<MjModel>") -> Model:
+    """Build a `Model` from a compiled `mujoco.MjModel`."""
+    _check_supported(m, source)
+    o = mujoco.mjtObj
+    nbody = m.nbody - 1  # without the world body
+
+    body_parent = _i32(m.body_parentid[1:] - 1)
+    body_root = _i32(m.body_rootid[1:] - 1)
+    body_jntadr = _i32(m.body_jntadr[1:])
+    body_jntnum = _i32(m.body_jntnum[1:])
+    # last dof that moves each body: its own last dof, else its parent's (bodies are topological)
+    body_last_dof = np.full(nbody, -1, np.int32)
+    for b in range(nbody):
+        if m.body_dofnum[b + 1] > 0:
+            body_last_dof[b] = m.body_dofadr[b + 1] + m.body_dofnum[b + 1] - 1
+        elif body_parent[b] >= 0:
+            body_last_dof[b] = body_last_dof[body_parent[b]]
+
+    qpos0 = m.qpos0.astype(np.float32)
+    qpos_spring = m.qpos_spring.astype(np.float32)
+    jnt_springref = np.zeros(m.njnt, np.float32)
+    for j in range(m.njnt):
+        if m.jnt_type[j] in (JOINT_HINGE, JOINT_SLIDE):
+            jnt_springref[j] = qpos_spring[m.jnt_qposadr[j]]
+
+    nu = m.nu
+    kind = np.array([_actuator_kind(m, a, None) for a in range(nu)], np.int32)
+    gear = m.actuator_gear[:, 0] if nu else np.zeros(0)
+    gain = np.where(kind == ACTUATOR_MOTOR, m.actuator_gainprm[:, 0], 0.0) if nu else np.zeros(0)
+    kp = np.where(kind == ACTUATOR_POSITION, m.actuator_gainprm[:, 0], 0.0) if nu else np.zeros(0)
+    kv = (np.where(kind == ACTUATOR_POSITION, -m.actuator_biasprm[:, 2], 0.0)
+          + np.where(kind == ACTUATOR_VELOCITY, m.actuator_gainprm[:, 0], 0.0)) if nu else np.zeros(0)
+    actuator_dof = _i32(m.jnt_dofadr[m.actuator_trnid[:, 0]]) if nu else np.zeros(0, np.int32)
+
+    hull_face, hull_faceadr, hull_facenum = _mesh_hulls(m, source)
+
+    model = Model(
+        source=source, mj_model=m,
+        nq=m.nq, nv=m.nv, nbody=nbody, njnt=m.njnt, ngeom=m.ngeom, nsite=m.nsite, nu=nu,
+        ntendon=m.ntendon, nsensor=m.nsensor,
+        body_names=[_name(m, o.mjOBJ_BODY, b) for b in range(1, m.nbody)],
+        joint_names=[_name(m, o.mjOBJ_JOINT, j) for j in range(m.njnt)],
+        geom_names=[_name(m, o.mjOBJ_GEOM, g) for g in range(m.ngeom)],
+        site_names=[_name(m, o.mjOBJ_SITE, s) for s in range(m.nsite)],
+        actuator_names=[_name(m, o.mjOBJ_ACTUATOR, a) for a in range(nu)],
+        tendon_names=[_name(m, o.mjOBJ_TENDON, t) for t in range(m.ntendon)],
+        sensor_names=[_name(m, o.mjOBJ_SENSOR, s) for s in range(m.nsensor)],
+        body_parent=body_parent, body_root=body_root,
+        body_pos=_f32(m.body_pos[1:]), body_quat=_xyzw(m.body_quat[1:]),
+        body_ipos=_f32(m.body_ipos[1:]), body_iquat=_xyzw(m.body_iquat[1:]),
+        body_mass=_f32(m.body_mass[1:]), body_inertia=_f32(m.body_inertia[1:]),
+        body_jntadr=body_jntadr, body_jntnum=body_jntnum, body_last_dof=body_last_dof,
+        jnt_type=_i32(m.jnt_type), jnt_body=_i32(m.jnt_bodyid - 1),
+        jnt_qposadr=_i32(m.jnt_qposadr), jnt_dofadr=_i32(m.jnt_dofadr),
+        jnt_pos=_f32(m.jnt_pos), jnt_axis=_f32(m.jnt_axis),
+        jnt_stiffness=_f32(m.jnt_stiffness), jnt_springref=jnt_springref,
+        jnt_limited=m.jnt_limited.astype(bool), jnt_range=_f32(m.jnt_range),
+        qpos0=_f32(_qpos_xyzw(m, qpos0)),
+        dof_body=_i32(m.dof_bodyid - 1), dof_jnt=_i32(m.dof_jntid), dof_parent=_i32(m.dof_parentid),
+        dof_armature=_f32(m.dof_armature), dof_damping=_f32(m.dof_damping),
+        dof_frictionloss=_f32(m.dof_frictionloss),
+        geom_type=_i32(m.geom_type), geom_body=_i32(m.geom_bodyid - 1),
+        geom_pos=_f32(m.geom_pos), geom_quat=_xyzw(m.geom_quat), geom_size=_f32(m.geom_size),
+        geom_friction=_f32(m.geom_friction), geom_contype=_i32(m.geom_contype),
+        geom_conaffinity=_i32(m.geom_conaffinity), geom_condim=_i32(m.geom_condim),
+        geom_dataid=_i32(m.geom_dataid),
+        mesh_vert=_f32(m.mesh_vert), mesh_vertadr=_i32(m.mesh_vertadr),
+        mesh_vertnum=_i32(m.mesh_vertnum), mesh_hull_face=hull_face,
+        mesh_hull_faceadr=hull_faceadr, mesh_hull_facenum=hull_facenum,
+        hfield_size=_f32(m.hfield_size), hfield_nrow=_i32(m.hfield_nrow),
+        hfield_ncol=_i32(m.hfield_ncol), hfield_adr=_i32(m.hfield_adr),
+        hfield_data=_f32(m.hfield_data),
+        site_body=_i32(m.site_bodyid - 1), site_pos=_f32(m.site_pos), site_quat=_xyzw(m.site_quat),
+        actuator_kind=kind, actuator_dof=actuator_dof, actuator_gear=_f32(gear),
+        actuator_gain=_f32(gain), actuator_kp=_f32(kp), actuator_kv=_f32(kv),
+        actuator_ctrllimited=m.actuator_ctrllimited.astype(bool),
+        actuator_ctrlrange=_f32(m.actuator_ctrlrange),
+        actuator_forcelimited=m.actuator_forcelimited.astype(bool),
+        actuator_forcerange=_f32(m.actuator_forcerange),
+        tendon_adr=_i32(m.tendon_adr), tendon_num=_i32(m.tendon_num),
+        wrap_jnt=_i32(m.wrap_objid), wrap_coef=_f32(m.wrap_prm),
+        tendon_stiffness=_f32(m.tendon_stiffness), tendon_damping=_f32(m.tendon_damping),
+        tendon_lengthspring=_f32(m.tendon_lengthspring),
+        tendon_limited=m.tendon_limited.astype(bool), tendon_range=_f32(m.tendon_range),
+        sensor_type=["force" if t == mujoco.mjtSensor.mjSENS_FORCE else "torque"
+                     for t in m.sensor_type],
+        sensor_site=_i32(m.sensor_objid),
+        exclude_body_pairs=_i32(_exclude_pairs(m)),
+        gravity=_f32(m.opt.gravity), timestep=float(m.opt.timestep),
+    )
+    return model
+
+
+def _qpos_xyzw(m, qpos: np.ndarray) -> np.ndarray:
+    out = qpos.copy()
+    for j in range(m.njnt):
+        if m.jnt_type[j] in (JOINT_FREE, JOINT_BALL):
+            a = m.jnt_qposadr[j] + (3 if m.jnt_type[j] == JOINT_FREE else 0)
+            out[a:a + 4] = qpos[[a + 1, a + 2, a + 3, a]]
+    return out
+
+
+def _exclude_pairs(m) -> np.ndarray:
+    # exclude_signature = (body1 << 16) + body2, in MuJoCo's body ids (0 = world)
+    sig = np.asarray(m.exclude_signature, dtype=np.int64)
+    return np.stack([(sig >> 16) - 1, (sig & 0xFFFF) - 1], axis=1) if len(sig) else np.zeros((0, 2))

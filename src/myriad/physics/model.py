@@ -1,0 +1,201 @@
+"""`Model`: the static description of one env, read from MuJoCo's compiled `MjModel`.
+
+Arrays are numpy, on the host, in MuJoCo's element order. Bodies are numbered without MuJoCo's
+world body: our body ``b`` is MuJoCo's body ``b + 1`` and a parent of ``-1`` is the world.
+Quaternions are (x, y, z, w) everywhere, including inside ``qpos0``; `qpos_to_mujoco` and
+`qpos_from_mujoco` convert a generalized position to and from MuJoCo's (w, x, y, z) layout.
+
+Quantities that domain randomization may change (masses, inertias, friction, damping, ...) have
+their model values here; the `Simulator` copies them into per-env arrays.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+class ModelError(ValueError):
+    """A model file MuJoCo rejects, or a feature Myriad does not support (yet)."""
+
+
+# joint types: MuJoCo's mjtJoint values
+JOINT_FREE, JOINT_BALL, JOINT_SLIDE, JOINT_HINGE = 0, 1, 2, 3
+JOINT_QPOS_SIZE = {JOINT_FREE: 7, JOINT_BALL: 4, JOINT_SLIDE: 1, JOINT_HINGE: 1}
+JOINT_DOF_SIZE = {JOINT_FREE: 6, JOINT_BALL: 3, JOINT_SLIDE: 1, JOINT_HINGE: 1}
+
+# actuator kinds (MuJoCo's motor / position / velocity shortcuts)
+ACTUATOR_MOTOR, ACTUATOR_POSITION, ACTUATOR_VELOCITY = 0, 1, 2
+
+# geom types: MuJoCo's mjtGeom values
+GEOM_TYPES = {0: "plane", 1: "hfield", 2: "sphere", 3: "capsule", 4: "ellipsoid", 5: "cylinder",
+              6: "box", 7: "mesh"}
+
+
+@dataclass
+class Model:
+    source: str                      # the file it was loaded from
+    mj_model: object                 # MuJoCo's compiled model (renderer, oracle); never stepped by us
+
+    nq: int
+    nv: int
+    nbody: int
+    njnt: int
+    ngeom: int
+    nsite: int
+    nu: int
+    ntendon: int
+    nsensor: int
+
+    body_names: list[str]
+    joint_names: list[str]
+    geom_names: list[str]
+    site_names: list[str]
+    actuator_names: list[str]
+    tendon_names: list[str]
+    sensor_names: list[str]
+
+    # bodies (topological order: a parent comes before its children)
+    body_parent: np.ndarray          # [nbody] int, -1 = world
+    body_root: np.ndarray            # [nbody] int, first body of the tree below the world
+    body_pos: np.ndarray             # [nbody, 3] frame offset in the parent frame
+    body_quat: np.ndarray            # [nbody, 4] xyzw
+    body_ipos: np.ndarray            # [nbody, 3] center of mass in the body frame
+    body_iquat: np.ndarray           # [nbody, 4] principal axes of inertia in the body frame
+    body_mass: np.ndarray            # [nbody]
+    body_inertia: np.ndarray         # [nbody, 3] principal moments
+    body_jntadr: np.ndarray          # [nbody] first joint, -1 if none
+    body_jntnum: np.ndarray          # [nbody]
+    body_last_dof: np.ndarray        # [nbody] last dof moving this body (own or an ancestor's), -1 if none
+
+    # joints
+    jnt_type: np.ndarray             # [njnt] JOINT_*
+    jnt_body: np.ndarray             # [njnt]
+    jnt_qposadr: np.ndarray          # [njnt]
+    jnt_dofadr: np.ndarray           # [njnt]
+    jnt_pos: np.ndarray              # [njnt, 3] anchor in the body frame
+    jnt_axis: np.ndarray             # [njnt, 3] axis in the body frame
+    jnt_stiffness: np.ndarray        # [njnt] passive spring (hinge and slide only)
+    jnt_springref: np.ndarray        # [njnt] spring rest position
+    jnt_limited: np.ndarray          # [njnt] bool
+    jnt_range: np.ndarray            # [njnt, 2]
+    qpos0: np.ndarray                # [nq] initial configuration, quaternions xyzw
+
+    # dofs
+    dof_body: np.ndarray             # [nv]
+    dof_jnt: np.ndarray              # [nv]
+    dof_parent: np.ndarray           # [nv] previous dof on the path to the world, -1 if none
+    dof_armature: np.ndarray         # [nv]
+    dof_damping: np.ndarray          # [nv]
+    dof_frictionloss: np.ndarray     # [nv]
+
+    # geoms (collision shapes; visual-only geoms are kept too, with contype = conaffinity = 0)
+    geom_type: np.ndarray            # [ngeom] MuJoCo mjtGeom
+    geom_body: np.ndarray            # [ngeom] -1 = world (static geometry)
+    geom_pos: np.ndarray             # [ngeom, 3]
+    geom_quat: np.ndarray            # [ngeom, 4] xyzw
+    geom_size: np.ndarray            # [ngeom, 3] MuJoCo's size semantics
+    geom_friction: np.ndarray        # [ngeom, 3] sliding, torsional, rolling
+    geom_contype: np.ndarray         # [ngeom]
+    geom_conaffinity: np.ndarray     # [ngeom]
+    geom_condim: np.ndarray          # [ngeom]
+    geom_dataid: np.ndarray          # [ngeom] mesh or hfield id, -1 if none
+
+    # meshes, kept as convex hulls for collision
+    mesh_vert: np.ndarray            # [nvert, 3] all mesh vertices, in the mesh frame
+    mesh_vertadr: np.ndarray         # [nmesh]
+    mesh_vertnum: np.ndarray         # [nmesh]
+    mesh_hull_face: np.ndarray       # [nface, 3] vertex ids (global, into mesh_vert) of hull triangles
+    mesh_hull_faceadr: np.ndarray    # [nmesh]
+    mesh_hull_facenum: np.ndarray    # [nmesh]
+
+    # height fields
+    hfield_size: np.ndarray          # [nhfield, 4] x half-size, y half-size, height, base depth
+    hfield_nrow: np.ndarray          # [nhfield]
+    hfield_ncol: np.ndarray          # [nhfield]
+    hfield_adr: np.ndarray           # [nhfield]
+    hfield_data: np.ndarray          # [sum nrow*ncol] heights in [0, 1], scaled by hfield_size[2]
+
+    # sites
+    site_body: np.ndarray            # [nsite] -1 = world
+    site_pos: np.ndarray             # [nsite, 3]
+    site_quat: np.ndarray            # [nsite, 4] xyzw
+
+    # actuators (joint transmission)
+    actuator_kind: np.ndarray        # [nu] ACTUATOR_*
+    actuator_dof: np.ndarray         # [nu] the dof the actuator drives
+    actuator_gear: np.ndarray        # [nu]
+    actuator_gain: np.ndarray        # [nu] motor: force per unit ctrl
+    actuator_kp: np.ndarray          # [nu] position actuators
+    actuator_kv: np.ndarray          # [nu] position (damping) and velocity actuators
+    actuator_ctrllimited: np.ndarray # [nu] bool
+    actuator_ctrlrange: np.ndarray   # [nu, 2]
+    actuator_forcelimited: np.ndarray  # [nu] bool
+    actuator_forcerange: np.ndarray  # [nu, 2]
+
+    # fixed tendons: length = sum coef * q over the tendon's joints
+    tendon_adr: np.ndarray           # [ntendon] first entry in wrap_*
+    tendon_num: np.ndarray           # [ntendon]
+    wrap_jnt: np.ndarray             # [nwrap] hinge or slide joint
+    wrap_coef: np.ndarray            # [nwrap]
+    tendon_stiffness: np.ndarray     # [ntendon]
+    tendon_damping: np.ndarray       # [ntendon]
+    tendon_lengthspring: np.ndarray  # [ntendon, 2] spring rest-length dead band (MuJoCo semantics)
+    tendon_limited: np.ndarray       # [ntendon] bool
+    tendon_range: np.ndarray         # [ntendon, 2]
+
+    # force/torque sensors (a 6D wrench per sensor site comes with the constraint solver)
+    sensor_type: list[str]           # "force" | "torque"
+    sensor_site: np.ndarray          # [nsensor]
+
+    # contact filtering
+    exclude_body_pairs: np.ndarray   # [nexclude, 2] body ids (-1 = world)
+
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81], np.float32))
+    timestep: float = 1.0 / 60.0
+
+    @property
+    def quat_qpos_adr(self) -> np.ndarray:
+        """qpos address of every quaternion (ball joints and the rotation of free joints)."""
+        adr = [a + (3 if t == JOINT_FREE else 0)
+               for t, a in zip(self.jnt_type, self.jnt_qposadr) if t in (JOINT_FREE, JOINT_BALL)]
+        return np.asarray(adr, dtype=np.int64)
+
+    def _qpos_permutation(self, to_mujoco: bool) -> np.ndarray:
+        perm = np.arange(self.nq)
+        for a in self.quat_qpos_adr:
+            # ours (x, y, z, w) at a..a+3  <->  MuJoCo's (w, x, y, z)
+            perm[a:a + 4] = [a + 3, a, a + 1, a + 2] if to_mujoco else [a + 1, a + 2, a + 3, a]
+        return perm
+
+    def qpos_to_mujoco(self, q):
+        """Our generalized position(s) [..., nq] in MuJoCo's qpos layout (works on numpy and torch)."""
+        return q[..., self._qpos_permutation(to_mujoco=True)]
+
+    def qpos_from_mujoco(self, qpos):
+        """MuJoCo qpos [..., nq] in our layout (quaternions xyzw)."""
+        return qpos[..., self._qpos_permutation(to_mujoco=False)]
+
+    def body_index(self, name: str) -> int:
+        return _index(self.body_names, name, "body")
+
+    def joint_index(self, name: str) -> int:
+        return _index(self.joint_names, name, "joint")
+
+    def site_index(self, name: str) -> int:
+        return _index(self.site_names, name, "site")
+
+    def actuator_index(self, name: str) -> int:
+        return _index(self.actuator_names, name, "actuator")
+
+    def __repr__(self) -> str:
+        return (f"Model({self.source!r}: nq={self.nq} nv={self.nv} nbody={self.nbody} "
+                f"ngeom={self.ngeom} nu={self.nu} ntendon={self.ntendon} nsensor={self.nsensor})")
+
+
+def _index(names: list[str], name: str, kind: str) -> int:
+    try:
+        return names.index(name)
+    except ValueError:
+        raise KeyError(f"no {kind} named {name!r}; the model's {kind}s are {names}") from None

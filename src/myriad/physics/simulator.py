@@ -1,0 +1,381 @@
+"""`Simulator`: batched state of `num_envs` copies of a `Model`, and the step pipeline.
+
+Read `Simulator.step` first: it lists the stages of one substep in order. Every buffer is
+allocated here, once; `step()` allocates nothing and, on CUDA, is captured once as a CUDA graph
+and replayed. State and parameters are exposed as zero-copy torch views of the Warp arrays.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import torch
+import warp as wp
+
+from . import dynamics, forces, integrate, kinematics
+from .model import Model
+from .structs import EnvParams, ModelArrays
+
+
+@dataclasses.dataclass(frozen=True)
+class SimParams:
+    """Time stepping and solver settings (PhysX/Isaac Gym names and defaults).
+
+    The contact and solver settings are read by the constraint solver.
+    """
+
+    dt: float = 1.0 / 60.0                # one step()
+    substeps: int = 2                     # step() = substeps × substep of dt / substeps
+    gravity: tuple | None = None          # None: the model's <option gravity> (default 0 0 -9.81)
+    solver: str = "tgs"                   # "tgs" or "pgs"
+    position_iterations: int = 4
+    velocity_iterations: int = 1
+    contact_offset: float = 0.02          # shapes closer than this generate contacts (m)
+    rest_offset: float = 0.0              # shapes come to rest at this separation (m)
+    bounce_threshold_velocity: float = 0.2    # no restitution below this approach speed (m/s)
+    max_depenetration_velocity: float = 100.0  # cap on the velocity that resolves penetration (m/s)
+    contacts_per_env: int = 64            # contact capacity of each env
+
+    def __post_init__(self):
+        def bad(field, why):
+            raise ValueError(f"SimParams.{field}={getattr(self, field)!r}: {why}")
+
+        if not (isinstance(self.dt, (int, float)) and math.isfinite(self.dt) and self.dt > 0):
+            bad("dt", "must be a positive, finite number of seconds")
+        for name in ("substeps", "position_iterations"):
+            v = getattr(self, name)
+            if not isinstance(v, int) or isinstance(v, bool) or v < 1:
+                bad(name, "must be an integer >= 1")
+        for name in ("velocity_iterations", "contacts_per_env"):
+            v = getattr(self, name)
+            if not isinstance(v, int) or isinstance(v, bool) or v < 0:
+                bad(name, "must be an integer >= 0")
+        if self.solver not in ("tgs", "pgs"):
+            bad("solver", "must be 'tgs' or 'pgs'")
+        if self.gravity is not None and np.shape(self.gravity) != (3,):
+            bad("gravity", "must be three numbers (x, y, z) or None")
+        for name in ("contact_offset", "rest_offset", "bounce_threshold_velocity",
+                     "max_depenetration_velocity"):
+            if not math.isfinite(getattr(self, name)) or getattr(self, name) < 0:
+                bad(name, "must be a finite number >= 0")
+        if self.rest_offset > self.contact_offset:
+            bad("rest_offset", f"must not exceed contact_offset={self.contact_offset}")
+
+
+class _View:
+    """A writable per-env tensor: reading gives the zero-copy view, assigning copies into it."""
+
+    def __set_name__(self, owner, name):
+        self.name = name
+
+    def __get__(self, sim, owner=None):
+        if sim is None:
+            return self
+        return sim._views[self.name]
+
+    def __set__(self, sim, value):
+        view = sim._views[self.name]
+        value = torch.as_tensor(value, dtype=view.dtype, device=view.device) \
+            if not isinstance(value, torch.Tensor) else value
+        if value.device != view.device:
+            raise ValueError(f"sim.{self.name}: value is on {value.device}, the simulator on {view.device}")
+        try:
+            torch.broadcast_shapes(value.shape, view.shape)
+            if torch.broadcast_shapes(value.shape, view.shape) != view.shape:
+                raise RuntimeError
+        except RuntimeError:
+            raise ValueError(f"sim.{self.name}: cannot write a tensor of shape {tuple(value.shape)} "
+                             f"into shape {tuple(view.shape)}") from None
+        view.copy_(value)
+
+
+def _resolve_device(device) -> wp.context.Device:
+    name = str(device)
+    if name == "cuda":
+        name = "cuda:0"
+    try:
+        return wp.get_device(name)
+    except Exception:
+        available = [str(d) for d in wp.get_devices()]
+        raise ValueError(f"device {name!r} is not available; Warp sees {available}") from None
+
+
+def _model_arrays(model: Model, device) -> ModelArrays:
+    def arr(a, dtype):
+        return wp.array(np.ascontiguousarray(a), dtype=dtype, device=device)
+
+    i32, f32 = wp.int32, wp.float32
+    s = ModelArrays()
+    s.nbody, s.nv, s.njnt, s.nu, s.ntendon = (model.nbody, model.nv, model.njnt, model.nu,
+                                              model.ntendon)
+    s.body_parent = arr(model.body_parent, i32)
+    s.body_root = arr(model.body_root, i32)
+    s.body_pos = arr(model.body_pos, wp.vec3)
+    s.body_quat = arr(model.body_quat, wp.quat)
+    s.body_ipos = arr(model.body_ipos, wp.vec3)
+    s.body_iquat = arr(model.body_iquat, wp.quat)
+    s.body_jntadr = arr(model.body_jntadr, i32)
+    s.body_jntnum = arr(model.body_jntnum, i32)
+    s.body_last_dof = arr(model.body_last_dof, i32)
+    s.jnt_type = arr(model.jnt_type, i32)
+    s.jnt_qposadr = arr(model.jnt_qposadr, i32)
+    s.jnt_dofadr = arr(model.jnt_dofadr, i32)
+    s.jnt_pos = arr(model.jnt_pos.reshape(-1, 3), wp.vec3)
+    s.jnt_axis = arr(model.jnt_axis.reshape(-1, 3), wp.vec3)
+    s.jnt_springref = arr(model.jnt_springref, f32)
+    s.qpos0 = arr(model.qpos0, f32)
+    s.dof_body = arr(model.dof_body, i32)
+    s.dof_parent = arr(model.dof_parent, i32)
+    s.site_body = arr(model.site_body, i32)
+    s.site_pos = arr(model.site_pos.reshape(-1, 3), wp.vec3)
+    s.site_quat = arr(model.site_quat.reshape(-1, 4), wp.quat)
+    s.actuator_kind = arr(model.actuator_kind, i32)
+    s.actuator_dof = arr(model.actuator_dof, i32)
+    s.actuator_qposadr = arr(model.jnt_qposadr[model.dof_jnt[model.actuator_dof]], i32)
+    s.actuator_ctrllimited = arr(model.actuator_ctrllimited, i32)
+    s.actuator_ctrlrange = arr(model.actuator_ctrlrange.reshape(-1, 2), wp.vec2)
+    s.actuator_forcelimited = arr(model.actuator_forcelimited, i32)
+    s.actuator_forcerange = arr(model.actuator_forcerange.reshape(-1, 2), wp.vec2)
+    s.tendon_adr = arr(model.tendon_adr, i32)
+    s.tendon_num = arr(model.tendon_num, i32)
+    s.wrap_jnt = arr(model.wrap_jnt, i32)
+    s.wrap_coef = arr(model.wrap_coef, f32)
+    s.tendon_lengthspring = arr(model.tendon_lengthspring.reshape(-1, 2), wp.vec2)
+    return s
+
+
+class Simulator:
+    """`num_envs` independent copies of `model`, stepped together on one device."""
+
+    # state and inputs
+    q = _View()              # [N, nq] generalized positions (quaternions xyzw)
+    qd = _View()             # [N, nv] generalized velocities
+    joint_force = _View()    # [N, nv] generalized force applied during the next step
+    ctrl = _View()           # [N, nu] actuator inputs
+    # per-env parameters (each env may differ; domain randomization writes these)
+    body_mass = _View()      # [N, nbody]
+    body_inertia = _View()   # [N, nbody, 3] principal moments
+    geom_friction = _View()  # [N, ngeom] sliding friction coefficient
+    dof_damping = _View()    # [N, nv]
+    dof_armature = _View()   # [N, nv]
+    joint_stiffness = _View()  # [N, njnt]
+    joint_range = _View()    # [N, njnt, 2]
+    actuator_gear = _View()  # [N, nu]
+    actuator_gain = _View()  # [N, nu] motors: force per unit ctrl
+    actuator_kp = _View()    # [N, nu] position actuators
+    actuator_kv = _View()    # [N, nu] position and velocity actuators
+    tendon_stiffness = _View()  # [N, ntendon]
+    tendon_damping = _View()    # [N, ntendon]
+    tendon_range = _View()      # [N, ntendon, 2]
+    gravity = _View()        # [N, 3]
+
+    def __init__(self, model: Model, num_envs: int = 1, device="cpu",
+                 params: SimParams | None = None):
+        if not isinstance(model, Model):
+            raise TypeError(f"model must be a myriad.Model (from myriad.load), not {type(model).__name__}")
+        if not isinstance(num_envs, int) or isinstance(num_envs, bool) or num_envs < 1:
+            raise ValueError(f"num_envs={num_envs!r}: must be an integer >= 1")
+        params = SimParams() if params is None else params
+        if not isinstance(params, SimParams):
+            raise TypeError(f"params must be a myriad.SimParams, not {type(params).__name__}")
+        wp.init()
+        self.model, self.params, self.num_envs = model, params, num_envs
+        self.device = _resolve_device(device)
+        self.torch_device = wp.device_to_torch(self.device)
+        self.h = params.dt / params.substeps
+        self._graph = None
+        self._jac_body = self._jac_site = None
+
+        N, dev = num_envs, self.device
+        m = model
+        self._m = _model_arrays(model, dev)
+
+        def zeros(*shape, dtype=wp.float32):
+            return wp.zeros(shape, dtype=dtype, device=dev)
+
+        def tiled(values, dtype=wp.float32):
+            values = np.asarray(values, dtype=np.float32)
+            return wp.array(np.ascontiguousarray(np.broadcast_to(values, (N,) + values.shape)),
+                            dtype=dtype, device=dev)
+
+        gravity = m.gravity if params.gravity is None else np.asarray(params.gravity)
+        p = EnvParams()
+        p.body_mass = tiled(m.body_mass)
+        p.body_inertia = tiled(m.body_inertia, wp.vec3)
+        p.jnt_stiffness = tiled(m.jnt_stiffness)
+        p.dof_damping = tiled(m.dof_damping)
+        p.dof_armature = tiled(m.dof_armature)
+        p.actuator_gear = tiled(m.actuator_gear)
+        p.actuator_gain = tiled(m.actuator_gain)
+        p.actuator_kp = tiled(m.actuator_kp)
+        p.actuator_kv = tiled(m.actuator_kv)
+        p.tendon_stiffness = tiled(m.tendon_stiffness)
+        p.tendon_damping = tiled(m.tendon_damping)
+        p.gravity = tiled(gravity, wp.vec3)
+        self._p = p
+
+        # state
+        self._q = tiled(m.qpos0)
+        self._qd = zeros(N, m.nv)
+        self._qacc = zeros(N, m.nv)
+        self._joint_force = zeros(N, m.nv)
+        self._ctrl = zeros(N, m.nu)
+        # derived quantities
+        self._body_x = zeros(N, m.nbody, dtype=wp.transform)
+        self._body_com = zeros(N, m.nbody, dtype=wp.vec3)
+        self._body_iframe = zeros(N, m.nbody, dtype=wp.quat)
+        self._body_vel = zeros(N, m.nbody, dtype=wp.spatial_vector)
+        self._jnt_anchor = zeros(N, m.njnt, dtype=wp.vec3)
+        self._jnt_xaxis = zeros(N, m.njnt, dtype=wp.vec3)
+        self._site_x = zeros(N, m.nsite, dtype=wp.transform)
+        self._cvel = zeros(N, m.nbody, dtype=wp.spatial_vector)
+        self._cdof = zeros(N, m.nv, dtype=wp.spatial_vector)
+        self._cdof_dot = zeros(N, m.nv, dtype=wp.spatial_vector)
+        self._cacc = zeros(N, m.nbody, dtype=wp.spatial_vector)
+        self._cfrc = zeros(N, m.nbody, dtype=wp.spatial_vector)
+        self._crb_m = zeros(N, m.nbody)
+        self._crb_h = zeros(N, m.nbody, dtype=wp.vec3)
+        self._crb_i = zeros(N, m.nbody, dtype=wp.mat33)
+        self._qm = zeros(N, m.nv, m.nv)
+        self._factor = zeros(N, m.nv, m.nv)
+        self._bias = zeros(N, m.nv)
+        self._qfrc = zeros(N, m.nv)
+        self._qfrc_actuator = zeros(N, m.nv)
+        self._implicit_diag = zeros(N, m.nv)
+        # parameters the constraint solver reads
+        self._geom_friction = tiled(m.geom_friction[:, 0])
+        self._joint_range = tiled(m.jnt_range.reshape(-1, 2), wp.vec2)
+        self._tendon_range = tiled(m.tendon_range.reshape(-1, 2), wp.vec2)
+
+        t = wp.to_torch
+        self._views = {
+            "q": t(self._q), "qd": t(self._qd), "joint_force": t(self._joint_force),
+            "ctrl": t(self._ctrl),
+            "body_mass": t(p.body_mass), "body_inertia": t(p.body_inertia),
+            "geom_friction": t(self._geom_friction), "dof_damping": t(p.dof_damping),
+            "dof_armature": t(p.dof_armature), "joint_stiffness": t(p.jnt_stiffness),
+            "joint_range": t(self._joint_range), "actuator_gear": t(p.actuator_gear),
+            "actuator_gain": t(p.actuator_gain), "actuator_kp": t(p.actuator_kp),
+            "actuator_kv": t(p.actuator_kv), "tendon_stiffness": t(p.tendon_stiffness),
+            "tendon_damping": t(p.tendon_damping), "tendon_range": t(self._tendon_range),
+            "gravity": t(p.gravity),
+        }
+        # read-only outputs (views too: they change in place as the simulation advances)
+        self.body_pose = t(self._body_x)          # [N, nbody, 7] position, quaternion xyzw
+        self.body_vel = t(self._body_vel)         # [N, nbody, 6] linear (of the body origin), angular; world
+        self.body_com = t(self._body_com)         # [N, nbody, 3] centers of mass, world
+        self.site_pose = t(self._site_x)          # [N, nsite, 7]
+        self.mass_matrix = t(self._qm)            # [N, nv, nv] with armature
+        self.bias_force = t(self._bias)           # [N, nv] C(q, qd)·qd + g(q)
+        self.qacc = t(self._qacc)                 # [N, nv] acceleration of the last substep
+        self.dof_actuator_force = t(self._qfrc_actuator)  # [N, nv] generalized actuator force
+
+        self.forward()
+
+    # ------------------------------------------------------------------ pipeline
+    def step(self) -> None:
+        """Advance every env by `params.dt`."""
+        if self.device.is_cuda:
+            self._run_on_device(self._step_graph)
+        else:
+            self._step_kernels()
+
+    def _step_kernels(self) -> None:
+        for _ in range(self.params.substeps):
+            self._kinematics()
+            # collision: contact detection (next issue)
+            self._dynamics()
+            self._applied_forces()
+            # constraint rows and the TGS solve (next issue)
+            self._solve()
+            self._integrate()
+        self._kinematics()  # poses and velocities of the new state, for the caller
+
+    def forward(self) -> None:
+        """Recompute poses, velocities, mass matrix and bias forces from q, qd (no time passes)."""
+        def run():
+            self._kinematics()
+            self._dynamics()
+        self._run_on_device(run) if self.device.is_cuda else run()
+
+    def _launch(self, kernel, dim, inputs) -> None:
+        wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
+
+    def _kinematics(self) -> None:
+        self._launch(kinematics.kinematics, self.num_envs, [
+            self._m, self._q, self._qd, self._body_x, self._body_com, self._body_iframe,
+            self._body_vel, self._jnt_anchor, self._jnt_xaxis, self._cvel, self._cdof,
+            self._cdof_dot])
+        if self.model.nsite:
+            self._launch(kinematics.site_poses, (self.num_envs, self.model.nsite),
+                         [self._m, self._body_x, self._site_x])
+
+    def _dynamics(self) -> None:
+        self._launch(dynamics.mass_matrix, self.num_envs, [
+            self._m, self._p, self._body_x, self._body_com, self._body_iframe, self._cdof,
+            self._crb_m, self._crb_h, self._crb_i, self._qm])
+        self._launch(dynamics.bias_forces, self.num_envs, [
+            self._m, self._p, self._body_x, self._body_com, self._body_iframe, self._qd, self._cvel,
+            self._cdof, self._cdof_dot, self._cacc, self._cfrc, self._bias])
+
+    def _applied_forces(self) -> None:
+        self._launch(forces.generalized_forces, self.num_envs, [
+            self._m, self._p, self.h, self._q, self._qd, self._ctrl, self._joint_force, self._bias,
+            self._qfrc_actuator, self._qfrc, self._implicit_diag])
+
+    def _solve(self) -> None:
+        self._launch(dynamics.solve_acceleration, self.num_envs, [
+            self._m, self._qm, self._implicit_diag, self._qfrc, self._factor, self._qacc])
+
+    def _integrate(self) -> None:
+        self._launch(integrate.integrate, self.num_envs,
+                     [self._m, self.h, self._qacc, self._q, self._qd])
+
+    # ------------------------------------------------------------------ CUDA
+    def _step_graph(self) -> None:
+        if self._graph is None:
+            with wp.ScopedCapture(device=self.device, stream=self._stream) as capture:
+                self._step_kernels()
+            self._graph = capture.graph
+        wp.capture_launch(self._graph, stream=self._stream)
+
+    def _run_on_device(self, fn) -> None:
+        """Run `fn`'s launches on Warp's stream, ordered after and before torch's work."""
+        if not hasattr(self, "_stream"):
+            self._stream = wp.Stream(self.device)
+        torch_stream = wp.stream_from_torch(torch.cuda.current_stream(self.torch_device))
+        self._stream.wait_stream(torch_stream)
+        with wp.ScopedStream(self._stream):
+            fn()
+        torch_stream.wait_stream(self._stream)
+
+    # ------------------------------------------------------------------ Jacobians
+    def body_jacobians(self) -> torch.Tensor:
+        """[N, nbody, 6, nv] at each body origin, world frame: rows 0-2 linear, 3-5 angular.
+
+        Computed from the current kinematics (after step() or forward()); the returned tensor is
+        overwritten by the next call.
+        """
+        if self._jac_body is None:
+            self._jac_body = wp.zeros((self.num_envs, self.model.nbody, 6, self.model.nv),
+                                      dtype=wp.float32, device=self.device)
+        launch = lambda: self._launch(kinematics.body_jacobians, (self.num_envs, self.model.nbody),
+                                      [self._m, self._body_x, self._cdof, self._jac_body])
+        self._run_on_device(launch) if self.device.is_cuda else launch()
+        return wp.to_torch(self._jac_body)
+
+    def site_jacobians(self) -> torch.Tensor:
+        """[N, nsite, 6, nv] at each site, world frame: rows 0-2 linear, 3-5 angular."""
+        if self._jac_site is None:
+            self._jac_site = wp.zeros((self.num_envs, self.model.nsite, 6, self.model.nv),
+                                      dtype=wp.float32, device=self.device)
+        launch = lambda: self._launch(kinematics.site_jacobians, (self.num_envs, self.model.nsite),
+                                      [self._m, self._body_x, self._site_x, self._cdof,
+                                       self._jac_site])
+        self._run_on_device(launch) if self.device.is_cuda else launch()
+        return wp.to_torch(self._jac_site)
+
+    def __repr__(self) -> str:
+        return f"Simulator({self.model!r}, num_envs={self.num_envs}, device={self.device})"
