@@ -8,7 +8,7 @@ the linearized update qd' = qd + h·qacc, q' = q + h·qd':
                                                              diag g²·(h·kv + h²·kp)
   velocity actuator:      f = g·kv·(u - g·qd')            -> rhs g·kv·(u - g·qd),  diag g²·h·kv
 An actuator whose predicted force (qacc = 0) exceeds its force range applies the clamped force
-explicitly instead. Joint and tendon springs are explicit, as in MuJoCo.
+explicitly instead; so does a joint whose summed actuator force exceeds its effort limit. Joint and tendon springs are explicit, as in MuJoCo.
 """
 
 import warp as wp
@@ -35,14 +35,6 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
         qfrc[e, i] = joint_force[e, i] - bias[e, i] - d * qd[e, i]
         implicit_diag[e, i] = h * d
         qfrc_actuator[e, i] = 0.0
-
-    for j in range(m.njnt):
-        t = m.jnt_type[j]
-        if t == HINGE or t == SLIDE:
-            k = p.jnt_stiffness[e, j]
-            a = m.jnt_qposadr[j]
-            i = m.jnt_dofadr[j]
-            qfrc[e, i] = qfrc[e, i] - k * (q[e, a] - m.jnt_springref[j])
 
     for a in range(m.nu):
         i = m.actuator_dof[a]
@@ -74,8 +66,24 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
                 stiff = 0.0
                 damp = 0.0
         qfrc_actuator[e, i] = qfrc_actuator[e, i] + g * force
-        qfrc[e, i] = qfrc[e, i] + g * force
         implicit_diag[e, i] = implicit_diag[e, i] + g * g * (h * damp + h * h * stiff)
+
+    for j in range(m.njnt):
+        t = m.jnt_type[j]
+        if t == HINGE or t == SLIDE:
+            a = m.jnt_qposadr[j]
+            i = m.jnt_dofadr[j]
+            k = p.jnt_stiffness[e, j]
+            qfrc[e, i] = qfrc[e, i] - k * (q[e, a] - m.jnt_springref[j])
+            # effort limit on the joint's total actuator force (URDF effort, MJCF actuatorfrcrange)
+            if m.jnt_actfrclimited[j] != 0:
+                r = m.jnt_actfrcrange[j]
+                f = qfrc_actuator[e, i]
+                if f < r[0] or f > r[1]:
+                    qfrc_actuator[e, i] = wp.clamp(f, r[0], r[1])
+                    implicit_diag[e, i] = h * p.dof_damping[e, i]
+    for i in range(m.nv):
+        qfrc[e, i] = qfrc[e, i] + qfrc_actuator[e, i]
 
     # fixed tendons: spring with a rest-length dead band, and damper (MuJoCo semantics)
     for t in range(m.ntendon):

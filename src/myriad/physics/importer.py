@@ -86,8 +86,6 @@ def _check_supported(m, source: str) -> None:
         label = _label(m, o.mjOBJ_JOINT, j, "joint")
         if m.jnt_type[j] in (JOINT_FREE, JOINT_BALL) and m.jnt_stiffness[j] != 0:
             fail(f"{label}: stiffness on free and ball joints is not supported")
-        if m.jnt_actfrclimited[j]:
-            fail(f"{label}: actuatorfrcrange is not supported yet (limit the actuator's forcerange)")
         if np.any(m.jnt_stiffnesspoly[j] != 0):
             fail(f"{label}: polynomial stiffness is not supported")
     if np.any(m.dof_dampingpoly != 0):
@@ -115,8 +113,8 @@ def _check_supported(m, source: str) -> None:
             fail(f"{label}: actuator delay, damping and armature are not supported")
         _actuator_kind(m, a, fail)
     for s in range(m.nsensor):
-        st = m.sensor_type[s]
-        if st not in (mujoco.mjtSensor.mjSENS_FORCE, mujoco.mjtSensor.mjSENS_TORQUE):
+        st = int(m.sensor_type[s])  # enum membership tests need a Python int
+        if st not in (int(mujoco.mjtSensor.mjSENS_FORCE), int(mujoco.mjtSensor.mjSENS_TORQUE)):
             fail(f"{_label(m, o.mjOBJ_SENSOR, s, 'sensor')}: sensor type "
                  f"{mujoco.mjtSensor(st).name} is not supported (force and torque sensors only)")
     for g in range(m.ngeom):
@@ -223,6 +221,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         jnt_pos=_f32(m.jnt_pos), jnt_axis=_f32(m.jnt_axis),
         jnt_stiffness=_f32(m.jnt_stiffness), jnt_springref=jnt_springref,
         jnt_limited=m.jnt_limited.astype(bool), jnt_range=_f32(m.jnt_range),
+        jnt_actfrclimited=m.jnt_actfrclimited.astype(bool), jnt_actfrcrange=_f32(m.jnt_actfrcrange),
         qpos0=_f32(_qpos_xyzw(m, qpos0)),
         dof_body=_i32(m.dof_bodyid - 1), dof_jnt=_i32(m.dof_jntid), dof_parent=_i32(m.dof_parentid),
         dof_armature=_f32(m.dof_armature), dof_damping=_f32(m.dof_damping),
@@ -250,7 +249,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         tendon_stiffness=_f32(m.tendon_stiffness), tendon_damping=_f32(m.tendon_damping),
         tendon_lengthspring=_f32(m.tendon_lengthspring),
         tendon_limited=m.tendon_limited.astype(bool), tendon_range=_f32(m.tendon_range),
-        sensor_type=["force" if t == mujoco.mjtSensor.mjSENS_FORCE else "torque"
+        sensor_type=["force" if int(t) == int(mujoco.mjtSensor.mjSENS_FORCE) else "torque"
                      for t in m.sensor_type],
         sensor_site=_i32(m.sensor_objid),
         exclude_body_pairs=_i32(_exclude_pairs(m)),

@@ -80,6 +80,8 @@ class Model:
     jnt_springref: np.ndarray        # [njnt] spring rest position
     jnt_limited: np.ndarray          # [njnt] bool
     jnt_range: np.ndarray            # [njnt, 2]
+    jnt_actfrclimited: np.ndarray    # [njnt] bool: clamp the joint's summed actuator force
+    jnt_actfrcrange: np.ndarray      # [njnt, 2] (URDF effort limits land here)
     qpos0: np.ndarray                # [nq] initial configuration, quaternions xyzw
 
     # dofs

@@ -125,6 +125,8 @@ def _model_arrays(model: Model, device) -> ModelArrays:
     s.jnt_pos = arr(model.jnt_pos.reshape(-1, 3), wp.vec3)
     s.jnt_axis = arr(model.jnt_axis.reshape(-1, 3), wp.vec3)
     s.jnt_springref = arr(model.jnt_springref, f32)
+    s.jnt_actfrclimited = arr(model.jnt_actfrclimited, i32)
+    s.jnt_actfrcrange = arr(model.jnt_actfrcrange.reshape(-1, 2), wp.vec2)
     s.qpos0 = arr(model.qpos0, f32)
     s.dof_body = arr(model.dof_body, i32)
     s.dof_parent = arr(model.dof_parent, i32)

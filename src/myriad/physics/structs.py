@@ -32,6 +32,8 @@ class ModelArrays:
     jnt_pos: wp.array(dtype=wp.vec3)
     jnt_axis: wp.array(dtype=wp.vec3)
     jnt_springref: wp.array(dtype=float)
+    jnt_actfrclimited: wp.array(dtype=wp.int32)
+    jnt_actfrcrange: wp.array(dtype=wp.vec2)
     qpos0: wp.array(dtype=float)
 
     dof_body: wp.array(dtype=wp.int32)

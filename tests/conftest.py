@@ -1,0 +1,17 @@
+import os
+import sys
+
+import pytest
+import warp as wp
+
+sys.path.insert(0, os.path.dirname(__file__))  # tests/models.py
+wp.config.quiet = True
+
+
+def pytest_addoption(parser):
+    parser.addoption("--device", default="cpu", help="Warp device to test on, e.g. cuda:0")
+
+
+@pytest.fixture(scope="session")
+def device(request):
+    return request.config.getoption("--device")

@@ -1,0 +1,117 @@
+"""Import: what MuJoCo compiles becomes a Model; what it rejects, or we do not support, is a
+ModelError naming the file and the element."""
+
+import numpy as np
+import pytest
+
+import myriad
+from myriad import ModelError
+
+
+def _write(tmp_path, name, text):
+    path = tmp_path / name
+    path.write_text(text)
+    return str(path)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(ModelError, match="nope.xml: no such model file"):
+        myriad.load(tmp_path / "nope.xml")
+
+
+def test_malformed_xml_names_the_file(tmp_path):
+    path = _write(tmp_path, "broken.xml", "<mujoco><worldbody><body><geom size='0.1'/></worldbody>")
+    with pytest.raises(ModelError, match="broken.xml: MuJoCo rejected the model"):
+        myriad.load(path)
+
+
+def test_invalid_element_names_element(tmp_path):
+    path = _write(tmp_path, "bad_joint.xml", """<mujoco><worldbody><body name="b">
+        <joint name="j" type="hinge" axis="0 0 0"/><geom size="0.1"/></body></worldbody></mujoco>""")
+    with pytest.raises(ModelError, match=r"bad_joint.xml: .*(axis|Element)"):
+        myriad.load(path)
+
+
+@pytest.mark.parametrize("snippet, message", [
+    ("""<worldbody><body name="a"><freejoint/><geom size=".1"/></body>
+        <body name="b" pos="1 0 0"><freejoint/><geom size=".1"/></body></worldbody>
+        <equality><weld name="glue" body1="a" body2="b"/></equality>""",
+     "equality constraint 'glue'"),
+    ("""<worldbody><site name="s0"/><body name="a"><freejoint/><geom size=".1"/><site name="s1"/></body></worldbody>
+        <tendon><spatial name="rope"><site site="s0"/><site site="s1"/></spatial></tendon>""",
+     "tendon 'rope': spatial tendons are not supported"),
+    ("""<worldbody><body name="a"><joint name="h" type="hinge"/><geom size=".1"/></body></worldbody>
+        <actuator><general name="muscle_like" joint="h" dyntype="filter" dynprm="0.1"/></actuator>""",
+     "actuator 'muscle_like': actuator dynamics"),
+    ("""<worldbody><body name="a"><joint name="h" type="hinge"/><geom size=".1"/><site name="imu"/></body></worldbody>
+        <sensor><accelerometer name="acc" site="imu"/></sensor>""",
+     "sensor 'acc': sensor type mjSENS_ACCELEROMETER is not supported"),
+    ("""<worldbody><body name="a" gravcomp="1"><joint type="hinge"/><geom size=".1"/></body></worldbody>""",
+     "body 'a': gravcomp"),
+])
+def test_unsupported_features_are_errors(tmp_path, snippet, message):
+    path = _write(tmp_path, "unsupported.xml", f"<mujoco>{snippet}</mujoco>")
+    with pytest.raises(ModelError, match=f"unsupported.xml: {message}"):
+        myriad.load(path)
+
+
+def test_every_geom_type_and_mesh_hull(tmp_path):
+    cube = " ".join(f"{x} {y} {z}" for x in (-1, 1) for y in (-1, 1) for z in (-1, 1))
+    path = _write(tmp_path, "shapes.xml", f"""<mujoco>
+      <asset>
+        <mesh name="cube" vertex="{cube}" scale="0.1 0.1 0.1"/>
+        <hfield name="terrain" nrow="3" ncol="3" size="1 1 0.2 0.1" elevation="0 0 0 0 1 0 0 0 0"/>
+      </asset>
+      <worldbody>
+        <geom name="floor" type="plane" size="5 5 0.1"/>
+        <geom name="ground" type="hfield" hfield="terrain" pos="3 0 0"/>
+        <body name="b" pos="0 0 1"><freejoint/>
+          <geom name="sphere" type="sphere" size="0.1"/>
+          <geom name="capsule" type="capsule" size="0.05 0.2"/>
+          <geom name="ellipsoid" type="ellipsoid" size="0.1 0.2 0.3"/>
+          <geom name="cylinder" type="cylinder" size="0.1 0.2"/>
+          <geom name="box" type="box" size="0.1 0.2 0.3"/>
+          <geom name="mesh" type="mesh" mesh="cube"/>
+        </body>
+      </worldbody></mujoco>""")
+    model = myriad.load(path)
+    assert model.geom_names == ["floor", "ground", "sphere", "capsule", "ellipsoid", "cylinder",
+                                "box", "mesh"]
+    assert model.geom_type.tolist() == [0, 1, 2, 3, 4, 5, 6, 7]
+    assert model.geom_body.tolist() == [-1, -1, 0, 0, 0, 0, 0, 0]
+    # the mesh's hull: 12 triangles on the cube's 8 corners, at +-0.1 in the mesh frame
+    assert model.mesh_hull_facenum.tolist() == [12]
+    hull_points = model.mesh_vert[np.unique(model.mesh_hull_face)]
+    np.testing.assert_allclose(np.abs(hull_points), 0.1, atol=1e-6)
+    assert len(hull_points) == 8
+    assert model.hfield_nrow.tolist() == [3] and model.hfield_data.max() == pytest.approx(1.0)
+
+
+def test_urdf(tmp_path):
+    path = _write(tmp_path, "arm.urdf", """<robot name="arm">
+      <link name="base"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+      <link name="upper"><inertial><origin xyz="0 0 0.2"/><mass value="0.5"/>
+        <inertia ixx="0.005" iyy="0.005" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>
+        <collision><origin xyz="0 0 0.2"/><geometry><cylinder radius="0.03" length="0.4"/></geometry></collision></link>
+      <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
+        <origin xyz="0 0 0.1"/><axis xyz="0 1 0"/><limit lower="-1.5" upper="1.5" effort="10" velocity="3"/></joint>
+    </robot>""")
+    model = myriad.load(path)
+    assert model.joint_names == ["shoulder"]
+    assert model.nv == 1 and "upper" in model.body_names
+    assert model.jnt_range[0].tolist() == pytest.approx([-1.5, 1.5])
+    assert model.body_mass[model.body_index("upper")] == pytest.approx(0.5)
+
+
+def test_model_contents_of_the_ant():
+    model = myriad.load(myriad.asset_path("ant.xml"))
+    assert model.nq == 15 and model.nv == 14 and model.nu == 8
+    assert model.sensor_type == ["force", "torque"] * 4
+    assert np.all(model.actuator_gear == 15.0)
+    # quaternions are stored xyzw: the free joint's initial rotation is the identity
+    np.testing.assert_allclose(model.qpos0[3:7], [0, 0, 0, 1])
+    q = model.qpos_from_mujoco(model.mj_model.qpos0)
+    np.testing.assert_allclose(q, model.qpos0, atol=1e-7)
+    np.testing.assert_allclose(model.qpos_to_mujoco(q), model.mj_model.qpos0, atol=1e-7)
+    with pytest.raises(KeyError, match="no body named 'tail'"):
+        model.body_index("tail")

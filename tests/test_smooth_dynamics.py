@@ -1,0 +1,174 @@
+"""Smooth dynamics against MuJoCo (the oracle) on the same model.
+
+Each quantity is compared for several envs at once, each env at its own random state, so the
+batching is checked along with the physics. Tolerances are float32-sized, stated per check,
+relative to the scale of the quantity where it spans orders of magnitude.
+"""
+
+import mujoco
+import numpy as np
+import pytest
+import torch
+
+import myriad
+from models import chain_xml, random_tree_xml
+from oracle import free_motion_mujoco, full_mass_matrix, random_qpos
+
+NUM_ENVS = 4
+
+MODELS = {
+    "ant": lambda: myriad.load(myriad.asset_path("ant.xml")),
+    "humanoid": lambda: myriad.load(myriad.asset_path("humanoid.xml")),
+    "random_tree": lambda: myriad.load_xml(random_tree_xml(seed=7, nbody=30), "random_tree"),
+    "chain_1to1000": lambda: myriad.load_xml(chain_xml(nlink=10, mass_ratio=1000.0), "chain"),
+}
+
+
+# Trajectory tolerances after 100 steps: positions (m or rad) and velocities (relative to their
+# largest value). float32 forward dynamics carries a relative error of about cond(M)·2⁻²³ (see
+# the conditioning test): ~1e-4 for the robots, but cond(M) ≈ 5e4 for the 1:1000 chain, whose
+# accelerations are good to ~5e-4 relative, and whose velocities drift apart from MuJoCo's
+# float64 ones by up to ~2.5e-2 relative over 100 steps of whipping motion (measured).
+TRAJECTORY_TOL = {"ant": (1e-3, 1e-3), "humanoid": (1e-3, 1e-3), "random_tree": (1e-3, 1e-3),
+                  "chain_1to1000": (1e-2, 5e-2)}
+
+
+@pytest.fixture(scope="module", params=list(MODELS))
+def model(request):
+    model = MODELS[request.param]()
+    model.test_name = request.param
+    return model
+
+
+def test_test_models_are_what_they_claim(model):
+    name = model.test_name
+    if name == "humanoid":
+        assert (model.nq, model.nv, model.nu) == (28, 27, 21)
+    if name == "ant":
+        assert (model.nq, model.nv, model.nu) == (15, 14, 8)
+    if name == "random_tree":
+        assert model.nbody == 30 and set(model.jnt_type.tolist()) == {0, 1, 2, 3}
+        assert any(n >= 2 for n in model.body_jntnum), "no body with two joints"
+    if name == "chain_1to1000":
+        assert model.nbody == 10
+        assert model.body_mass.max() / model.body_mass.min() == pytest.approx(1000.0, rel=1e-3)
+
+
+def _set_random_states(model, sim, seed):
+    """Random q, qd per env; returns MuJoCo's MjData for each env, after mj_forward."""
+    mj = model.mj_model
+    rng = np.random.default_rng(seed)
+    datas = []
+    for e in range(sim.num_envs):
+        d = mujoco.MjData(mj)
+        d.qpos[:] = random_qpos(mj, rng)
+        d.qvel[:] = rng.normal(size=mj.nv)
+        mujoco.mj_forward(mj, d)
+        sim.q[e] = torch.as_tensor(model.qpos_from_mujoco(d.qpos), dtype=torch.float32)
+        sim.qd[e] = torch.as_tensor(d.qvel, dtype=torch.float32)
+        datas.append(d)
+    sim.forward()
+    return datas
+
+
+def test_kinematics_mass_matrix_bias_and_jacobians(model, device):
+    sim = myriad.Simulator(model, num_envs=NUM_ENVS, device=device)
+    datas = _set_random_states(model, sim, seed=1)
+    mj = model.mj_model
+    pose = sim.body_pose.cpu().numpy()
+    vel = sim.body_vel.cpu().numpy()
+    qm = sim.mass_matrix.cpu().numpy()
+    bias = sim.bias_force.cpu().numpy()
+    jac = sim.body_jacobians().cpu().numpy()
+    for e, d in enumerate(datas):
+        # body frames: positions within 1e-5 m, orientations within 1e-5 (quaternion sign-free)
+        np.testing.assert_allclose(pose[e, :, :3], d.xpos[1:], atol=1e-5)
+        quat = d.xquat[1:][:, [1, 2, 3, 0]]
+        sign = np.sign(np.sum(pose[e, :, 3:] * quat, axis=1, keepdims=True))
+        np.testing.assert_allclose(pose[e, :, 3:] * sign, quat, atol=1e-5)
+        # centers of mass
+        np.testing.assert_allclose(sim.body_com[e].cpu().numpy(), d.xipos[1:], atol=1e-5)
+        # mass matrix and bias forces: relative to their largest entry
+        m_ref = full_mass_matrix(mj, d)
+        np.testing.assert_allclose(qm[e], m_ref, atol=2e-6 * np.abs(m_ref).max())
+        np.testing.assert_allclose(bias[e], d.qfrc_bias, atol=2e-5 * np.abs(d.qfrc_bias).max())
+        for b in range(model.nbody):
+            # body velocity (linear at the body origin, angular), world frame
+            ref = np.zeros(6)
+            mujoco.mj_objectVelocity(mj, d, mujoco.mjtObj.mjOBJ_XBODY, b + 1, ref, 0)
+            scale = 1e-5 * (1 + np.abs(ref).max())
+            np.testing.assert_allclose(vel[e, b, :3], ref[3:], atol=scale)
+            np.testing.assert_allclose(vel[e, b, 3:], ref[:3], atol=scale)
+            # Jacobian at the body origin
+            jacp, jacr = np.zeros((3, mj.nv)), np.zeros((3, mj.nv))
+            mujoco.mj_jacBody(mj, d, jacp, jacr, b + 1)
+            np.testing.assert_allclose(jac[e, b, :3], jacp, atol=1e-5)
+            np.testing.assert_allclose(jac[e, b, 3:], jacr, atol=1e-5)
+
+
+def test_acceleration_error_is_bounded_by_conditioning(model, device):
+    """One substep's qacc against MuJoCo: relative error below 10·cond(M)·2⁻²³ (float32).
+
+    Both integrate damping implicitly: the acceleration used is (M + h·D)⁻¹·M·qacc_explicit.
+    """
+    substep = 0.002
+    mj, _ = free_motion_mujoco(model, substep)
+    sim = myriad.Simulator(model, num_envs=NUM_ENVS, device=device,
+                           params=myriad.SimParams(dt=substep, substeps=1))
+    datas = _set_random_states(model, sim, seed=4)
+    sim.step()
+    qacc = sim.qacc.cpu().numpy()
+    for e, d in enumerate(datas):
+        mass = full_mass_matrix(mj, d)
+        cond = np.linalg.cond(mass)
+        mujoco.mj_forward(mj, d)
+        expected = np.linalg.solve(mass + substep * np.diag(mj.dof_damping), mass @ d.qacc)
+        err = np.abs(qacc[e] - expected).max() / np.abs(expected).max()
+        assert err < 10 * cond * 2.0**-23, (err, cond)
+
+
+def test_site_poses_and_jacobians(device):
+    model = myriad.load(myriad.asset_path("ant.xml"))
+    assert model.nsite > 0
+    sim = myriad.Simulator(model, num_envs=2, device=device)
+    datas = _set_random_states(model, sim, seed=3)
+    mj = model.mj_model
+    jac = sim.site_jacobians().cpu().numpy()
+    for e, d in enumerate(datas):
+        np.testing.assert_allclose(sim.site_pose[e, :, :3].cpu().numpy(), d.site_xpos, atol=1e-5)
+        for s in range(model.nsite):
+            jacp, jacr = np.zeros((3, mj.nv)), np.zeros((3, mj.nv))
+            mujoco.mj_jacSite(mj, d, jacp, jacr, s)
+            np.testing.assert_allclose(jac[e, s, :3], jacp, atol=1e-5)
+            np.testing.assert_allclose(jac[e, s, 3:], jacr, atol=1e-5)
+
+
+def test_free_motion_matches_mujoco(model, device):
+    """100 steps (2 substeps each) under random generalized forces, no contacts, per env."""
+    substep = 0.002
+    mj, _ = free_motion_mujoco(model, substep)
+    sim = myriad.Simulator(model, num_envs=NUM_ENVS, device=device,
+                           params=myriad.SimParams(dt=2 * substep, substeps=2))
+    datas = _set_random_states(model, sim, seed=2)
+    rng = np.random.default_rng(5)
+    # forces scaled by the mass-matrix diagonal: accelerations of order 0.1 on every dof
+    force_scale = 0.1 * np.diagonal(sim.mass_matrix[0].cpu().numpy())
+    for _ in range(100):
+        forces = rng.normal(size=(NUM_ENVS, mj.nv)) * force_scale
+        sim.joint_force = torch.as_tensor(forces, dtype=torch.float32, device=sim.torch_device)
+        for e, d in enumerate(datas):
+            d.qfrc_applied[:] = forces[e]
+            mujoco.mj_step(mj, d)
+            mujoco.mj_step(mj, d)
+        sim.step()
+    q = sim.q.cpu().numpy()
+    qd = sim.qd.cpu().numpy()
+    q_tol, qd_tol = TRAJECTORY_TOL[model.test_name]
+    for e, d in enumerate(datas):
+        assert np.all(np.isfinite(q[e]))
+        np.testing.assert_allclose(q[e], model.qpos_from_mujoco(d.qpos), atol=q_tol)
+        np.testing.assert_allclose(qd[e], d.qvel, atol=qd_tol * (1 + np.abs(d.qvel).max()))
+    # after step(), poses describe the new state
+    d = datas[0]
+    mujoco.mj_kinematics(mj, d)
+    np.testing.assert_allclose(sim.body_pose[0, :, :3].cpu().numpy(), d.xpos[1:], atol=1e-3)
