@@ -1,0 +1,92 @@
+"""`myriad` command line. `myriad demo` simulates a batch of envs and reports what happened."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+
+def _default_device() -> str:
+    import torch
+
+    return "cuda:0" if torch.cuda.is_available() else "cpu"
+
+
+def demo(args) -> int:
+    import torch
+
+    import myriad
+
+    device = args.device or _default_device()
+    num_envs = args.envs or (4096 if device.startswith("cuda") else 256)
+    path = args.model or myriad.asset_path("ant.xml")
+    model = myriad.load(path)
+    params = myriad.SimParams(dt=1 / 60, substeps=2, gravity=tuple(args.gravity))
+    print(f"myriad demo: {model}\n  {num_envs} envs on {device}, dt {params.dt:.4f} s x "
+          f"{params.substeps} substeps, gravity {params.gravity}")
+    print("  (contacts, joint limits and the TGS solver arrive with the next engine stage: bodies "
+          "move under gravity, actuators and joint springs only)")
+    t0 = time.perf_counter()
+    sim = myriad.Simulator(model, num_envs=num_envs, device=device, params=params)
+    print(f"  simulator built in {time.perf_counter() - t0:.1f} s (includes kernel compilation on "
+          "a first run)")
+
+    gen = torch.Generator(device=sim.torch_device).manual_seed(args.seed)
+    start_q = sim.q.clone()
+    steps = round(args.seconds / params.dt)
+    report_every = max(1, steps // 10)
+    t0 = time.perf_counter()
+    for step in range(1, steps + 1):
+        if model.nu:
+            # random actions in [-scale, scale], held for 4 steps, like a policy at 15 Hz
+            if step % 4 == 1:
+                sim.ctrl = (torch.rand(num_envs, model.nu, generator=gen, device=sim.torch_device)
+                            * 2 - 1) * args.action_scale
+        else:
+            sim.joint_force = torch.randn(num_envs, model.nv, generator=gen,
+                                          device=sim.torch_device) * args.action_scale
+        sim.step()
+        if step % report_every == 0 or step == steps:
+            if device.startswith("cuda"):
+                torch.cuda.synchronize()
+            rate = step * num_envs / (time.perf_counter() - t0)
+            print(f"  t = {step * params.dt:5.2f} s   {rate:12,.0f} env-steps/s")
+    moved = (sim.body_pose[:, :, :3] - sim.body_pose[:, :, :3].mean(dim=1, keepdim=True))
+    finite = torch.isfinite(sim.q).all(dim=1)
+    spread = (sim.q - start_q).abs().mean(dim=1)[finite]
+    print(f"done: {steps} steps of {num_envs} envs ({steps * num_envs:,} env-steps)")
+    print(f"  envs with finite state: {int(finite.sum())}/{num_envs}")
+    print(f"  mean |q - q0| per env: min {spread.min():.3f}, mean {spread.mean():.3f}, "
+          f"max {spread.max():.3f} (every env got its own random actions)")
+    print(f"  body spread about the mean body position: {moved.norm(dim=2).mean():.3f} m")
+    return 0 if bool(finite.all()) else 1
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="myriad", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("demo", help="simulate a batch of envs under random actions and report")
+    p.add_argument("--model", help="MJCF or URDF file (default: Myriad's ant)")
+    p.add_argument("--envs", type=int, help="number of envs (default 256 on CPU, 4096 on CUDA)")
+    p.add_argument("--device", help="cpu or cuda:N (default: cuda:0 when present)")
+    p.add_argument("--seconds", type=float, default=2.0, help="simulated time")
+    p.add_argument("--gravity", type=float, nargs=3, default=(0.0, 0.0, 0.0),
+                   help="gravity vector (default zero: with no contacts yet, a robot would fall)")
+    p.add_argument("--action-scale", type=float, default=0.2,
+                   help="random actions in [-scale, scale] (no joint limits yet: large torques spin "
+                        "joints up without bound)")
+    p.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+    try:
+        return {"demo": demo}[args.command](args)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except (ValueError, FileNotFoundError) as err:  # ModelError is a ValueError
+        print(f"myriad: error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
