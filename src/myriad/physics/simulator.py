@@ -77,17 +77,17 @@ class _View:
 
     def __set__(self, sim, value):
         view = sim._views[self.name]
-        value = torch.as_tensor(value, dtype=view.dtype, device=view.device) \
-            if not isinstance(value, torch.Tensor) else value
+        if not isinstance(value, torch.Tensor):
+            value = torch.as_tensor(value, dtype=view.dtype, device=view.device)
         if value.device != view.device:
             raise ValueError(f"sim.{self.name}: value is on {value.device}, the simulator on {view.device}")
         try:
-            torch.broadcast_shapes(value.shape, view.shape)
-            if torch.broadcast_shapes(value.shape, view.shape) != view.shape:
-                raise RuntimeError
+            fits = torch.broadcast_shapes(value.shape, view.shape) == view.shape
         except RuntimeError:
+            fits = False
+        if not fits:
             raise ValueError(f"sim.{self.name}: cannot write a tensor of shape {tuple(value.shape)} "
-                             f"into shape {tuple(view.shape)}") from None
+                             f"into shape {tuple(view.shape)}")
         view.copy_(value)
 
 
@@ -338,6 +338,8 @@ class Simulator:
     # ------------------------------------------------------------------ CUDA
     def _step_graph(self) -> None:
         if self._graph is None:
+            for module in (kinematics, dynamics, forces, integrate):  # compile outside the capture
+                wp.load_module(module, device=self.device)
             with wp.ScopedCapture(device=self.device, stream=self._stream) as capture:
                 self._step_kernels()
             self._graph = capture.graph
