@@ -188,7 +188,7 @@ class Simulator:
         self.torch_device = wp.device_to_torch(self.device)
         self.h = params.dt / params.substeps
         self._graph = None
-        self._jac_body = self._jac_site = None
+        self._jac = {}
 
         N, dev = num_envs, self.device
         m = model
@@ -362,24 +362,20 @@ class Simulator:
         Computed from the current kinematics (after step() or forward()); the returned tensor is
         overwritten by the next call.
         """
-        if self._jac_body is None:
-            self._jac_body = wp.zeros((self.num_envs, self.model.nbody, 6, self.model.nv),
-                                      dtype=wp.float32, device=self.device)
-        launch = lambda: self._launch(kinematics.body_jacobians, (self.num_envs, self.model.nbody),
-                                      [self._m, self._body_x, self._cdof, self._jac_body])
-        self._run_on_device(launch) if self.device.is_cuda else launch()
-        return wp.to_torch(self._jac_body)
+        return self._jacobians("body", kinematics.body_jacobians, self.model.nbody, [])
 
     def site_jacobians(self) -> torch.Tensor:
         """[N, nsite, 6, nv] at each site, world frame: rows 0-2 linear, 3-5 angular."""
-        if self._jac_site is None:
-            self._jac_site = wp.zeros((self.num_envs, self.model.nsite, 6, self.model.nv),
-                                      dtype=wp.float32, device=self.device)
-        launch = lambda: self._launch(kinematics.site_jacobians, (self.num_envs, self.model.nsite),
-                                      [self._m, self._body_x, self._site_x, self._cdof,
-                                       self._jac_site])
+        return self._jacobians("site", kinematics.site_jacobians, self.model.nsite, [self._site_x])
+
+    def _jacobians(self, kind, kernel, count, extra_inputs) -> torch.Tensor:
+        if kind not in self._jac:  # allocated on first use: most tasks never ask
+            self._jac[kind] = wp.zeros((self.num_envs, count, 6, self.model.nv), dtype=wp.float32,
+                                       device=self.device)
+        inputs = [self._m, self._body_x, *extra_inputs, self._cdof, self._jac[kind]]
+        launch = lambda: self._launch(kernel, (self.num_envs, count), inputs)
         self._run_on_device(launch) if self.device.is_cuda else launch()
-        return wp.to_torch(self._jac_site)
+        return wp.to_torch(self._jac[kind])
 
     def __repr__(self) -> str:
         return f"Simulator({self.model!r}, num_envs={self.num_envs}, device={self.device})"
