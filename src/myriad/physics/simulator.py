@@ -14,8 +14,9 @@ import numpy as np
 import torch
 import warp as wp
 
-from . import dynamics, forces, integrate, kinematics
-from .model import Model
+from . import collision, dynamics, forces, integrate, kinematics
+from .collision.narrowphase import unsupported_pairs
+from .model import Model, ModelError
 from .structs import EnvParams, ModelArrays
 
 
@@ -251,6 +252,18 @@ class Simulator:
         self._joint_range = tiled(m.jnt_range.reshape(-1, 2), wp.vec2)
         self._tendon_range = tiled(m.tendon_range.reshape(-1, 2), wp.vec2)
 
+        # collision: candidate pairs fixed now; contacts go to per-env slots
+        pairs = collision.candidate_pairs(model)
+        self._unsupported_pairs = unsupported_pairs(model, pairs)
+        self._pairs = wp.array(pairs, dtype=wp.vec2i, device=dev)
+        self._geom_type = wp.array(m.geom_type, dtype=wp.int32, device=dev)
+        self._geom_size = wp.array(m.geom_size, dtype=wp.vec3, device=dev)
+        self._geom_body = wp.array(m.geom_body, dtype=wp.int32, device=dev)
+        self._geom_pos = wp.array(m.geom_pos, dtype=wp.vec3, device=dev)
+        self._geom_quat = wp.array(m.geom_quat, dtype=wp.quat, device=dev)
+        self._geom_x = zeros(N, m.ngeom, dtype=wp.transform)
+        self._contacts = collision.ContactBuffers(N, params.contacts_per_env, dev)
+
         t = wp.to_torch
         self._views = {
             "q": t(self._q), "qd": t(self._qd), "joint_force": t(self._joint_force),
@@ -273,6 +286,13 @@ class Simulator:
         self.bias_force = t(self._bias)           # [N, nv] C(q, qd)·qd + g(q)
         self.qacc = t(self._qacc)                 # [N, nv] acceleration of the last substep
         self.dof_actuator_force = t(self._qfrc_actuator)  # [N, nv] generalized actuator force
+        self.geom_pose = t(self._geom_x)          # [N, ngeom, 7] (after collide())
+        c = self._contacts
+        self.contact_count = t(c.count)           # [N] contacts found (above capacity: overflow)
+        self.contact_geom = t(c.geom)             # [N, capacity, 2] geom 1, geom 2
+        self.contact_pos = t(c.pos)               # [N, capacity, 3] midpoint between the surfaces
+        self.contact_normal = t(c.normal)         # [N, capacity, 3] from geom 1 to geom 2
+        self.contact_dist = t(c.dist)             # [N, capacity] signed distance, < 0: penetration
 
         self.forward()
 
@@ -301,6 +321,29 @@ class Simulator:
             self._kinematics()
             self._dynamics()
         self._run_on_device(run) if self.device.is_cuda else run()
+
+    def collide(self) -> None:
+        """Contact detection at the current kinematics (call forward() after writing q).
+
+        Not yet part of step(): the constraint solver that consumes contacts comes next. Slots
+        0..min(count, capacity) - 1 of each env hold its contacts.
+        """
+        if self._unsupported_pairs:
+            raise ModelError(f"{self.model.source}: no narrowphase yet for geom type pairs "
+                             f"{self._unsupported_pairs}")
+        def run():
+            self._collision()
+        self._run_on_device(run) if self.device.is_cuda else run()
+
+    def _collision(self) -> None:
+        n, m, c = self.num_envs, self.model, self._contacts
+        self._launch(collision.geom_poses, (n, m.ngeom), [
+            self._geom_body, self._geom_pos, self._geom_quat, self._body_x, self._geom_x])
+        c.count.zero_()
+        if len(self._pairs):
+            self._launch(collision.narrowphase, (n, len(self._pairs)), [
+                self._pairs, self._geom_type, self._geom_size, self._geom_x,
+                self.params.contact_offset, c.capacity, c.count, c.geom, c.pos, c.normal, c.dist])
 
     def _launch(self, kernel, dim, inputs) -> None:
         wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
