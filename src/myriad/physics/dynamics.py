@@ -93,17 +93,15 @@ def bias_forces(m: ModelArrays, p: EnvParams, body_x: wp.array2d(dtype=wp.transf
         bias[e, i] = wp.dot(cdof[e, i], cfrc[e, m.dof_body[i]])
 
 
-@wp.kernel
-def solve_acceleration(m: ModelArrays, qm: wp.array3d(dtype=float),
-                       implicit_diag: wp.array2d(dtype=float), qfrc: wp.array2d(dtype=float),
-                       factor: wp.array3d(dtype=float), qacc: wp.array2d(dtype=float)):
-    """qacc = (M + implicit_diag)⁻¹ qfrc through the tree-sparse factorization Lᵀ D L.
+@wp.func
+def factor_matrix(m: ModelArrays, e: int, qm: wp.array3d(dtype=float),
+                  implicit_diag: wp.array2d(dtype=float), factor: wp.array3d(dtype=float)):
+    """factor <- Lᵀ D L of (M + diag(implicit_diag)), eliminating from the leaves up.
 
     `implicit_diag` holds the joint-space damping and stiffness of implicit terms (h·d + h²·k):
-    adding them to M's diagonal makes joint damping and PD drives unconditionally stable.
-    `factor` keeps L (unit, strictly lower part, on the ancestor pattern) and D (diagonal).
+    on M's diagonal they make joint damping and PD drives unconditionally stable. `factor`
+    keeps L (unit, strictly lower part, on the ancestor pattern) and D (its diagonal).
     """
-    e = wp.tid()
     nv = m.nv
     for i in range(nv):
         factor[e, i, i] = qm[e, i, i] + implicit_diag[e, i]
@@ -111,7 +109,6 @@ def solve_acceleration(m: ModelArrays, qm: wp.array3d(dtype=float),
         while j >= 0:
             factor[e, i, j] = qm[e, i, j]
             j = m.dof_parent[j]
-    # factorize from the leaves up: eliminate dof k from its ancestors
     for kk in range(nv):
         k = nv - 1 - kk
         dk = factor[e, k, k]
@@ -124,19 +121,35 @@ def solve_acceleration(m: ModelArrays, qm: wp.array3d(dtype=float),
                 j = m.dof_parent[j]
             factor[e, k, i] = lki
             i = m.dof_parent[i]
-    # x = L⁻ᵀ-style sweeps: (Lᵀ D L) x = f
-    for i in range(nv):
-        qacc[e, i] = qfrc[e, i]
+
+
+@wp.func
+def solve_in_place(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
+                   x: wp.array3d(dtype=float), r: int):
+    """x[e, r, :] <- (Lᵀ D L)⁻¹ x[e, r, :], walking only the ancestor chains."""
+    nv = m.nv
     for kk in range(nv):
         k = nv - 1 - kk
         j = m.dof_parent[k]
         while j >= 0:
-            qacc[e, j] = qacc[e, j] - factor[e, k, j] * qacc[e, k]
+            x[e, r, j] = x[e, r, j] - factor[e, k, j] * x[e, r, k]
             j = m.dof_parent[j]
     for k in range(nv):
-        qacc[e, k] = qacc[e, k] / factor[e, k, k]
+        x[e, r, k] = x[e, r, k] / factor[e, k, k]
     for k in range(nv):
         j = m.dof_parent[k]
         while j >= 0:
-            qacc[e, k] = qacc[e, k] - factor[e, k, j] * qacc[e, j]
+            x[e, r, k] = x[e, r, k] - factor[e, k, j] * x[e, r, j]
             j = m.dof_parent[j]
+
+
+@wp.kernel
+def solve_acceleration(m: ModelArrays, qm: wp.array3d(dtype=float),
+                       implicit_diag: wp.array2d(dtype=float), qfrc: wp.array2d(dtype=float),
+                       factor: wp.array3d(dtype=float), qacc: wp.array3d(dtype=float)):
+    """Unconstrained qacc = (M + implicit_diag)⁻¹ qfrc (qacc viewed as [N, 1, nv])."""
+    e = wp.tid()
+    factor_matrix(m, e, qm, implicit_diag, factor)
+    for i in range(m.nv):
+        qacc[e, 0, i] = qfrc[e, i]
+    solve_in_place(m, e, factor, qacc, 0)

@@ -1,9 +1,9 @@
-"""Stage 6, integration: semi-implicit Euler in generalized coordinates.
+"""Stage 6, integration: q ⊕ dq, the displacement accumulated by the solver.
 
-qd' = qd + h·qacc, then q' = q ⊕ h·qd': hinge and slide add, free-joint positions add the
-world-frame linear velocity, and quaternions (ball joints, free-joint rotations) are rotated by
-the body-frame angular velocity through the exponential map and renormalized, as MuJoCo's
-`mj_integratePos`.
+Hinge and slide coordinates add, free-joint positions add the world-frame displacement, and
+quaternions (ball joints, free-joint rotations) are rotated by the body-frame rotation vector
+through the exponential map and renormalized, as MuJoCo's `mj_integratePos`. Without
+constraints dq = h·(qd + h·qacc): semi-implicit Euler.
 """
 
 import warp as wp
@@ -17,11 +17,9 @@ BALL = wp.constant(M.JOINT_BALL)
 
 
 @wp.kernel
-def integrate(m: ModelArrays, h: float, qacc: wp.array2d(dtype=float),
-              q: wp.array2d(dtype=float), qd: wp.array2d(dtype=float)):
+def integrate(m: ModelArrays, dq: wp.array2d(dtype=float), q: wp.array2d(dtype=float),
+              qd: wp.array2d(dtype=float), nonfinite: wp.array(dtype=wp.int32)):
     e = wp.tid()
-    for i in range(m.nv):
-        qd[e, i] = qd[e, i] + h * qacc[e, i]
     for j in range(m.njnt):
         t = m.jnt_type[j]
         a = m.jnt_qposadr[j]
@@ -29,12 +27,22 @@ def integrate(m: ModelArrays, h: float, qacc: wp.array2d(dtype=float),
         if t == FREE or t == BALL:
             if t == FREE:
                 for k in range(3):
-                    q[e, a + k] = q[e, a + k] + h * qd[e, d + k]
+                    q[e, a + k] = q[e, a + k] + dq[e, d + k]
                 a = a + 3
                 d = d + 3
             rot = wp.quat(q[e, a], q[e, a + 1], q[e, a + 2], q[e, a + 3])
-            rot = quat_integrate(wp.normalize(rot), wp.vec3(qd[e, d], qd[e, d + 1], qd[e, d + 2]), h)
+            rot = quat_integrate(wp.normalize(rot), wp.vec3(dq[e, d], dq[e, d + 1], dq[e, d + 2]), 1.0)
             for k in range(4):
                 q[e, a + k] = rot[k]
         else:
-            q[e, a] = q[e, a] + h * qd[e, d]
+            q[e, a] = q[e, a] + dq[e, d]
+    # flag an env whose state is no longer finite; it stays flagged until its owner resets it
+    bad = int(0)
+    for i in range(q.shape[1]):
+        if not wp.isfinite(q[e, i]):
+            bad = 1
+    for i in range(m.nv):
+        if not wp.isfinite(qd[e, i]):
+            bad = 1
+    if bad != 0:
+        nonfinite[e] = 1

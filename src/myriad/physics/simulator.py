@@ -14,7 +14,7 @@ import numpy as np
 import torch
 import warp as wp
 
-from . import collision, dynamics, forces, integrate, kinematics
+from . import collision, constraints, dynamics, forces, integrate, kinematics, solver_tgs
 from .collision.narrowphase import unsupported_pairs
 from .model import Model, ModelError
 from .structs import EnvParams, ModelArrays
@@ -38,6 +38,7 @@ class SimParams:
     bounce_threshold_velocity: float = 0.2    # no restitution below this approach speed (m/s)
     max_depenetration_velocity: float = 100.0  # cap on the velocity that resolves penetration (m/s)
     contacts_per_env: int = 64            # contact capacity of each env
+    constraints: bool = True              # False: smooth dynamics only (no contacts, no limits)
 
     def __post_init__(self):
         def bad(field, why):
@@ -160,7 +161,9 @@ class Simulator:
     # per-env parameters (each env may differ; domain randomization writes these)
     body_mass = _View()      # [N, nbody]
     body_inertia = _View()   # [N, nbody, 3] principal moments
-    geom_friction = _View()  # [N, ngeom] sliding friction coefficient
+    geom_friction = _View()  # [N, ngeom] sliding friction coefficient (pairs average)
+    geom_restitution = _View()  # [N, ngeom] restitution coefficient (pairs average)
+    nonfinite = _View()      # [N] 1 once an env's state went non-finite; the task resets it
     dof_damping = _View()    # [N, nv]
     dof_armature = _View()   # [N, nv]
     joint_stiffness = _View()  # [N, njnt]
@@ -253,8 +256,11 @@ class Simulator:
         self._tendon_range = tiled(m.tendon_range.reshape(-1, 2), wp.vec2)
 
         # collision: candidate pairs fixed now; contacts go to per-env slots
-        pairs = collision.candidate_pairs(model)
-        self._unsupported_pairs = unsupported_pairs(model, pairs)
+        pairs = collision.candidate_pairs(model) if params.constraints else np.zeros((0, 2))
+        missing = unsupported_pairs(model, pairs)
+        if missing:
+            raise ModelError(f"{model.source}: no narrowphase yet for geom type pairs {missing}; "
+                             "filter them out with contype/conaffinity or <exclude>")
         self._pairs = wp.array(pairs, dtype=wp.vec2i, device=dev)
         self._geom_type = wp.array(m.geom_type, dtype=wp.int32, device=dev)
         self._geom_size = wp.array(m.geom_size, dtype=wp.vec3, device=dev)
@@ -262,14 +268,39 @@ class Simulator:
         self._geom_pos = wp.array(m.geom_pos, dtype=wp.vec3, device=dev)
         self._geom_quat = wp.array(m.geom_quat, dtype=wp.quat, device=dev)
         self._geom_x = zeros(N, m.ngeom, dtype=wp.transform)
-        self._contacts = collision.ContactBuffers(N, params.contacts_per_env, dev)
+        self._contacts = collision.ContactBuffers(N, params.contacts_per_env if len(pairs) else 0,
+                                                  dev)
+        self._geom_restitution = zeros(N, m.ngeom)
+        # constraint rows: 3 per contact slot, 2 per limited joint
+        limited = [j for j in range(m.njnt) if m.jnt_limited[j] and params.constraints]
+        self._limit_jnt = wp.array(np.asarray(limited, np.int32), dtype=wp.int32, device=dev)
+        self.nrow = 3 * self._contacts.capacity + 2 * len(limited)
+        R = self.nrow
+        self._row_type = zeros(N, R, dtype=wp.int32)
+        self._row_err = zeros(N, R)
+        self._row_inv_mass = zeros(N, R)
+        self._row_mu = zeros(N, R)
+        self._row_bounce = zeros(N, R)
+        self._row_dir = zeros(N, R, dtype=wp.vec3)
+        self._jac_rows = zeros(N, R, m.nv)
+        self._minv_jt = zeros(N, R, m.nv)
+        self._lam = zeros(N, R)
+        self._lam_init = zeros(N, R)
+        self._prev_key = zeros(N, self._contacts.capacity, dtype=wp.int32)
+        self._prev_count = zeros(N, dtype=wp.int32)
+        self._dq = zeros(N, m.nv)
+        self._contact_force = zeros(N, self._contacts.capacity, dtype=wp.vec3)
+        self._net_contact_force = zeros(N, m.nbody, dtype=wp.vec3)
+        self._dof_constraint_force = zeros(N, m.nv)
+        self._nonfinite = zeros(N, dtype=wp.int32)
 
         t = wp.to_torch
         self._views = {
             "q": t(self._q), "qd": t(self._qd), "joint_force": t(self._joint_force),
             "ctrl": t(self._ctrl),
             "body_mass": t(p.body_mass), "body_inertia": t(p.body_inertia),
-            "geom_friction": t(self._geom_friction), "dof_damping": t(p.dof_damping),
+            "geom_friction": t(self._geom_friction), "geom_restitution": t(self._geom_restitution),
+            "dof_damping": t(p.dof_damping), "nonfinite": t(self._nonfinite),
             "dof_armature": t(p.dof_armature), "joint_stiffness": t(p.jnt_stiffness),
             "joint_range": t(self._joint_range), "actuator_gear": t(p.actuator_gear),
             "actuator_gain": t(p.actuator_gain), "actuator_kp": t(p.actuator_kp),
@@ -293,6 +324,9 @@ class Simulator:
         self.contact_pos = t(c.pos)               # [N, capacity, 3] midpoint between the surfaces
         self.contact_normal = t(c.normal)         # [N, capacity, 3] from geom 1 to geom 2
         self.contact_dist = t(c.dist)             # [N, capacity] signed distance, < 0: penetration
+        self.contact_force = t(self._contact_force)   # [N, capacity, 3] on geom 2, world
+        self.net_contact_force = t(self._net_contact_force)  # [N, nbody, 3]
+        self.dof_constraint_force = t(self._dof_constraint_force)  # [N, nv]
 
         self.forward()
 
@@ -307,13 +341,15 @@ class Simulator:
     def _step_kernels(self) -> None:
         for _ in range(self.params.substeps):
             self._kinematics()
-            # collision: contact detection (next issue)
+            self._collision()
             self._dynamics()
             self._applied_forces()
-            # constraint rows and the TGS solve (next issue)
-            self._solve()
+            self._solve_unconstrained()
+            self._constraint_rows()
+            self._solve_constraints()
             self._integrate()
         self._kinematics()  # poses and velocities of the new state, for the caller
+        self._constraint_outputs()
 
     def forward(self) -> None:
         """Recompute poses, velocities, mass matrix and bias forces from q, qd (no time passes)."""
@@ -323,27 +359,21 @@ class Simulator:
         self._run_on_device(run) if self.device.is_cuda else run()
 
     def collide(self) -> None:
-        """Contact detection at the current kinematics (call forward() after writing q).
-
-        Not yet part of step(): the constraint solver that consumes contacts comes next. Slots
-        0..min(count, capacity) - 1 of each env hold its contacts.
-        """
-        if self._unsupported_pairs:
-            raise ModelError(f"{self.model.source}: no narrowphase yet for geom type pairs "
-                             f"{self._unsupported_pairs}")
-        def run():
-            self._collision()
-        self._run_on_device(run) if self.device.is_cuda else run()
+        """Contact detection alone, at the current kinematics (for debugging: step() runs it)."""
+        self._run_on_device(self._collision) if self.device.is_cuda else self._collision()
 
     def _collision(self) -> None:
         n, m, c = self.num_envs, self.model, self._contacts
+        if c.capacity == 0:
+            return
         self._launch(collision.geom_poses, (n, m.ngeom), [
             self._geom_body, self._geom_pos, self._geom_quat, self._body_x, self._geom_x])
         c.count.zero_()
         if len(self._pairs):
             self._launch(collision.narrowphase, (n, len(self._pairs)), [
                 self._pairs, self._geom_type, self._geom_size, self._geom_x,
-                self.params.contact_offset, c.capacity, c.count, c.geom, c.pos, c.normal, c.dist])
+                self.params.contact_offset, c.capacity, c.count, c.geom, c.key, c.pos, c.normal,
+                c.dist])
 
     def _launch(self, kernel, dim, inputs) -> None:
         wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
@@ -370,18 +400,48 @@ class Simulator:
             self._m, self._p, self.h, self._q, self._qd, self._ctrl, self._joint_force, self._bias,
             self._qfrc_actuator, self._qfrc, self._implicit_diag])
 
-    def _solve(self) -> None:
+    def _solve_unconstrained(self) -> None:
         self._launch(dynamics.solve_acceleration, self.num_envs, [
-            self._m, self._qm, self._implicit_diag, self._qfrc, self._factor, self._qacc])
+            self._m, self._qm, self._implicit_diag, self._qfrc, self._factor,
+            self._qacc.reshape((self.num_envs, 1, self.model.nv))])
+
+    def _constraint_rows(self) -> None:
+        if self.nrow == 0:
+            return
+        c, p = self._contacts, self.params
+        self._launch(constraints.build_rows, self.num_envs, [
+            self._m, self.h, p.rest_offset, p.bounce_threshold_velocity, self._geom_body,
+            self._geom_friction, self._geom_restitution, c.capacity, c.count, c.geom, c.key, c.pos,
+            c.normal, c.dist, self._prev_key, self._prev_count, self._lam, self._limit_jnt, self._joint_range, self._body_x, self._cdof,
+            self._q, self._qd, self._qacc, self._factor, self._row_type, self._row_err,
+            self._row_inv_mass, self._row_mu, self._row_bounce, self._row_dir, self._jac_rows,
+            self._minv_jt, self._lam_init])
+
+    def _solve_constraints(self) -> None:
+        p = self.params
+        self._launch(solver_tgs.solve, self.num_envs, [
+            self._m, self.nrow, self.h, p.position_iterations, p.velocity_iterations,
+            int(p.solver == "tgs"), p.max_depenetration_velocity, self._row_type, self._row_err,
+            self._row_inv_mass, self._row_mu, self._row_bounce, self._jac_rows, self._minv_jt,
+            self._lam_init, self._qacc, self._qd, self._dq, self._lam])
 
     def _integrate(self) -> None:
         self._launch(integrate.integrate, self.num_envs,
-                     [self._m, self.h, self._qacc, self._q, self._qd])
+                     [self._m, self._dq, self._q, self._qd, self._nonfinite])
+
+    def _constraint_outputs(self) -> None:
+        c = self._contacts
+        self._launch(solver_tgs.constraint_forces, self.num_envs, [
+            self._m, self.nrow, self.h, self._geom_body, c.capacity, c.count, c.geom,
+            self._row_dir, self._lam, self._row_type, self._jac_rows, self._contact_force,
+            self._net_contact_force, self._dof_constraint_force])
 
     # ------------------------------------------------------------------ CUDA
     def _step_graph(self) -> None:
         if self._graph is None:
-            for module in (kinematics, dynamics, forces, integrate):  # compile outside the capture
+            # compile outside the capture
+            for module in (kinematics, collision.narrowphase, dynamics, forces, constraints,
+                           solver_tgs, integrate):
                 wp.load_module(module, device=self.device)
             with wp.ScopedCapture(device=self.device, stream=self._stream) as capture:
                 self._step_kernels()

@@ -32,17 +32,22 @@ class ContactBuffers:
         self.pos = wp.zeros((num_envs, capacity), dtype=wp.vec3, device=device)
         self.normal = wp.zeros((num_envs, capacity), dtype=wp.vec3, device=device)
         self.dist = wp.zeros((num_envs, capacity), dtype=wp.float32, device=device)
+        # identity of a contact across substeps (pair index and feature, e.g. which box corner),
+        # for warm-starting the solver
+        self.key = wp.zeros((num_envs, capacity), dtype=wp.int32, device=device)
 
 
 @wp.func
-def _emit(e: int, pair: wp.vec2i, pos: wp.vec3, normal: wp.vec3, dist: float, margin: float,
-          capacity: int, count: wp.array(dtype=wp.int32), c_geom: wp.array2d(dtype=wp.vec2i),
+def _emit(e: int, pair: wp.vec2i, key: int, pos: wp.vec3, normal: wp.vec3, dist: float,
+          margin: float, capacity: int, count: wp.array(dtype=wp.int32),
+          c_geom: wp.array2d(dtype=wp.vec2i), c_key: wp.array2d(dtype=wp.int32),
           c_pos: wp.array2d(dtype=wp.vec3), c_normal: wp.array2d(dtype=wp.vec3),
           c_dist: wp.array2d(dtype=float)):
     if dist < margin:
         slot = wp.atomic_add(count, e, 1)
         if slot < capacity:
             c_geom[e, slot] = pair
+            c_key[e, slot] = key
             c_pos[e, slot] = pos
             c_normal[e, slot] = normal
             c_dist[e, slot] = dist
@@ -115,7 +120,8 @@ def _spheres(c1: wp.vec3, r1: float, c2: wp.vec3, r2: float):
 def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.int32),
                 geom_size: wp.array(dtype=wp.vec3), geom_x: wp.array2d(dtype=wp.transform),
                 margin: float, capacity: int, count: wp.array(dtype=wp.int32),
-                c_geom: wp.array2d(dtype=wp.vec2i), c_pos: wp.array2d(dtype=wp.vec3),
+                c_geom: wp.array2d(dtype=wp.vec2i), c_key: wp.array2d(dtype=wp.int32),
+                c_pos: wp.array2d(dtype=wp.vec3),
                 c_normal: wp.array2d(dtype=wp.vec3), c_dist: wp.array2d(dtype=float)):
     e, p = wp.tid()
     pair = pairs[p]
@@ -141,8 +147,8 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
                 if t2 == CAPSULE:
                     center = _segment(x2, s2[1], 2.0 * float(k) - 1.0)
                 dist = wp.dot(center - c1, n) - s2[0]
-                _emit(e, pair, center - n * (s2[0] + 0.5 * dist), n, dist, margin, capacity, count,
-                      c_geom, c_pos, c_normal, c_dist)
+                _emit(e, pair, p * 8 + k, center - n * (s2[0] + 0.5 * dist), n, dist, margin,
+                      capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
         elif t2 == BOX:
             # corners below the offset, at most four (a box resting on a face touches with four)
             found = int(0)
@@ -158,15 +164,16 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
                 dist = wp.dot(point - c1, n)
                 if dist < margin and found < 4:
                     found += 1
-                    _emit(e, pair, point - n * (0.5 * dist), n, dist, margin, capacity, count,
-                          c_geom, c_pos, c_normal, c_dist)
+                    _emit(e, pair, p * 8 + k, point - n * (0.5 * dist), n, dist, margin, capacity,
+                          count, c_geom, c_key, c_pos, c_normal, c_dist)
     elif t1 == SPHERE:
         if t2 == SPHERE or t2 == CAPSULE:
             other = c2
             if t2 == CAPSULE:
                 other = _closest_on_segment(_segment(x2, s2[1], -1.0), _segment(x2, s2[1], 1.0), c1)
             n, dist, pos = _spheres(c1, s1[0], other, s2[0])
-            _emit(e, pair, pos, n, dist, margin, capacity, count, c_geom, c_pos, c_normal, c_dist)
+            _emit(e, pair, p * 8, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos,
+                  c_normal, c_dist)
         elif t2 == BOX:
             local = wp.transform_point(wp.transform_inverse(x2), c1)
             clamped = wp.vec3(wp.clamp(local[0], -s2[0], s2[0]), wp.clamp(local[1], -s2[1], s2[1]),
@@ -179,8 +186,8 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
                 gap = wp.length(b - c1)
                 n = (b - c1) / gap
                 dist = gap - r
-                _emit(e, pair, 0.5 * (c1 + n * r + b), n, dist, margin, capacity, count,
-                      c_geom, c_pos, c_normal, c_dist)
+                _emit(e, pair, p * 8, 0.5 * (c1 + n * r + b), n, dist, margin, capacity, count,
+                      c_geom, c_key, c_pos, c_normal, c_dist)
             else:
                 # center inside: leave through the nearest face
                 axis = int(0)
@@ -197,8 +204,8 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
                 u = wp.quat_rotate(rot, out)
                 n = -u
                 b = c1 + u * depth
-                _emit(e, pair, 0.5 * (c1 - u * r + b), n, -(depth + r), margin, capacity, count,
-                      c_geom, c_pos, c_normal, c_dist)
+                _emit(e, pair, p * 8, 0.5 * (c1 - u * r + b), n, -(depth + r), margin, capacity,
+                      count, c_geom, c_key, c_pos, c_normal, c_dist)
     elif t1 == CAPSULE and t2 == CAPSULE:
         a1 = _segment(x1, s1[1], -1.0)
         b1 = _segment(x1, s1[1], 1.0)
@@ -206,7 +213,8 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
         b2 = _segment(x2, s2[1], 1.0)
         st = _closest_between_segments(a1, b1, a2, b2)
         n, dist, pos = _spheres(a1 + (b1 - a1) * st[0], s1[0], a2 + (b2 - a2) * st[1], s2[0])
-        _emit(e, pair, pos, n, dist, margin, capacity, count, c_geom, c_pos, c_normal, c_dist)
+        _emit(e, pair, p * 8, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos,
+              c_normal, c_dist)
 
 
 @wp.kernel

@@ -1,0 +1,182 @@
+"""Stage 4, constraint rows in joint space: contacts (normal + two friction rows) and joint limits.
+
+One thread per env. Each row r has a Jacobian J_r (a 1 x nv row: the rate of the constraint's
+coordinate per generalized velocity), the response M⁻¹J_rᵀ through the same LᵀDL factor as the
+unconstrained solve (so implicit damping and drives are part of it), and 1/(J M⁻¹ Jᵀ). Rows sit
+at fixed slots: contact slot k owns rows 3k (normal), 3k+1 and 3k+2 (friction), then each
+limited joint owns two rows (lower, upper). Unused slots are marked inactive and skipped.
+
+Each row's starting impulse (warm start) is the final impulse of the same constraint in the last
+substep: the same contact (pair and feature, e.g. the same box corner) or the same limit. A
+resting contact then starts converged instead of being rebuilt from zero by a few sweeps.
+"""
+
+import warp as wp
+
+from .dynamics import solve_in_place
+from .spatial import velocity_at
+from .structs import ModelArrays
+
+INACTIVE = wp.constant(-1)
+NORMAL = wp.constant(0)      # unilateral: J v >= target, impulse >= 0 (contacts and limits)
+FRICTION = wp.constant(1)    # first of a contact's two friction rows: solved as a 2D disk
+FRICTION2 = wp.constant(2)   # second friction row (handled with the first)
+
+# a limit row is active when the joint is within this distance (rad or m) of its limit, plus
+# the distance it can travel in two substeps
+LIMIT_MARGIN = wp.constant(0.1)
+
+
+@wp.func
+def _add_point_jacobian(m: ModelArrays, e: int, body: int, point: wp.vec3, direction: wp.vec3,
+                        sign: float, body_x: wp.array2d(dtype=wp.transform),
+                        cdof: wp.array2d(dtype=wp.spatial_vector), jac: wp.array3d(dtype=float),
+                        r: int):
+    """J[r] += sign · directionᵀ · (velocity of `point` fixed to `body`, per dof)."""
+    if body < 0:
+        return
+    ref = wp.transform_get_translation(body_x[e, m.body_root[body]])
+    j = m.body_last_dof[body]
+    while j >= 0:
+        jac[e, r, j] = jac[e, r, j] + sign * wp.dot(direction, velocity_at(cdof[e, j], point - ref))
+        j = m.dof_parent[j]
+
+
+@wp.func
+def _finish_row(m: ModelArrays, e: int, r: int, jac: wp.array3d(dtype=float),
+                factor: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
+                row_inv_mass: wp.array2d(dtype=float), row_type: wp.array2d(dtype=wp.int32),
+                kind: int):
+    for i in range(m.nv):
+        minv_jt[e, r, i] = jac[e, r, i]
+    solve_in_place(m, e, factor, minv_jt, r)
+    w = float(0.0)
+    for i in range(m.nv):
+        w = w + jac[e, r, i] * minv_jt[e, r, i]
+    if w > 1.0e-12:
+        row_inv_mass[e, r] = 1.0 / w
+        row_type[e, r] = kind
+    else:  # the constraint moves nothing (e.g. two static shapes): drop it
+        row_inv_mass[e, r] = 0.0
+        row_type[e, r] = INACTIVE
+
+
+@wp.func
+def _row_dot(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float), nv: int):
+    s = float(0.0)
+    for i in range(nv):
+        s = s + a[e, r, i] * v[e, i]
+    return s
+
+
+@wp.kernel
+def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: float,
+               geom_body: wp.array(dtype=wp.int32), geom_friction: wp.array2d(dtype=float),
+               geom_restitution: wp.array2d(dtype=float),
+               contact_capacity: int, contact_count: wp.array(dtype=wp.int32),
+               contact_geom: wp.array2d(dtype=wp.vec2i), contact_key: wp.array2d(dtype=wp.int32),
+               contact_pos: wp.array2d(dtype=wp.vec3),
+               contact_normal: wp.array2d(dtype=wp.vec3), contact_dist: wp.array2d(dtype=float),
+               # warm start: the last substep's contact keys and final impulses
+               prev_key: wp.array2d(dtype=wp.int32), prev_count: wp.array(dtype=wp.int32),
+               lam: wp.array2d(dtype=float),
+               limit_jnt: wp.array(dtype=wp.int32), joint_range: wp.array2d(dtype=wp.vec2),
+               body_x: wp.array2d(dtype=wp.transform), cdof: wp.array2d(dtype=wp.spatial_vector),
+               q: wp.array2d(dtype=float), qd: wp.array2d(dtype=float),
+               qacc: wp.array2d(dtype=float), factor: wp.array3d(dtype=float),
+               # outputs
+               row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
+               row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
+               row_bounce: wp.array2d(dtype=float), row_dir: wp.array2d(dtype=wp.vec3),
+               jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
+               lam_init: wp.array2d(dtype=float)):
+    e = wp.tid()
+    nv = m.nv
+    ncontact = wp.min(contact_count[e], contact_capacity)
+    for k in range(contact_capacity):
+        for d in range(3):
+            row_type[e, 3 * k + d] = INACTIVE
+        if k < ncontact:
+            pair = contact_geom[e, k]
+            b1 = geom_body[pair[0]]
+            b2 = geom_body[pair[1]]
+            n = contact_normal[e, k]
+            p = contact_pos[e, k]
+            # tangent basis: any orthonormal pair (the friction disk is isotropic)
+            t1 = wp.cross(n, wp.vec3(1.0, 0.0, 0.0))
+            if wp.length_sq(t1) < 1.0e-6:
+                t1 = wp.cross(n, wp.vec3(0.0, 1.0, 0.0))
+            t1 = wp.normalize(t1)
+            t2 = wp.cross(n, t1)
+            mu = 0.5 * (geom_friction[e, pair[0]] + geom_friction[e, pair[1]])
+            restitution = 0.5 * (geom_restitution[e, pair[0]] + geom_restitution[e, pair[1]])
+            for d in range(3):
+                r = 3 * k + d
+                direction = n
+                kind = NORMAL
+                if d == 1:
+                    direction = t1
+                    kind = FRICTION
+                elif d == 2:
+                    direction = t2
+                    kind = FRICTION2
+                for i in range(nv):
+                    jac[e, r, i] = 0.0
+                # relative velocity of body 2's point with respect to body 1's, along direction
+                _add_point_jacobian(m, e, b2, p, direction, 1.0, body_x, cdof, jac, r)
+                _add_point_jacobian(m, e, b1, p, direction, -1.0, body_x, cdof, jac, r)
+                _finish_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, kind)
+                row_mu[e, r] = mu
+                row_dir[e, r] = direction
+                row_err[e, r] = 0.0
+                row_bounce[e, r] = 0.0
+                if d == 0:
+                    row_err[e, r] = contact_dist[e, k] - rest_offset
+                    # approach speed before the solve (unconstrained velocity qd + h·qacc)
+                    approach = _row_dot(jac, e, r, qd, nv) + h * _row_dot(jac, e, r, qacc, nv)
+                    if approach < -bounce_threshold:
+                        row_bounce[e, r] = -restitution * approach
+            # friction needs its normal row: without it, drop the contact
+            if row_type[e, 3 * k] == INACTIVE:
+                row_type[e, 3 * k + 1] = INACTIVE
+                row_type[e, 3 * k + 2] = INACTIVE
+            # warm start from the same contact (same pair and feature) of the last substep
+            same = int(-1)
+            for j in range(prev_count[e]):
+                if same < 0 and prev_key[e, j] == contact_key[e, k]:
+                    same = j
+            for d in range(3):
+                lam_init[e, 3 * k + d] = 0.0
+                if same >= 0 and row_type[e, 3 * k + d] != INACTIVE:
+                    lam_init[e, 3 * k + d] = lam[e, 3 * same + d]
+    for k in range(ncontact):
+        prev_key[e, k] = contact_key[e, k]
+    prev_count[e] = ncontact
+
+    base = 3 * contact_capacity
+    for li in range(limit_jnt.shape[0]):
+        j = limit_jnt[li]
+        dof = m.jnt_dofadr[j]
+        x = q[e, m.jnt_qposadr[j]]
+        lim = joint_range[e, j]
+        reach = LIMIT_MARGIN + 2.0 * h * wp.abs(qd[e, dof])
+        for side in range(2):
+            r = base + 2 * li + side
+            row_type[e, r] = INACTIVE
+            warm = lam[e, r]
+            lam_init[e, r] = 0.0
+            sign = 1.0
+            err = x - lim[0]
+            if side == 1:
+                sign = -1.0
+                err = lim[1] - x
+            if err < reach:
+                for i in range(nv):
+                    jac[e, r, i] = 0.0
+                jac[e, r, dof] = sign
+                _finish_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, NORMAL)
+                row_err[e, r] = err
+                row_mu[e, r] = 0.0
+                row_bounce[e, r] = 0.0
+                if row_type[e, r] != INACTIVE:
+                    lam_init[e, r] = warm

@@ -1,0 +1,168 @@
+"""Stage 5, the constraint solve: Temporal Gauss-Seidel (TGS) or PGS on the rows of `constraints`.
+
+One thread per env. The solve starts from the unconstrained velocity v = qd + h·qacc and applies
+row impulses λ through v += M⁻¹Jᵀ·Δλ.
+
+TGS (`params.solver == "tgs"`): the substep h is split into N = position_iterations sub-steps of
+h/N. Each is one Gauss-Seidel sweep over the rows, after which the displacement is integrated,
+dq += (h/N)·v. A row's error is re-evaluated in every sweep as its initial error plus J·dq, so a
+contact that has been pushed apart stops pushing: this is what makes TGS converge like real
+sub-stepping at the cost of one sweep each. Penetration is resolved at speed -err/(h/N), capped
+by `max_depenetration_velocity`; a gap (err > 0) lets the bodies approach by at most the gap
+(speculative contact). Then `velocity_iterations` sweeps run with no position bias.
+
+PGS (`params.solver == "pgs"`): one step of h with `position_iterations` sweeps, errors frozen at
+their initial values, bias -err/h, then dq = h·v. Same rows, same cost per sweep.
+
+Friction: the two friction rows of a contact are solved together and their impulse is projected
+onto the disk |λ_t| <= μ·λ_n (an isotropic cone: friction does not depend on how the tangent
+basis happens to be oriented; PhysX's per-axis clamp lets diagonal friction reach √2·μ).
+Friction acts in every sweep; in TGS position sweeps its target also undoes the tangential slip
+accumulated in the substep (-J_t·dq / (h/N)), so static friction anchors the contact point
+instead of letting unconverged early sweeps creep. Restitution: a contact approaching faster than the bounce threshold
+targets a separation speed of e times its approach speed.
+"""
+
+import warp as wp
+
+from .constraints import FRICTION, NORMAL, _row_dot
+from .structs import ModelArrays
+
+
+@wp.func
+def _apply(e: int, r: int, dl: float, minv_jt: wp.array3d(dtype=float), v: wp.array2d(dtype=float),
+           nv: int):
+    for i in range(nv):
+        v[e, i] = v[e, i] + minv_jt[e, r, i] * dl
+
+
+@wp.func
+def _sweep(m: ModelArrays, e: int, nrow: int, reverse: int, biased: int, tgs: int, hs: float, h: float,
+           max_depenetration: float, row_type: wp.array2d(dtype=wp.int32),
+           row_err: wp.array2d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
+           row_mu: wp.array2d(dtype=float), row_bounce: wp.array2d(dtype=float),
+           jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
+           v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float), lam: wp.array2d(dtype=float)):
+    nv = m.nv
+    for rr in range(nrow):
+        # alternate the sweep direction so that no row is always solved first
+        r = rr
+        if reverse != 0:
+            r = nrow - 1 - rr
+        t = row_type[e, r]
+        if t == NORMAL:
+            jv = _row_dot(jac, e, r, v, nv)
+            err = row_err[e, r]
+            if tgs != 0:
+                err = err + _row_dot(jac, e, r, dq, nv)
+            target = float(0.0)
+            if err >= 0.0:
+                target = -err / h          # may close the gap, no more
+                if biased != 0:
+                    target = -err / hs
+            elif biased != 0:
+                target = wp.min(-err / hs, max_depenetration)
+            if row_bounce[e, r] > 0.0:  # restitution replaces the bias for a fast approach
+                target = wp.max(target, row_bounce[e, r])
+            old = lam[e, r]
+            new = wp.max(old + (target - jv) * row_inv_mass[e, r], 0.0)
+            lam[e, r] = new
+            _apply(e, r, new - old, minv_jt, v, nv)
+        elif t == FRICTION:
+            # static friction holds the contact point where it was at the start of the substep:
+            # in TGS position sweeps the target undoes the slip accumulated so far, -J_t·dq / hs
+            target1 = float(0.0)
+            target2 = float(0.0)
+            if tgs != 0 and biased != 0:
+                target1 = -_row_dot(jac, e, r, dq, nv) / hs
+                target2 = -_row_dot(jac, e, r + 1, dq, nv) / hs
+            # both rows from the same velocity, then projection onto the friction disk
+            old1 = lam[e, r]
+            old2 = lam[e, r + 1]
+            l1 = old1 + (target1 - _row_dot(jac, e, r, v, nv)) * row_inv_mass[e, r]
+            l2 = old2 + (target2 - _row_dot(jac, e, r + 1, v, nv)) * row_inv_mass[e, r + 1]
+            limit = row_mu[e, r] * lam[e, r - 1]
+            norm = wp.sqrt(l1 * l1 + l2 * l2)
+            if norm > limit:
+                scale = float(0.0)
+                if norm > 0.0:
+                    scale = limit / norm
+                l1 = l1 * scale
+                l2 = l2 * scale
+            lam[e, r] = l1
+            lam[e, r + 1] = l2
+            _apply(e, r, l1 - old1, minv_jt, v, nv)
+            _apply(e, r + 1, l2 - old2, minv_jt, v, nv)
+
+
+@wp.kernel
+def solve(m: ModelArrays, nrow: int, h: float, position_iterations: int,
+          velocity_iterations: int, tgs: int, max_depenetration: float,
+          row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
+          row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
+          row_bounce: wp.array2d(dtype=float), jac: wp.array3d(dtype=float),
+          minv_jt: wp.array3d(dtype=float), lam_init: wp.array2d(dtype=float),
+          qacc: wp.array2d(dtype=float),
+          qd: wp.array2d(dtype=float), dq: wp.array2d(dtype=float), lam: wp.array2d(dtype=float)):
+    """On exit qd holds the new velocity, dq the displacement to integrate, lam the impulses."""
+    e = wp.tid()
+    nv = m.nv
+    for i in range(nv):
+        qd[e, i] = qd[e, i] + h * qacc[e, i]
+        dq[e, i] = 0.0
+    for r in range(nrow):
+        lam[e, r] = 0.0
+        if row_type[e, r] >= 0:
+            lam[e, r] = lam_init[e, r]
+            _apply(e, r, lam[e, r], minv_jt, qd, nv)
+    hs = h
+    if tgs != 0:
+        hs = h / float(position_iterations)
+    for it in range(position_iterations):
+        _sweep(m, e, nrow, 0, 1, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
+               row_mu, row_bounce, jac, minv_jt, qd, dq, lam)
+        if tgs != 0:
+            for i in range(nv):
+                dq[e, i] = dq[e, i] + hs * qd[e, i]
+    if tgs == 0:
+        for i in range(nv):
+            dq[e, i] = h * qd[e, i]
+    for it in range(velocity_iterations):
+        _sweep(m, e, nrow, 0, 0, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
+               row_mu, row_bounce, jac, minv_jt, qd, dq, lam)
+
+
+@wp.kernel
+def constraint_forces(m: ModelArrays, nrow: int, h: float, geom_body: wp.array(dtype=wp.int32),
+                      contact_capacity: int, contact_count: wp.array(dtype=wp.int32),
+                      contact_geom: wp.array2d(dtype=wp.vec2i),
+                      row_dir: wp.array2d(dtype=wp.vec3), lam: wp.array2d(dtype=float),
+                      row_type: wp.array2d(dtype=wp.int32), jac: wp.array3d(dtype=float),
+                      contact_force: wp.array2d(dtype=wp.vec3),
+                      net_contact_force: wp.array2d(dtype=wp.vec3),
+                      dof_constraint_force: wp.array2d(dtype=float)):
+    """Forces of the last substep: per contact (on geom 2, world), net per body, per dof."""
+    e = wp.tid()
+    for b in range(m.nbody):
+        net_contact_force[e, b] = wp.vec3()
+    ncontact = wp.min(contact_count[e], contact_capacity)
+    for k in range(contact_capacity):
+        f = wp.vec3()
+        if k < ncontact:
+            for d in range(3):
+                f = f + row_dir[e, 3 * k + d] * lam[e, 3 * k + d]
+            f = f / h
+            pair = contact_geom[e, k]
+            b1 = geom_body[pair[0]]
+            b2 = geom_body[pair[1]]
+            if b2 >= 0:
+                net_contact_force[e, b2] = net_contact_force[e, b2] + f
+            if b1 >= 0:
+                net_contact_force[e, b1] = net_contact_force[e, b1] - f
+        contact_force[e, k] = f
+    for i in range(m.nv):
+        s = float(0.0)
+        for r in range(nrow):
+            if row_type[e, r] >= 0:
+                s = s + jac[e, r, i] * lam[e, r]
+        dof_constraint_force[e, i] = s / h
