@@ -1,0 +1,127 @@
+"""Contacts, friction, restitution and joint limits against closed-form physics.
+
+Isaac Gym's settings unless a test says otherwise: dt 1/60, 2 substeps, TGS with 4 position and
+1 velocity iteration.
+"""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+import myriad
+
+ISAAC = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=4, velocity_iterations=1)
+
+
+def _scene(bodies: str, floor_quat="1 0 0 0", floor_friction=1.0, extra="") -> myriad.Model:
+    return myriad.load_xml(f"""<mujoco><worldbody>
+      <geom name="floor" type="plane" size="20 20 0.1" quat="{floor_quat}" friction="{floor_friction} 0 0"/>
+      {bodies}</worldbody>{extra}</mujoco>""", "scene")
+
+
+def _box_on_incline(deg: float, mu: float) -> myriad.Model:
+    th = math.radians(deg)
+    quat = f"{math.cos(th / 2)} {math.sin(th / 2)} 0 0"  # tilt about x: the slope descends toward -y
+    normal = np.array([0.0, -math.sin(th), math.cos(th)])
+    pos = " ".join(f"{x:.6f}" for x in normal * 0.1)
+    return _scene(f'<body name="box" pos="{pos}" quat="{quat}"><freejoint/>'
+                  f'<geom type="box" size="0.1 0.1 0.1" mass="1" friction="{mu} 0 0"/></body>',
+                  floor_quat=quat, floor_friction=mu)
+
+
+@pytest.mark.parametrize("deg", [15.0, 25.0, 35.0, 45.0])
+def test_box_on_incline_sticks_below_friction_angle_and_slides_above(deg, device):
+    mu = 0.5  # friction angle atan(0.5) = 26.57 degrees
+    sim = myriad.Simulator(_box_on_incline(deg, mu), num_envs=1, device=device, params=ISAAC)
+    for _ in range(30):  # settle
+        sim.step()
+    v0 = sim.qd[0, :3].cpu().numpy().copy()
+    for _ in range(60):  # 1 s
+        sim.step()
+    accel = np.linalg.norm(sim.qd[0, :3].cpu().numpy() - v0)
+    th = math.radians(deg)
+    if th < math.atan(mu):
+        assert accel < 1e-3, accel  # sticks
+    else:
+        expected = 9.81 * (math.sin(th) - mu * math.cos(th))
+        assert accel == pytest.approx(expected, rel=0.03)
+
+
+def test_box_at_rest_drifts_less_than_a_millimetre_in_ten_seconds(device):
+    sim = myriad.Simulator(_scene('<body pos="0.3 -0.2 0.1"><freejoint/><geom type="box" size="0.1 0.1 0.1" mass="1"/></body>'),
+                           num_envs=1, device=device, params=ISAAC)
+    start = sim.q[0, :3].clone()
+    for _ in range(600):
+        sim.step()
+    drift = (sim.q[0, :3] - start).norm().item()
+    assert drift < 1e-3, drift
+    # it carries its weight: net contact force on the box = m g, up
+    np.testing.assert_allclose(sim.net_contact_force[0, 0].cpu().numpy(), [0, 0, 9.81], atol=1e-3)
+
+
+def test_dropped_sphere_never_tunnels_and_rests_at_its_radius(device):
+    sim = myriad.Simulator(_scene('<body pos="0 0 1"><freejoint/><geom type="sphere" size="0.1" mass="1"/></body>'),
+                           num_envs=1, device=device, params=ISAAC)
+    lowest = 1.0
+    for _ in range(300):
+        sim.step()
+        lowest = min(lowest, sim.q[0, 2].item())
+    assert lowest > 0.1 - 0.01  # never more than 1 cm into the floor, never through it
+    assert sim.q[0, 2].item() == pytest.approx(0.1, abs=1e-3)
+    assert sim.qd[0].abs().max().item() < 1e-3
+
+
+def test_restitution_bounces_to_e_squared_height(device):
+    sim = myriad.Simulator(_scene('<body pos="0 0 1.1"><freejoint/><geom type="sphere" size="0.1" mass="1"/></body>'),
+                           num_envs=1, device=device,
+                           params=myriad.SimParams(dt=1 / 240, substeps=1, position_iterations=4,
+                                                   velocity_iterations=1))
+    sim.geom_restitution[:] = 0.8  # floor and sphere: the pair averages to 0.8
+    peak, falling_again, bounced = 0.0, False, False
+    for _ in range(2000):
+        sim.step()
+        vz = sim.qd[0, 2].item()
+        if vz > 0:
+            bounced = True
+        if bounced and vz <= 0 and not falling_again:
+            falling_again = True
+            peak = sim.q[0, 2].item() - 0.1
+            break
+    assert bounced and falling_again
+    assert peak == pytest.approx(0.8**2 * 1.0, rel=0.05)
+
+
+def test_hinge_driven_into_its_limit_stays_within_0_02_rad(device):
+    model = myriad.load_xml("""<mujoco><compiler angle="radian"/><option gravity="0 0 0"/><worldbody>
+      <body name="arm"><joint name="hinge" type="hinge" axis="0 0 1" limited="true" range="-0.5 0.5"/>
+        <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.03" mass="1"/></body></worldbody>
+      <actuator><motor joint="hinge" gear="100"/></actuator></mujoco>""", "arm")
+    sim = myriad.Simulator(model, num_envs=2, device=device, params=ISAAC)
+    sim.ctrl = torch.tensor([[1.0], [-1.0]], device=sim.torch_device)  # 100 N·m into either limit
+    worst = 0.0
+    for _ in range(300):
+        sim.step()
+        worst = max(worst, sim.q[0, 0].item() - 0.5, -0.5 - sim.q[1, 0].item())
+    assert worst < 0.02, worst
+    assert sim.q[0, 0].item() == pytest.approx(0.5, abs=0.02)
+    assert sim.q[1, 0].item() == pytest.approx(-0.5, abs=0.02)
+    # the limit carries the motor's torque
+    assert sim.dof_constraint_force[0, 0].item() == pytest.approx(-100.0, rel=0.02)
+
+
+def test_envs_with_different_friction_and_mass_behave_differently_and_independently(device):
+    sim = myriad.Simulator(_box_on_incline(35.0, 0.5), num_envs=4, device=device, params=ISAAC)
+    sim.geom_friction[1] = 1.0   # env 1: mu 1.0 > tan 35: sticks
+    sim.body_mass[2] *= 5.0      # env 2: heavier, same friction: slides the same (mass cancels)
+    sim.geom_friction[3] = 0.2   # env 3: slides faster
+    for _ in range(60):
+        sim.step()
+    speed = sim.qd[:, :3].norm(dim=1).cpu().numpy()
+    assert speed[1] < 1e-3
+    assert speed[2] == pytest.approx(speed[0], rel=0.02)
+    assert speed[3] > speed[0] * 1.5
+    th = math.radians(35.0)
+    for e, mu in [(0, 0.5), (3, 0.2)]:
+        assert speed[e] == pytest.approx(9.81 * (math.sin(th) - mu * math.cos(th)) * 1.0, rel=0.05)
