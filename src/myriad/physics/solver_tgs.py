@@ -44,12 +44,14 @@ def _sweep(m: ModelArrays, e: int, nrow: int, reverse: int, biased: int, tgs: in
            jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
            v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float), lam: wp.array2d(dtype=float)):
     nv = m.nv
-    for rr in range(nrow):
-        # alternate the sweep direction so that no row is always solved first
-        r = rr
-        if reverse != 0:
-            r = nrow - 1 - rr
+    # normal rows first, then friction rows, whose bounds then hold this sweep's normal impulses
+    for rr in range(2 * nrow):
+        r = rr % nrow
         t = row_type[e, r]
+        if rr < nrow and t != NORMAL:
+            continue
+        if rr >= nrow and t == NORMAL:
+            continue
         if t == NORMAL:
             jv = _row_dot(jac, e, r, v, nv)
             err = row_err[e, r]
@@ -74,8 +76,8 @@ def _sweep(m: ModelArrays, e: int, nrow: int, reverse: int, biased: int, tgs: in
             target1 = float(0.0)
             target2 = float(0.0)
             if tgs != 0 and biased != 0:
-                target1 = -_row_dot(jac, e, r, dq, nv) / hs
-                target2 = -_row_dot(jac, e, r + 1, dq, nv) / hs
+                target1 = -1.0 * _row_dot(jac, e, r, dq, nv) / hs
+                target2 = -1.0 * _row_dot(jac, e, r + 1, dq, nv) / hs
             # both rows from the same velocity, then projection onto the friction disk
             old1 = lam[e, r]
             old2 = lam[e, r + 1]

@@ -19,7 +19,10 @@ CAPSULE = wp.constant(3)
 BOX = wp.constant(6)
 
 # (type1, type2) with type1 <= type2, MuJoCo geom type numbers
-SUPPORTED_PAIRS = {(0, 2), (0, 3), (0, 6), (2, 2), (2, 3), (2, 6), (3, 3)}
+SUPPORTED_PAIRS = {(0, 2), (0, 3), (0, 6), (2, 2), (2, 3), (2, 6), (3, 3), (3, 6), (6, 6)}
+
+# up to 8 polygon points (rows: u, v, height) while clipping a face against another
+poly8 = wp.types.matrix(shape=(8, 3), dtype=float)
 
 
 class ContactBuffers:
@@ -116,6 +119,278 @@ def _spheres(c1: wp.vec3, r1: float, c2: wp.vec3, r2: float):
     return n, dist, c1 + n * (r1 + 0.5 * dist)
 
 
+@wp.func
+def _box_point_distance(x: wp.transform, half: wp.vec3, p: wp.vec3):
+    """Signed distance from p to the box surface (negative inside); convex in p."""
+    local = wp.transform_point(wp.transform_inverse(x), p)
+    q = wp.vec3(wp.abs(local[0]) - half[0], wp.abs(local[1]) - half[1], wp.abs(local[2]) - half[2])
+    outside = wp.vec3(wp.max(q[0], 0.0), wp.max(q[1], 0.0), wp.max(q[2], 0.0))
+    return wp.length(outside) + wp.min(wp.max(q[0], wp.max(q[1], q[2])), 0.0)
+
+
+@wp.func
+def _sphere_box(c: wp.vec3, r: float, x: wp.transform, half: wp.vec3):
+    """(normal from sphere to box, signed distance, midpoint) of a sphere and a box."""
+    local = wp.transform_point(wp.transform_inverse(x), c)
+    clamped = wp.vec3(wp.clamp(local[0], -half[0], half[0]), wp.clamp(local[1], -half[1], half[1]),
+                      wp.clamp(local[2], -half[2], half[2]))
+    if wp.length_sq(local - clamped) > 1.0e-12:
+        b = wp.transform_point(x, clamped)
+        gap = wp.length(b - c)
+        n = (b - c) / gap
+        return n, gap - r, 0.5 * (c + n * r + b)
+    # center inside: leave through the nearest face
+    axis = int(0)
+    depth = half[0] - wp.abs(local[0])
+    for k in range(1, 3):
+        dk = half[k] - wp.abs(local[k])
+        if dk < depth:
+            depth = dk
+            axis = k
+    out = wp.vec3()
+    out[axis] = wp.sign(local[axis])
+    if out[axis] == 0.0:
+        out[axis] = 1.0
+    u = wp.quat_rotate(wp.transform_get_rotation(x), out)
+    b = c + u * depth
+    return -u, -(depth + r), 0.5 * (c - u * r + b)
+
+
+@wp.func
+def _clip(poly: poly8, count: int, axis: int, sign: float, limit: float):
+    """Sutherland-Hodgman: keep the part of the polygon where sign·p[axis] <= limit."""
+    out = poly8()
+    n = int(0)
+    for i in range(count):
+        j = (i + 1) % count
+        a = poly[i]
+        b = poly[j]
+        da = sign * a[axis] - limit
+        db = sign * b[axis] - limit
+        if da <= 0.0:
+            out[n] = a
+            n += 1
+        if (da < 0.0 and db > 0.0) or (da > 0.0 and db < 0.0):
+            out[n] = a + (b - a) * (da / (da - db))
+            n += 1
+    return out, n
+
+
+@wp.func
+def _box_axis(r: wp.mat33, k: int):
+    return wp.vec3(r[0, k], r[1, k], r[2, k])
+
+
+@wp.func
+def _face_contacts(e: int, pair: wp.vec2i, key: int, ref_x: wp.transform, ref_half: wp.vec3,
+                   ref_axis: int, n: wp.vec3, inc_x: wp.transform, inc_half: wp.vec3,
+                   flip: float, margin: float, capacity: int, count: wp.array(dtype=wp.int32),
+                   c_geom: wp.array2d(dtype=wp.vec2i), c_key: wp.array2d(dtype=wp.int32),
+                   c_pos: wp.array2d(dtype=wp.vec3), c_normal: wp.array2d(dtype=wp.vec3),
+                   c_dist: wp.array2d(dtype=float)):
+    """Contacts of a reference box face (outward normal n) and the incident box's face.
+
+    The incident face is clipped to the reference face's rectangle; its points below the offset
+    become contacts (at most four, spread out). `flip` orients the reported normal from geom 1.
+    """
+    rr = wp.quat_to_matrix(wp.transform_get_rotation(ref_x))
+    ri = wp.quat_to_matrix(wp.transform_get_rotation(inc_x))
+    # reference face frame: center, in-plane axes u (extent hu) and v (extent hv)
+    ua = (ref_axis + 1) % 3
+    va = (ref_axis + 2) % 3
+    u = _box_axis(rr, ua)
+    v = _box_axis(rr, va)
+    center = wp.transform_get_translation(ref_x) + n * ref_half[ref_axis]
+    # incident face: the face of the other box most opposed to n
+    best = int(0)
+    best_dot = float(1.0e9)
+    for k in range(3):
+        d = wp.dot(_box_axis(ri, k), n)
+        if d < best_dot:
+            best_dot = d
+            best = k
+        if -d < best_dot:
+            best_dot = -d
+            best = k + 3
+    k = best % 3
+    sgn = 1.0
+    if best >= 3:
+        sgn = -1.0
+    face_n = _box_axis(ri, k) * sgn
+    a1 = (k + 1) % 3
+    a2 = (k + 2) % 3
+    fc = wp.transform_get_translation(inc_x) + face_n * inc_half[k]
+    e1 = _box_axis(ri, a1) * inc_half[a1]
+    e2 = _box_axis(ri, a2) * inc_half[a2]
+    poly = poly8()
+    for i in range(4):
+        s1 = 1.0
+        s2 = 1.0
+        if i == 1 or i == 2:
+            s1 = -1.0
+        if i >= 2:
+            s2 = -1.0
+        pt = fc + e1 * s1 + e2 * s2 - center
+        poly[i] = wp.vec3(wp.dot(pt, u), wp.dot(pt, v), wp.dot(pt, n))
+    npts = int(4)
+    poly, npts = _clip(poly, npts, 0, 1.0, ref_half[ua])
+    poly, npts = _clip(poly, npts, 0, -1.0, ref_half[ua])
+    poly, npts = _clip(poly, npts, 1, 1.0, ref_half[va])
+    poly, npts = _clip(poly, npts, 1, -1.0, ref_half[va])
+    # keep at most four points below the offset: the deepest, the farthest from it, then the
+    # farthest on either side of the line through those two
+    chosen = wp.vec4i(-1, -1, -1, -1)
+    for i in range(npts):
+        if poly[i][2] < margin:
+            if chosen[0] < 0 or poly[i][2] < poly[chosen[0]][2]:
+                chosen[0] = i
+    if chosen[0] >= 0:
+        p0 = poly[chosen[0]]
+        far = float(-1.0)
+        for i in range(npts):
+            if poly[i][2] < margin:
+                d = (poly[i][0] - p0[0]) * (poly[i][0] - p0[0]) + (poly[i][1] - p0[1]) * (poly[i][1] - p0[1])
+                if d > far and i != chosen[0]:
+                    far = d
+                    chosen[1] = i
+        if chosen[1] >= 0:
+            p1 = poly[chosen[1]]
+            lo = float(0.0)
+            hi = float(0.0)
+            for i in range(npts):
+                if poly[i][2] < margin and i != chosen[0] and i != chosen[1]:
+                    side = (p1[0] - p0[0]) * (poly[i][1] - p0[1]) - (p1[1] - p0[1]) * (poly[i][0] - p0[0])
+                    if side > hi:
+                        hi = side
+                        chosen[2] = i
+                    if side < lo:
+                        lo = side
+                        chosen[3] = i
+        for c in range(4):
+            i = chosen[c]
+            if i >= 0:
+                pt = poly[i]
+                world = center + u * pt[0] + v * pt[1] + n * pt[2]
+                # identity across substeps: the quadrant of the reference face it lies in
+                quadrant = int(0)
+                if pt[0] > 0.0:
+                    quadrant += 1
+                if pt[1] > 0.0:
+                    quadrant += 2
+                _emit(e, pair, key + quadrant, world - n * (0.5 * pt[2]), n * flip, pt[2], margin,
+                      capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
+
+
+@wp.func
+def _box_box(e: int, pair: wp.vec2i, key: int, x1: wp.transform, h1: wp.vec3, x2: wp.transform,
+             h2: wp.vec3, margin: float, capacity: int, count: wp.array(dtype=wp.int32),
+             c_geom: wp.array2d(dtype=wp.vec2i), c_key: wp.array2d(dtype=wp.int32),
+             c_pos: wp.array2d(dtype=wp.vec3), c_normal: wp.array2d(dtype=wp.vec3),
+             c_dist: wp.array2d(dtype=float)):
+    """Separating-axis test over the 15 axes, then face clipping or the closest edge points."""
+    r1 = wp.quat_to_matrix(wp.transform_get_rotation(x1))
+    r2 = wp.quat_to_matrix(wp.transform_get_rotation(x2))
+    d = wp.transform_get_translation(x2) - wp.transform_get_translation(x1)
+    best_sep = float(-1.0e9)
+    best_axis = int(-1)
+    best_n = wp.vec3()
+    for a in range(15):
+        axis = wp.vec3()
+        if a < 3:
+            axis = _box_axis(r1, a)
+        elif a < 6:
+            axis = _box_axis(r2, a - 3)
+        else:
+            axis = wp.cross(_box_axis(r1, (a - 6) // 3), _box_axis(r2, (a - 6) % 3))
+            length = wp.length(axis)
+            if length < 1.0e-6:
+                continue  # parallel edges: covered by the face axes
+            axis = axis / length
+        if wp.dot(axis, d) < 0.0:
+            axis = -axis
+        reach = float(0.0)
+        for k in range(3):
+            reach = reach + h1[k] * wp.abs(wp.dot(_box_axis(r1, k), axis))
+            reach = reach + h2[k] * wp.abs(wp.dot(_box_axis(r2, k), axis))
+        sep = wp.dot(d, axis) - reach
+        if sep > margin:
+            return  # separated beyond the offset
+        # ties go to box 1's faces, then box 2's, then edges, so that the choice (and with it
+        # the contacts' identities) does not flicker between substeps; faces give stable
+        # multi-point contact, so an edge axis must win clearly
+        if a >= 6:
+            sep = sep - 1.0e-4
+        elif a >= 3:
+            sep = sep - 1.0e-5
+        if sep > best_sep:
+            best_sep = sep
+            best_axis = a
+            best_n = axis
+    if best_axis < 3:
+        _face_contacts(e, pair, key, x1, h1, best_axis, best_n, x2, h2, 1.0, margin, capacity,
+                       count, c_geom, c_key, c_pos, c_normal, c_dist)
+    elif best_axis < 6:
+        _face_contacts(e, pair, key, x2, h2, best_axis - 3, -best_n, x1, h1, -1.0, margin,
+                       capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
+    else:
+        # edge-edge: the supporting edge of each box along the axis, closest points between them
+        i1 = (best_axis - 6) // 3
+        i2 = (best_axis - 6) % 3
+        p1 = wp.transform_get_translation(x1)
+        p2 = wp.transform_get_translation(x2)
+        for k in range(3):
+            if k != i1:
+                ax = _box_axis(r1, k)
+                p1 = p1 + ax * (h1[k] * wp.sign(wp.dot(ax, best_n) + 1.0e-12))
+            if k != i2:
+                ax = _box_axis(r2, k)
+                p2 = p2 - ax * (h2[k] * wp.sign(wp.dot(ax, best_n) + 1.0e-12))
+        a1 = _box_axis(r1, i1) * h1[i1]
+        a2 = _box_axis(r2, i2) * h2[i2]
+        st = _closest_between_segments(p1 - a1, p1 + a1, p2 - a2, p2 + a2)
+        q1 = p1 - a1 + a1 * (2.0 * st[0])
+        q2 = p2 - a2 + a2 * (2.0 * st[1])
+        dist = wp.dot(q2 - q1, best_n)
+        _emit(e, pair, key, 0.5 * (q1 + q2), best_n, dist, margin, capacity, count, c_geom, c_key,
+              c_pos, c_normal, c_dist)
+
+
+@wp.func
+def _capsule_box(e: int, pair: wp.vec2i, key: int, x1: wp.transform, s1: wp.vec3,
+                 x2: wp.transform, h2: wp.vec3, margin: float, capacity: int,
+                 count: wp.array(dtype=wp.int32), c_geom: wp.array2d(dtype=wp.vec2i),
+                 c_key: wp.array2d(dtype=wp.int32), c_pos: wp.array2d(dtype=wp.vec3),
+                 c_normal: wp.array2d(dtype=wp.vec3), c_dist: wp.array2d(dtype=float)):
+    """Both end spheres, plus the segment's closest point when it lies between the ends.
+
+    The signed distance from the segment to the box is convex along the segment: a ternary search
+    finds its minimum (the deepest point when the segment enters the box). A capsule lying on a face touches at its two ends (a stable pair of contacts).
+    """
+    a = _segment(x1, s1[1], -1.0)
+    b = _segment(x1, s1[1], 1.0)
+    for k in range(2):
+        c = a
+        if k == 1:
+            c = b
+        n, dist, pos = _sphere_box(c, s1[0], x2, h2)
+        _emit(e, pair, key + k, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos,
+              c_normal, c_dist)
+    lo = float(0.0)
+    hi = float(1.0)
+    for it in range(24):
+        m1 = lo + (hi - lo) / 3.0
+        m2 = hi - (hi - lo) / 3.0
+        if _box_point_distance(x2, h2, a + (b - a) * m1) < _box_point_distance(x2, h2, a + (b - a) * m2):
+            hi = m2
+        else:
+            lo = m1
+    t = 0.5 * (lo + hi)
+    if t > 0.02 and t < 0.98:
+        n, dist, pos = _sphere_box(a + (b - a) * t, s1[0], x2, h2)
+        _emit(e, pair, key + 2, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos,
+              c_normal, c_dist)
+
+
 @wp.kernel
 def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.int32),
                 geom_size: wp.array(dtype=wp.vec3), geom_x: wp.array2d(dtype=wp.transform),
@@ -175,37 +450,9 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
             _emit(e, pair, p * 8, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos,
                   c_normal, c_dist)
         elif t2 == BOX:
-            local = wp.transform_point(wp.transform_inverse(x2), c1)
-            clamped = wp.vec3(wp.clamp(local[0], -s2[0], s2[0]), wp.clamp(local[1], -s2[1], s2[1]),
-                              wp.clamp(local[2], -s2[2], s2[2]))
-            rot = wp.transform_get_rotation(x2)
-            r = s1[0]
-            if wp.length_sq(local - clamped) > 1.0e-12:
-                # center outside the box: nearest box point
-                b = wp.transform_point(x2, clamped)
-                gap = wp.length(b - c1)
-                n = (b - c1) / gap
-                dist = gap - r
-                _emit(e, pair, p * 8, 0.5 * (c1 + n * r + b), n, dist, margin, capacity, count,
-                      c_geom, c_key, c_pos, c_normal, c_dist)
-            else:
-                # center inside: leave through the nearest face
-                axis = int(0)
-                depth = s2[0] - wp.abs(local[0])
-                for k in range(1, 3):
-                    dk = s2[k] - wp.abs(local[k])
-                    if dk < depth:
-                        depth = dk
-                        axis = k
-                out = wp.vec3()
-                out[axis] = wp.sign(local[axis])
-                if out[axis] == 0.0:
-                    out[axis] = 1.0
-                u = wp.quat_rotate(rot, out)
-                n = -u
-                b = c1 + u * depth
-                _emit(e, pair, p * 8, 0.5 * (c1 - u * r + b), n, -(depth + r), margin, capacity,
-                      count, c_geom, c_key, c_pos, c_normal, c_dist)
+            n, dist, pos = _sphere_box(c1, s1[0], x2, s2)
+            _emit(e, pair, p * 8, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos,
+                  c_normal, c_dist)
     elif t1 == CAPSULE and t2 == CAPSULE:
         a1 = _segment(x1, s1[1], -1.0)
         b1 = _segment(x1, s1[1], 1.0)
@@ -215,6 +462,12 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
         n, dist, pos = _spheres(a1 + (b1 - a1) * st[0], s1[0], a2 + (b2 - a2) * st[1], s2[0])
         _emit(e, pair, p * 8, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos,
               c_normal, c_dist)
+    elif t1 == CAPSULE and t2 == BOX:
+        _capsule_box(e, pair, p * 8, x1, s1, x2, s2, margin, capacity, count, c_geom, c_key, c_pos,
+                     c_normal, c_dist)
+    elif t1 == BOX and t2 == BOX:
+        _box_box(e, pair, p * 8, x1, s1, x2, s2, margin, capacity, count, c_geom, c_key, c_pos,
+                 c_normal, c_dist)
 
 
 @wp.kernel
