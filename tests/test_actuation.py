@@ -18,16 +18,14 @@ SPRINGS_AND_MOTORS = """<mujoco><worldbody>
     <body name="c" pos="0.3 0 0"><joint name="s3" type="slide" axis="1 0 0"/>
       <geom type="sphere" size="0.05" mass="0.5"/></body></body></body>
 </worldbody>
-<tendon><fixed name="t" stiffness="20" damping="0.5" springlength="0.1">
-  <joint joint="h1" coef="1"/><joint joint="h2" coef="-0.5"/><joint joint="s3" coef="2"/></fixed></tendon>
 <actuator>
   <motor name="m1" joint="h1" gear="3" ctrlrange="-1 1" ctrllimited="true"/>
   <motor name="m2" joint="h2" gear="2" forcerange="-0.5 0.5" forcelimited="true"/>
 </actuator></mujoco>"""
 
 
-def test_motors_joint_springs_and_tendon_springs_match_mujoco(device):
-    """Motor force = gear x clamp(ctrl) within forcerange; explicit joint and tendon springs."""
+def test_motors_and_joint_springs_match_mujoco(device):
+    """Motor force = gear x clamp(ctrl) within forcerange; explicit joint springs."""
     model = myriad.load_xml(SPRINGS_AND_MOTORS, "springs_and_motors")
     mj, d = free_motion_mujoco(model, 0.002)
     sim = myriad.Simulator(model, num_envs=1, device=device, params=myriad.SimParams(dt=0.002, substeps=1))

@@ -4,7 +4,7 @@ One thread per env. Each row r has a Jacobian J_r (a 1 x nv row: the rate of the
 coordinate per generalized velocity), the response M⁻¹J_rᵀ through the same LᵀDL factor as the
 unconstrained solve (so implicit damping and drives are part of it), and 1/(J M⁻¹ Jᵀ). Rows sit
 at fixed slots: contact slot k owns rows 3k (normal), 3k+1 and 3k+2 (friction), then each
-limited joint owns two rows (lower, upper). Unused slots are marked inactive and skipped.
+limited joint owns two rows (lower, upper), then each limited tendon. Unused slots are marked inactive and skipped.
 
 Each row's starting impulse (warm start) is the final impulse of the same constraint in the last
 substep: the same contact (pair and feature, e.g. the same box corner) or the same limit. A
@@ -15,12 +15,13 @@ import warp as wp
 
 from .dynamics import solve_in_place
 from .spatial import velocity_at
-from .structs import ModelArrays
+from .structs import EnvParams, ModelArrays
 
 INACTIVE = wp.constant(-1)
 NORMAL = wp.constant(0)      # unilateral: J v >= target, impulse >= 0 (contacts and limits)
 FRICTION = wp.constant(1)    # first of a contact's two friction rows: solved as a 2D disk
 FRICTION2 = wp.constant(2)   # second friction row (handled with the first)
+SOFT = wp.constant(3)        # implicit spring-damper along J (fixed tendons): force, not constraint
 
 # a limit row is active when the joint is within this distance (rad or m) of its limit, plus
 # the distance it can travel in two substeps
@@ -81,6 +82,7 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
                prev_key: wp.array2d(dtype=wp.int32), prev_count: wp.array(dtype=wp.int32),
                lam: wp.array2d(dtype=float),
                limit_jnt: wp.array(dtype=wp.int32), joint_range: wp.array2d(dtype=wp.vec2),
+               limit_tendon: wp.array(dtype=wp.int32), params: EnvParams,
                body_x: wp.array2d(dtype=wp.transform), cdof: wp.array2d(dtype=wp.spatial_vector),
                q: wp.array2d(dtype=float), qd: wp.array2d(dtype=float),
                qacc: wp.array2d(dtype=float), factor: wp.array3d(dtype=float),
@@ -88,6 +90,7 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
                row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
                row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
                row_bounce: wp.array2d(dtype=float), row_dir: wp.array2d(dtype=wp.vec3),
+               row_k: wp.array2d(dtype=float), row_d: wp.array2d(dtype=float),
                jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
                lam_init: wp.array2d(dtype=float)):
     e = wp.tid()
@@ -158,25 +161,118 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
         j = limit_jnt[li]
         dof = m.jnt_dofadr[j]
         x = q[e, m.jnt_qposadr[j]]
-        lim = joint_range[e, j]
         reach = LIMIT_MARGIN + 2.0 * h * wp.abs(qd[e, dof])
         for side in range(2):
             r = base + 2 * li + side
-            row_type[e, r] = INACTIVE
-            warm = lam[e, r]
-            lam_init[e, r] = 0.0
-            sign = 1.0
-            err = x - lim[0]
-            if side == 1:
-                sign = -1.0
-                err = lim[1] - x
-            if err < reach:
+            _limit_row(m, e, r, side, x, joint_range[e, j], reach, h, jac, factor, minv_jt,
+                       row_inv_mass, row_type, row_err, row_mu, row_bounce, lam, lam_init)
+            if row_type[e, r] != INACTIVE:
                 for i in range(nv):
                     jac[e, r, i] = 0.0
-                jac[e, r, dof] = sign
-                _finish_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, NORMAL)
-                row_err[e, r] = err
-                row_mu[e, r] = 0.0
-                row_bounce[e, r] = 0.0
-                if row_type[e, r] != INACTIVE:
-                    lam_init[e, r] = warm
+                jac[e, r, dof] = 1.0 - 2.0 * float(side)
+                _finish_limit_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, lam,
+                                  lam_init)
+    # hard tendon limits (limit stiffness 0): J = coef on each tendon joint
+    base = base + 2 * limit_jnt.shape[0]
+    for lt in range(limit_tendon.shape[0]):
+        t = limit_tendon[lt]
+        beg = m.tendon_adr[t]
+        length = params.tendon_offset[e, t]
+        speed = float(0.0)
+        for w in range(beg, beg + m.tendon_num[t]):
+            jj = m.wrap_jnt[w]
+            length = length + m.wrap_coef[w] * q[e, m.jnt_qposadr[jj]]
+            speed = speed + m.wrap_coef[w] * qd[e, m.jnt_dofadr[jj]]
+        reach = LIMIT_MARGIN + 2.0 * h * wp.abs(speed)
+        for side in range(2):
+            r = base + 2 * lt + side
+            _limit_row(m, e, r, side, length, params.tendon_range[e, t], reach, h, jac, factor,
+                       minv_jt, row_inv_mass, row_type, row_err, row_mu, row_bounce, lam, lam_init)
+            if params.tendon_limit_stiffness[e, t] > 0.0:
+                row_type[e, r] = INACTIVE  # a limit spring (forces stage) instead
+                lam_init[e, r] = 0.0
+            if row_type[e, r] != INACTIVE:
+                for i in range(nv):
+                    jac[e, r, i] = 0.0
+                for w in range(beg, beg + m.tendon_num[t]):
+                    dof = m.jnt_dofadr[m.wrap_jnt[w]]
+                    jac[e, r, dof] = jac[e, r, dof] + (1.0 - 2.0 * float(side)) * m.wrap_coef[w]
+                _finish_limit_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, lam,
+                                  lam_init)
+    # tendon spring-dampers (PhysX semantics): one soft row per tendon measuring L (J = coef) and
+    # pushing each joint with recip/N; the limit spring (limit stiffness > 0) joins outside
+    # [lower, upper]
+    base = base + 2 * limit_tendon.shape[0]
+    for t in range(m.ntendon):
+        r = base + t
+        row_type[e, r] = INACTIVE
+        lam_init[e, r] = 0.0
+        beg = m.tendon_adr[t]
+        count = float(m.tendon_num[t])
+        length = params.tendon_offset[e, t]
+        for wi in range(beg, beg + m.tendon_num[t]):
+            length = length + m.wrap_coef[wi] * q[e, m.jnt_qposadr[m.wrap_jnt[wi]]]
+        stiff = params.tendon_stiffness[e, t] / count
+        force = -stiff * (length - params.tendon_rest_length[e, t])
+        k_lim = params.tendon_limit_stiffness[e, t] / count
+        if m.tendon_limited[t] != 0 and k_lim > 0.0:
+            lim = params.tendon_range[e, t]
+            if length < lim[0]:
+                force = force - k_lim * (length - lim[0])
+                stiff = stiff + k_lim
+            if length > lim[1]:
+                force = force - k_lim * (length - lim[1])
+                stiff = stiff + k_lim
+        damp = params.tendon_damping[e, t] / count
+        if stiff > 0.0 or damp > 0.0:
+            for i in range(nv):
+                jac[e, r, i] = 0.0
+                minv_jt[e, r, i] = 0.0
+            for wi in range(beg, beg + m.tendon_num[t]):
+                dof = m.jnt_dofadr[m.wrap_jnt[wi]]
+                jac[e, r, dof] = jac[e, r, dof] + m.wrap_coef[wi]
+                minv_jt[e, r, dof] = minv_jt[e, r, dof] + m.wrap_recip[wi]
+            solve_in_place(m, e, factor, minv_jt, r)
+            w_eff = float(0.0)
+            for i in range(nv):
+                w_eff = w_eff + jac[e, r, i] * minv_jt[e, r, i]
+            if w_eff > 1.0e-12:
+                row_type[e, r] = SOFT
+                row_inv_mass[e, r] = 1.0 / w_eff
+                row_k[e, r] = stiff
+                row_d[e, r] = damp
+                # the spring's error, expressed as the length offset that stiff alone would hold
+                row_err[e, r] = 0.0
+                if stiff > 0.0:
+                    row_err[e, r] = -force / stiff
+
+
+@wp.func
+def _limit_row(m: ModelArrays, e: int, r: int, side: int, x: float, lim: wp.vec2, reach: float,
+               h: float, jac: wp.array3d(dtype=float), factor: wp.array3d(dtype=float),
+               minv_jt: wp.array3d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
+               row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
+               row_mu: wp.array2d(dtype=float), row_bounce: wp.array2d(dtype=float),
+               lam: wp.array2d(dtype=float), lam_init: wp.array2d(dtype=float)):
+    """Mark a lower (side 0) or upper (side 1) limit row active when within reach of its limit."""
+    err = x - lim[0]
+    if side == 1:
+        err = lim[1] - x
+    row_type[e, r] = INACTIVE
+    lam_init[e, r] = 0.0
+    if err < reach:
+        row_type[e, r] = NORMAL
+        row_err[e, r] = err
+        row_mu[e, r] = 0.0
+        row_bounce[e, r] = 0.0
+
+
+@wp.func
+def _finish_limit_row(m: ModelArrays, e: int, r: int, jac: wp.array3d(dtype=float),
+                      factor: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
+                      row_inv_mass: wp.array2d(dtype=float), row_type: wp.array2d(dtype=wp.int32),
+                      lam: wp.array2d(dtype=float), lam_init: wp.array2d(dtype=float)):
+    warm = lam[e, r]  # the same limit's impulse in the last substep (0 if it was inactive)
+    _finish_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, NORMAL)
+    if row_type[e, r] != INACTIVE:
+        lam_init[e, r] = warm

@@ -8,7 +8,9 @@ the linearized update qd' = qd + h·qacc, q' = q + h·qd':
                                                              diag g²·(h·kv + h²·kp)
   velocity actuator:      f = g·kv·(u - g·qd')            -> rhs g·kv·(u - g·qd),  diag g²·h·kv
 An actuator whose predicted force (qacc = 0) exceeds its force range applies the clamped force
-explicitly instead; so does a joint whose summed actuator force exceeds its effort limit. Joint and tendon springs are explicit, as in MuJoCo.
+explicitly instead; so does a joint whose summed actuator force exceeds its effort limit. Joint
+springs are explicit, as in MuJoCo. Fixed-tendon springs are soft constraint rows of the solver
+(implicit along the tendon only, see `constraints`).
 """
 
 import warp as wp
@@ -84,23 +86,3 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
                     implicit_diag[e, i] = h * p.dof_damping[e, i]
     for i in range(m.nv):
         qfrc[e, i] = qfrc[e, i] + qfrc_actuator[e, i]
-
-    # fixed tendons: spring with a rest-length dead band, and damper (MuJoCo semantics)
-    for t in range(m.ntendon):
-        length = float(0.0)
-        speed = float(0.0)
-        for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
-            j = m.wrap_jnt[w]
-            c = m.wrap_coef[w]
-            length = length + c * q[e, m.jnt_qposadr[j]]
-            speed = speed + c * qd[e, m.jnt_dofadr[j]]
-        band = m.tendon_lengthspring[t]
-        stretch = float(0.0)
-        if length < band[0]:
-            stretch = length - band[0]
-        if length > band[1]:
-            stretch = length - band[1]
-        tension = -p.tendon_stiffness[e, t] * stretch - p.tendon_damping[e, t] * speed
-        for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
-            i = m.jnt_dofadr[m.wrap_jnt[w]]
-            qfrc[e, i] = qfrc[e, i] + m.wrap_coef[w] * tension

@@ -101,6 +101,8 @@ def _check_supported(m, source: str) -> None:
         if m.tendon_armature[t] != 0 or np.any(m.tendon_stiffnesspoly[t] != 0) \
                 or np.any(m.tendon_dampingpoly[t] != 0):
             fail(f"{label}: tendon armature and polynomial springs are not supported")
+        if m.tendon_lengthspring[t, 0] != m.tendon_lengthspring[t, 1]:
+            fail(f"{label}: a springlength dead band (two values) is not supported")
     for a in range(m.nu):
         label = _label(m, o.mjOBJ_ACTUATOR, a, "actuator")
         if m.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
@@ -245,10 +247,17 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         actuator_forcelimited=m.actuator_forcelimited.astype(bool),
         actuator_forcerange=_f32(m.actuator_forcerange),
         tendon_adr=_i32(m.tendon_adr), tendon_num=_i32(m.tendon_num),
+        # MJCF fixed tendon -> PhysX-style tendon: every joint is a non-root tendon joint and
+        # recip_coef = N·coef, so each joint gets coef·(-k·(L - L0) - d·dL/dt), as in MuJoCo;
+        # a `limited` tendon gets a hard limit (limit stiffness 0)
         wrap_jnt=_i32(m.wrap_objid), wrap_coef=_f32(m.wrap_prm),
+        wrap_recip=_f32(m.wrap_prm * np.repeat(m.tendon_num, m.tendon_num)) if m.ntendon
+        else np.zeros(0, np.float32),
         tendon_stiffness=_f32(m.tendon_stiffness), tendon_damping=_f32(m.tendon_damping),
-        tendon_lengthspring=_f32(m.tendon_lengthspring),
+        tendon_rest_length=_f32(m.tendon_lengthspring[:, 0]),
+        tendon_offset=np.zeros(m.ntendon, np.float32),
         tendon_limited=m.tendon_limited.astype(bool), tendon_range=_f32(m.tendon_range),
+        tendon_limit_stiffness=np.zeros(m.ntendon, np.float32),
         sensor_type=["force" if int(t) == int(mujoco.mjtSensor.mjSENS_FORCE) else "torque"
                      for t in m.sensor_type],
         sensor_site=_i32(m.sensor_objid),

@@ -136,16 +136,20 @@ class Model:
     actuator_forcelimited: np.ndarray  # [nu] bool
     actuator_forcerange: np.ndarray  # [nu, 2]
 
-    # fixed tendons: length = sum coef * q over the tendon's joints
+    # fixed tendons, PhysX semantics (docs/physics.md): length L = offset + sum coef·q over the
+    # tendon's joints; each joint receives recip_coef · (spring/damper/limit force) / N
     tendon_adr: np.ndarray           # [ntendon] first entry in wrap_*
-    tendon_num: np.ndarray           # [ntendon]
+    tendon_num: np.ndarray           # [ntendon] N, the number of tendon joints
     wrap_jnt: np.ndarray             # [nwrap] hinge or slide joint
-    wrap_coef: np.ndarray            # [nwrap]
+    wrap_coef: np.ndarray            # [nwrap] contribution of the joint to the length
+    wrap_recip: np.ndarray           # [nwrap] weight of the force the joint receives
     tendon_stiffness: np.ndarray     # [ntendon]
     tendon_damping: np.ndarray       # [ntendon]
-    tendon_lengthspring: np.ndarray  # [ntendon, 2] spring rest-length dead band (MuJoCo semantics)
+    tendon_rest_length: np.ndarray   # [ntendon]
+    tendon_offset: np.ndarray        # [ntendon]
     tendon_limited: np.ndarray       # [ntendon] bool
-    tendon_range: np.ndarray         # [ntendon, 2]
+    tendon_range: np.ndarray         # [ntendon, 2] lower, upper length
+    tendon_limit_stiffness: np.ndarray  # [ntendon] 0: hard limit (a constraint row); > 0: spring
 
     # force/torque sensors (a 6D wrench per sensor site comes with the constraint solver)
     sensor_type: list[str]           # "force" | "torque"

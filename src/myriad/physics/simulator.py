@@ -146,7 +146,8 @@ def _model_arrays(model: Model, device) -> ModelArrays:
     s.tendon_num = arr(model.tendon_num, i32)
     s.wrap_jnt = arr(model.wrap_jnt, i32)
     s.wrap_coef = arr(model.wrap_coef, f32)
-    s.tendon_lengthspring = arr(model.tendon_lengthspring.reshape(-1, 2), wp.vec2)
+    s.wrap_recip = arr(model.wrap_recip, f32)
+    s.tendon_limited = arr(model.tendon_limited, i32)
     return s
 
 
@@ -174,7 +175,10 @@ class Simulator:
     actuator_kv = _View()    # [N, nu] position and velocity actuators
     tendon_stiffness = _View()  # [N, ntendon]
     tendon_damping = _View()    # [N, ntendon]
-    tendon_range = _View()      # [N, ntendon, 2]
+    tendon_range = _View()      # [N, ntendon, 2] lower, upper length limits
+    tendon_limit_stiffness = _View()  # [N, ntendon] 0: hard limits; > 0: limit spring
+    tendon_rest_length = _View()      # [N, ntendon]
+    tendon_offset = _View()           # [N, ntendon]
     gravity = _View()        # [N, 3]
 
     def __init__(self, model: Model, num_envs: int = 1, device="cpu",
@@ -219,6 +223,10 @@ class Simulator:
         p.actuator_kv = tiled(m.actuator_kv)
         p.tendon_stiffness = tiled(m.tendon_stiffness)
         p.tendon_damping = tiled(m.tendon_damping)
+        p.tendon_limit_stiffness = tiled(m.tendon_limit_stiffness)
+        p.tendon_rest_length = tiled(m.tendon_rest_length)
+        p.tendon_offset = tiled(m.tendon_offset)
+        p.tendon_range = tiled(m.tendon_range.reshape(-1, 2), wp.vec2)
         p.gravity = tiled(gravity, wp.vec3)
         self._p = p
 
@@ -253,7 +261,6 @@ class Simulator:
         # parameters the constraint solver reads
         self._geom_friction = tiled(m.geom_friction[:, 0])
         self._joint_range = tiled(m.jnt_range.reshape(-1, 2), wp.vec2)
-        self._tendon_range = tiled(m.tendon_range.reshape(-1, 2), wp.vec2)
 
         # collision: candidate pairs fixed now; contacts go to per-env slots
         pairs = collision.candidate_pairs(model) if params.constraints else np.zeros((0, 2))
@@ -271,10 +278,15 @@ class Simulator:
         self._contacts = collision.ContactBuffers(N, params.contacts_per_env if len(pairs) else 0,
                                                   dev)
         self._geom_restitution = zeros(N, m.ngeom)
-        # constraint rows: 3 per contact slot, 2 per limited joint
+        # constraint rows: 3 per contact slot, 2 per limited joint, 2 per limited tendon
         limited = [j for j in range(m.njnt) if m.jnt_limited[j] and params.constraints]
         self._limit_jnt = wp.array(np.asarray(limited, np.int32), dtype=wp.int32, device=dev)
-        self.nrow = 3 * self._contacts.capacity + 2 * len(limited)
+        limited_tendons = [t for t in range(m.ntendon) if m.tendon_limited[t] and params.constraints]
+        self._limit_tendon = wp.array(np.asarray(limited_tendons, np.int32), dtype=wp.int32,
+                                      device=dev)
+        # ... and one spring-damper row per tendon (present with or without `constraints`)
+        self.nrow = (3 * self._contacts.capacity + 2 * len(limited) + 2 * len(limited_tendons)
+                     + m.ntendon)
         R = self.nrow
         self._row_type = zeros(N, R, dtype=wp.int32)
         self._row_err = zeros(N, R)
@@ -282,6 +294,8 @@ class Simulator:
         self._row_mu = zeros(N, R)
         self._row_bounce = zeros(N, R)
         self._row_dir = zeros(N, R, dtype=wp.vec3)
+        self._row_k = zeros(N, R)
+        self._row_d = zeros(N, R)
         self._jac_rows = zeros(N, R, m.nv)
         self._minv_jt = zeros(N, R, m.nv)
         self._lam = zeros(N, R)
@@ -305,7 +319,9 @@ class Simulator:
             "joint_range": t(self._joint_range), "actuator_gear": t(p.actuator_gear),
             "actuator_gain": t(p.actuator_gain), "actuator_kp": t(p.actuator_kp),
             "actuator_kv": t(p.actuator_kv), "tendon_stiffness": t(p.tendon_stiffness),
-            "tendon_damping": t(p.tendon_damping), "tendon_range": t(self._tendon_range),
+            "tendon_damping": t(p.tendon_damping), "tendon_range": t(p.tendon_range),
+            "tendon_limit_stiffness": t(p.tendon_limit_stiffness),
+            "tendon_rest_length": t(p.tendon_rest_length), "tendon_offset": t(p.tendon_offset),
             "gravity": t(p.gravity),
         }
         # read-only outputs (views too: they change in place as the simulation advances)
@@ -412,18 +428,19 @@ class Simulator:
         self._launch(constraints.build_rows, self.num_envs, [
             self._m, self.h, p.rest_offset, p.bounce_threshold_velocity, self._geom_body,
             self._geom_friction, self._geom_restitution, c.capacity, c.count, c.geom, c.key, c.pos,
-            c.normal, c.dist, self._prev_key, self._prev_count, self._lam, self._limit_jnt, self._joint_range, self._body_x, self._cdof,
+            c.normal, c.dist, self._prev_key, self._prev_count, self._lam, self._limit_jnt,
+            self._joint_range, self._limit_tendon, self._p, self._body_x, self._cdof,
             self._q, self._qd, self._qacc, self._factor, self._row_type, self._row_err,
-            self._row_inv_mass, self._row_mu, self._row_bounce, self._row_dir, self._jac_rows,
-            self._minv_jt, self._lam_init])
+            self._row_inv_mass, self._row_mu, self._row_bounce, self._row_dir, self._row_k,
+            self._row_d, self._jac_rows, self._minv_jt, self._lam_init])
 
     def _solve_constraints(self) -> None:
         p = self.params
         self._launch(solver_tgs.solve, self.num_envs, [
             self._m, self.nrow, self.h, p.position_iterations, p.velocity_iterations,
             int(p.solver == "tgs"), p.max_depenetration_velocity, self._row_type, self._row_err,
-            self._row_inv_mass, self._row_mu, self._row_bounce, self._jac_rows, self._minv_jt,
-            self._lam_init, self._qacc, self._qd, self._dq, self._lam])
+            self._row_inv_mass, self._row_mu, self._row_bounce, self._row_k, self._row_d,
+            self._jac_rows, self._minv_jt, self._lam_init, self._qacc, self._qd, self._dq, self._lam])
 
     def _integrate(self) -> None:
         self._launch(integrate.integrate, self.num_envs,

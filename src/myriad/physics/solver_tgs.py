@@ -25,7 +25,7 @@ targets a separation speed of e times its approach speed.
 
 import warp as wp
 
-from .constraints import FRICTION, NORMAL, _row_dot
+from .constraints import FRICTION, NORMAL, SOFT, _row_dot
 from .structs import ModelArrays
 
 
@@ -37,10 +37,11 @@ def _apply(e: int, r: int, dl: float, minv_jt: wp.array3d(dtype=float), v: wp.ar
 
 
 @wp.func
-def _sweep(m: ModelArrays, e: int, nrow: int, reverse: int, biased: int, tgs: int, hs: float, h: float,
+def _sweep(m: ModelArrays, e: int, nrow: int, first: int, biased: int, tgs: int, hs: float, h: float,
            max_depenetration: float, row_type: wp.array2d(dtype=wp.int32),
            row_err: wp.array2d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
            row_mu: wp.array2d(dtype=float), row_bounce: wp.array2d(dtype=float),
+           row_k: wp.array2d(dtype=float), row_d: wp.array2d(dtype=float),
            jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
            v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float), lam: wp.array2d(dtype=float)):
     nv = m.nv
@@ -70,6 +71,18 @@ def _sweep(m: ModelArrays, e: int, nrow: int, reverse: int, biased: int, tgs: in
             new = wp.max(old + (target - jv) * row_inv_mass[e, r], 0.0)
             lam[e, r] = new
             _apply(e, r, new - old, minv_jt, v, nv)
+        elif t == SOFT:
+            # implicit spring-damper over the whole substep, once (first sweep), like the other
+            # forces: impulse = -(h·k·err + a·J·v) / (1 + a·w), a = h·(h·k + d). Applied per TGS
+            # sub-step instead, it would fight the once-per-substep external forces and leave a
+            # spurious velocity at equilibrium.
+            if first != 0:
+                k = row_k[e, r]
+                a = h * (h * k + row_d[e, r])
+                w = 1.0 / row_inv_mass[e, r]
+                dl = -(h * k * row_err[e, r] + a * _row_dot(jac, e, r, v, nv)) / (1.0 + a * w)
+                lam[e, r] = lam[e, r] + dl
+                _apply(e, r, dl, minv_jt, v, nv)
         elif t == FRICTION:
             # static friction holds the contact point where it was at the start of the substep:
             # in TGS position sweeps the target undoes the slip accumulated so far, -J_t·dq / hs
@@ -102,7 +115,8 @@ def solve(m: ModelArrays, nrow: int, h: float, position_iterations: int,
           velocity_iterations: int, tgs: int, max_depenetration: float,
           row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
           row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
-          row_bounce: wp.array2d(dtype=float), jac: wp.array3d(dtype=float),
+          row_bounce: wp.array2d(dtype=float), row_k: wp.array2d(dtype=float),
+          row_d: wp.array2d(dtype=float), jac: wp.array3d(dtype=float),
           minv_jt: wp.array3d(dtype=float), lam_init: wp.array2d(dtype=float),
           qacc: wp.array2d(dtype=float),
           qd: wp.array2d(dtype=float), dq: wp.array2d(dtype=float), lam: wp.array2d(dtype=float)):
@@ -121,8 +135,8 @@ def solve(m: ModelArrays, nrow: int, h: float, position_iterations: int,
     if tgs != 0:
         hs = h / float(position_iterations)
     for it in range(position_iterations):
-        _sweep(m, e, nrow, 0, 1, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
-               row_mu, row_bounce, jac, minv_jt, qd, dq, lam)
+        _sweep(m, e, nrow, int(it == 0), 1, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
+               row_mu, row_bounce, row_k, row_d, jac, minv_jt, qd, dq, lam)
         if tgs != 0:
             for i in range(nv):
                 dq[e, i] = dq[e, i] + hs * qd[e, i]
@@ -131,7 +145,7 @@ def solve(m: ModelArrays, nrow: int, h: float, position_iterations: int,
             dq[e, i] = h * qd[e, i]
     for it in range(velocity_iterations):
         _sweep(m, e, nrow, 0, 0, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
-               row_mu, row_bounce, jac, minv_jt, qd, dq, lam)
+               row_mu, row_bounce, row_k, row_d, jac, minv_jt, qd, dq, lam)
 
 
 @wp.kernel

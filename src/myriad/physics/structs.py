@@ -55,7 +55,8 @@ class ModelArrays:
     tendon_num: wp.array(dtype=wp.int32)
     wrap_jnt: wp.array(dtype=wp.int32)
     wrap_coef: wp.array(dtype=float)
-    tendon_lengthspring: wp.array(dtype=wp.vec2)
+    wrap_recip: wp.array(dtype=float)
+    tendon_limited: wp.array(dtype=wp.int32)
 
 
 @wp.struct
@@ -71,4 +72,8 @@ class EnvParams:
     actuator_kv: wp.array2d(dtype=float)
     tendon_stiffness: wp.array2d(dtype=float)
     tendon_damping: wp.array2d(dtype=float)
+    tendon_limit_stiffness: wp.array2d(dtype=float)
+    tendon_rest_length: wp.array2d(dtype=float)
+    tendon_offset: wp.array2d(dtype=float)
+    tendon_range: wp.array2d(dtype=wp.vec2)
     gravity: wp.array(dtype=wp.vec3)
