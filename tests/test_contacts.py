@@ -143,3 +143,16 @@ def test_stack_of_five_boxes_stands_ten_seconds(device):
     tilt = np.degrees(2 * np.arcsin(np.clip(np.linalg.norm(pose[:, 3:5], axis=1), 0, 1)))
     assert tilt.max() < 2.0, tilt
     assert int(sim.contact_count[0]) == 20  # four corners at each of the five interfaces
+
+
+def test_joint_friction_holds_below_and_slips_above_its_frictionloss(device):
+    model = myriad.load_xml("""<mujoco><option gravity="0 0 0"/><worldbody>
+      <body name="slider"><joint name="x" type="slide" axis="1 0 0" frictionloss="2"/>
+        <geom type="sphere" size="0.1" mass="1"/></body></worldbody>
+      <actuator><motor joint="x"/></actuator></mujoco>""", "slider")
+    sim = myriad.Simulator(model, num_envs=2, device=device, params=ISAAC)
+    sim.ctrl = torch.tensor([[1.5], [3.0]], device=sim.torch_device)  # below / above 2 N
+    for _ in range(60):
+        sim.step()
+    assert abs(sim.qd[0, 0].item()) < 1e-5  # held
+    assert sim.qd[1, 0].item() == pytest.approx((3.0 - 2.0) * 1.0, rel=1e-3)  # 1 m/s² for 1 s

@@ -167,6 +167,7 @@ class Simulator:
     nonfinite = _View()      # [N] 1 once an env's state went non-finite; the task resets it
     dof_damping = _View()    # [N, nv]
     dof_armature = _View()   # [N, nv]
+    dof_frictionloss = _View()  # [N, nv] joint (dry) friction, force or torque
     joint_stiffness = _View()  # [N, njnt]
     joint_range = _View()    # [N, njnt, 2]
     actuator_gear = _View()  # [N, nu]
@@ -261,6 +262,7 @@ class Simulator:
         # parameters the constraint solver reads
         self._geom_friction = tiled(m.geom_friction[:, 0])
         self._joint_range = tiled(m.jnt_range.reshape(-1, 2), wp.vec2)
+        self._dof_frictionloss = tiled(m.dof_frictionloss)
 
         # collision: candidate pairs fixed now; contacts go to per-env slots
         pairs = collision.candidate_pairs(model) if params.constraints else np.zeros((0, 2))
@@ -284,9 +286,12 @@ class Simulator:
         limited_tendons = [t for t in range(m.ntendon) if m.tendon_limited[t] and params.constraints]
         self._limit_tendon = wp.array(np.asarray(limited_tendons, np.int32), dtype=wp.int32,
                                       device=dev)
-        # ... and one spring-damper row per tendon (present with or without `constraints`)
+        # ... one spring-damper row per tendon (present with or without `constraints`), and one
+        # dry-friction row per dof that has frictionloss in the model
+        friction = [i for i in range(m.nv) if m.dof_frictionloss[i] > 0 and params.constraints]
+        self._friction_dof = wp.array(np.asarray(friction, np.int32), dtype=wp.int32, device=dev)
         self.nrow = (3 * self._contacts.capacity + 2 * len(limited) + 2 * len(limited_tendons)
-                     + m.ntendon)
+                     + m.ntendon + len(friction))
         R = self.nrow
         self._row_type = zeros(N, R, dtype=wp.int32)
         self._row_err = zeros(N, R)
@@ -316,7 +321,7 @@ class Simulator:
             "geom_friction": t(self._geom_friction), "geom_restitution": t(self._geom_restitution),
             "dof_damping": t(p.dof_damping), "nonfinite": t(self._nonfinite),
             "dof_armature": t(p.dof_armature), "joint_stiffness": t(p.jnt_stiffness),
-            "joint_range": t(self._joint_range), "actuator_gear": t(p.actuator_gear),
+            "joint_range": t(self._joint_range), "dof_frictionloss": t(self._dof_frictionloss), "actuator_gear": t(p.actuator_gear),
             "actuator_gain": t(p.actuator_gain), "actuator_kp": t(p.actuator_kp),
             "actuator_kv": t(p.actuator_kv), "tendon_stiffness": t(p.tendon_stiffness),
             "tendon_damping": t(p.tendon_damping), "tendon_range": t(p.tendon_range),
@@ -429,7 +434,8 @@ class Simulator:
             self._m, self.h, p.rest_offset, p.bounce_threshold_velocity, self._geom_body,
             self._geom_friction, self._geom_restitution, c.capacity, c.count, c.geom, c.key, c.pos,
             c.normal, c.dist, self._prev_key, self._prev_count, self._lam, self._limit_jnt,
-            self._joint_range, self._limit_tendon, self._p, self._body_x, self._cdof,
+            self._joint_range, self._limit_tendon, self._p, self._friction_dof,
+            self._dof_frictionloss, self._body_x, self._cdof,
             self._q, self._qd, self._qacc, self._factor, self._row_type, self._row_err,
             self._row_inv_mass, self._row_mu, self._row_bounce, self._row_dir, self._row_k,
             self._row_d, self._jac_rows, self._minv_jt, self._lam_init])

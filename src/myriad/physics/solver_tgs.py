@@ -25,7 +25,7 @@ targets a separation speed of e times its approach speed.
 
 import warp as wp
 
-from .constraints import FRICTION, NORMAL, SOFT, _row_dot
+from .constraints import DRY, FRICTION, NORMAL, SOFT, _row_dot
 from .structs import ModelArrays
 
 
@@ -83,6 +83,13 @@ def _sweep(m: ModelArrays, e: int, nrow: int, first: int, biased: int, tgs: int,
                 dl = -(h * k * row_err[e, r] + a * _row_dot(jac, e, r, v, nv)) / (1.0 + a * w)
                 lam[e, r] = lam[e, r] + dl
                 _apply(e, r, dl, minv_jt, v, nv)
+        elif t == DRY:
+            # joint friction: stop the dof, with at most frictionloss·h of impulse per substep
+            old = lam[e, r]
+            new = wp.clamp(old - _row_dot(jac, e, r, v, nv) * row_inv_mass[e, r], -row_mu[e, r],
+                           row_mu[e, r])
+            lam[e, r] = new
+            _apply(e, r, new - old, minv_jt, v, nv)
         elif t == FRICTION:
             # static friction holds the contact point where it was at the start of the substep:
             # in TGS position sweeps the target undoes the slip accumulated so far, -J_t·dq / hs
