@@ -22,7 +22,7 @@ NORMAL = wp.constant(0)      # unilateral: J v >= target, impulse >= 0 (contacts
 FRICTION = wp.constant(1)    # first of a contact's two friction rows: solved as a 2D disk
 FRICTION2 = wp.constant(2)   # second friction row (handled with the first)
 SOFT = wp.constant(3)        # implicit spring-damper along J (fixed tendons): force, not constraint
-DRY = wp.constant(4)         # dry (Coulomb) friction of a dof: |impulse| <= frictionloss·h
+DOF = wp.constant(4)         # a dof's dry friction (|impulse| <= frictionloss·h) and speed cap
 
 # a limit row is active when the joint is within this distance (rad or m) of its limit, plus
 # the distance it can travel in two substeps
@@ -84,7 +84,8 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
                lam: wp.array2d(dtype=float),
                limit_jnt: wp.array(dtype=wp.int32), joint_range: wp.array2d(dtype=wp.vec2),
                limit_tendon: wp.array(dtype=wp.int32), params: EnvParams,
-               friction_dof: wp.array(dtype=wp.int32), dof_frictionloss: wp.array2d(dtype=float),
+               dof_rows: int, dof_frictionloss: wp.array2d(dtype=float),
+               dof_max_velocity: wp.array2d(dtype=float),
                body_x: wp.array2d(dtype=wp.transform), cdof: wp.array2d(dtype=wp.spatial_vector),
                q: wp.array2d(dtype=float), qd: wp.array2d(dtype=float),
                qacc: wp.array2d(dtype=float), factor: wp.array3d(dtype=float),
@@ -247,23 +248,21 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
                 row_err[e, r] = 0.0
                 if stiff > 0.0:
                     row_err[e, r] = -force / stiff
-    # joint friction: one row per dof with frictionloss, J = e_dof, bounded impulse
+    # one row per dof, J = e_dof: dry friction (bounded impulse) and the maximum joint speed
     base = base + m.ntendon
-    for fi in range(friction_dof.shape[0]):
-        r = base + fi
-        dof = friction_dof[fi]
+    for dof in range(dof_rows):
+        r = base + dof
         warm = lam[e, r]
-        row_type[e, r] = INACTIVE
-        lam_init[e, r] = 0.0
         bound = dof_frictionloss[e, dof] * h
-        if bound > 0.0:
-            for i in range(nv):
-                jac[e, r, i] = 0.0
-            jac[e, r, dof] = 1.0
-            _finish_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, DRY)
-            row_mu[e, r] = bound
-            if row_type[e, r] != INACTIVE:
-                lam_init[e, r] = wp.clamp(warm, -bound, bound)
+        for i in range(nv):
+            jac[e, r, i] = 0.0
+        jac[e, r, dof] = 1.0
+        _finish_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, DOF)
+        row_mu[e, r] = bound
+        row_k[e, r] = dof_max_velocity[e, dof]
+        lam_init[e, r] = 0.0
+        if row_type[e, r] != INACTIVE:
+            lam_init[e, r] = wp.clamp(warm, -bound, bound)
 
 
 @wp.func

@@ -36,7 +36,8 @@ class SimParams:
     contact_offset: float = 0.02          # shapes closer than this generate contacts (m)
     rest_offset: float = 0.0              # shapes come to rest at this separation (m)
     bounce_threshold_velocity: float = 0.2    # no restitution below this approach speed (m/s)
-    max_depenetration_velocity: float = 100.0  # cap on the velocity that resolves penetration (m/s)
+    max_depenetration_velocity: float = 10.0  # cap on the speed that resolves penetration (m/s)
+    max_joint_velocity: float = 100.0     # default per-dof speed cap (PhysX's default), rad/s or m/s
     contacts_per_env: int = 64            # contact capacity of each env
     constraints: bool = True              # False: smooth dynamics only (no contacts, no limits)
 
@@ -59,7 +60,7 @@ class SimParams:
         if self.gravity is not None and np.shape(self.gravity) != (3,):
             bad("gravity", "must be three numbers (x, y, z) or None")
         for name in ("contact_offset", "rest_offset", "bounce_threshold_velocity",
-                     "max_depenetration_velocity"):
+                     "max_depenetration_velocity", "max_joint_velocity"):
             if not math.isfinite(getattr(self, name)) or getattr(self, name) < 0:
                 bad(name, "must be a finite number >= 0")
         if self.rest_offset > self.contact_offset:
@@ -168,6 +169,7 @@ class Simulator:
     dof_damping = _View()    # [N, nv]
     dof_armature = _View()   # [N, nv]
     dof_frictionloss = _View()  # [N, nv] joint (dry) friction, force or torque
+    dof_max_velocity = _View()  # [N, nv] maximum joint speed (rad/s or m/s)
     joint_stiffness = _View()  # [N, njnt]
     joint_range = _View()    # [N, njnt, 2]
     actuator_gear = _View()  # [N, nu]
@@ -263,6 +265,7 @@ class Simulator:
         self._geom_friction = tiled(m.geom_friction[:, 0])
         self._joint_range = tiled(m.jnt_range.reshape(-1, 2), wp.vec2)
         self._dof_frictionloss = tiled(m.dof_frictionloss)
+        self._dof_max_velocity = tiled(np.full(m.nv, params.max_joint_velocity, np.float32))
 
         # collision: candidate pairs fixed now; contacts go to per-env slots
         pairs = collision.candidate_pairs(model) if params.constraints else np.zeros((0, 2))
@@ -287,11 +290,10 @@ class Simulator:
         self._limit_tendon = wp.array(np.asarray(limited_tendons, np.int32), dtype=wp.int32,
                                       device=dev)
         # ... one spring-damper row per tendon (present with or without `constraints`), and one
-        # dry-friction row per dof that has frictionloss in the model
-        friction = [i for i in range(m.nv) if m.dof_frictionloss[i] > 0 and params.constraints]
-        self._friction_dof = wp.array(np.asarray(friction, np.int32), dtype=wp.int32, device=dev)
+        # row per dof for joint friction and the maximum joint speed
+        self._dof_rows = m.nv if params.constraints else 0
         self.nrow = (3 * self._contacts.capacity + 2 * len(limited) + 2 * len(limited_tendons)
-                     + m.ntendon + len(friction))
+                     + m.ntendon + self._dof_rows)
         R = self.nrow
         self._row_type = zeros(N, R, dtype=wp.int32)
         self._row_err = zeros(N, R)
@@ -321,7 +323,8 @@ class Simulator:
             "geom_friction": t(self._geom_friction), "geom_restitution": t(self._geom_restitution),
             "dof_damping": t(p.dof_damping), "nonfinite": t(self._nonfinite),
             "dof_armature": t(p.dof_armature), "joint_stiffness": t(p.jnt_stiffness),
-            "joint_range": t(self._joint_range), "dof_frictionloss": t(self._dof_frictionloss), "actuator_gear": t(p.actuator_gear),
+            "joint_range": t(self._joint_range), "dof_frictionloss": t(self._dof_frictionloss),
+            "dof_max_velocity": t(self._dof_max_velocity), "actuator_gear": t(p.actuator_gear),
             "actuator_gain": t(p.actuator_gain), "actuator_kp": t(p.actuator_kp),
             "actuator_kv": t(p.actuator_kv), "tendon_stiffness": t(p.tendon_stiffness),
             "tendon_damping": t(p.tendon_damping), "tendon_range": t(p.tendon_range),
@@ -434,8 +437,8 @@ class Simulator:
             self._m, self.h, p.rest_offset, p.bounce_threshold_velocity, self._geom_body,
             self._geom_friction, self._geom_restitution, c.capacity, c.count, c.geom, c.key, c.pos,
             c.normal, c.dist, self._prev_key, self._prev_count, self._lam, self._limit_jnt,
-            self._joint_range, self._limit_tendon, self._p, self._friction_dof,
-            self._dof_frictionloss, self._body_x, self._cdof,
+            self._joint_range, self._limit_tendon, self._p, self._dof_rows,
+            self._dof_frictionloss, self._dof_max_velocity, self._body_x, self._cdof,
             self._q, self._qd, self._qacc, self._factor, self._row_type, self._row_err,
             self._row_inv_mass, self._row_mu, self._row_bounce, self._row_dir, self._row_k,
             self._row_d, self._jac_rows, self._minv_jt, self._lam_init])

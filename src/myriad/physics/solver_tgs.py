@@ -25,8 +25,13 @@ targets a separation speed of e times its approach speed.
 
 import warp as wp
 
-from .constraints import DRY, FRICTION, NORMAL, SOFT, _row_dot
+from .constraints import DOF, FRICTION, NORMAL, SOFT, _row_dot
 from .structs import ModelArrays
+
+# fraction of the last substep's impulses a row starts from: below 1 so that the impulses of a
+# configuration with no solution (a hand pressed into the head by an arm held at its limit)
+# decay instead of growing without bound from step to step
+WARM = wp.constant(0.9)
 
 
 @wp.func
@@ -83,13 +88,18 @@ def _sweep(m: ModelArrays, e: int, nrow: int, first: int, biased: int, tgs: int,
                 dl = -(h * k * row_err[e, r] + a * _row_dot(jac, e, r, v, nv)) / (1.0 + a * w)
                 lam[e, r] = lam[e, r] + dl
                 _apply(e, r, dl, minv_jt, v, nv)
-        elif t == DRY:
+        elif t == DOF:
             # joint friction: stop the dof, with at most frictionloss·h of impulse per substep
             old = lam[e, r]
             new = wp.clamp(old - _row_dot(jac, e, r, v, nv) * row_inv_mass[e, r], -row_mu[e, r],
                            row_mu[e, r])
             lam[e, r] = new
             _apply(e, r, new - old, minv_jt, v, nv)
+            # maximum joint speed: a joint-space impulse brings it back inside
+            jv = _row_dot(jac, e, r, v, nv)
+            cap = row_k[e, r]
+            if wp.abs(jv) > cap:
+                _apply(e, r, (wp.clamp(jv, -cap, cap) - jv) * row_inv_mass[e, r], minv_jt, v, nv)
         elif t == FRICTION:
             # static friction holds the contact point where it was at the start of the substep:
             # in TGS position sweeps the target undoes the slip accumulated so far, -J_t·dq / hs
@@ -136,7 +146,7 @@ def solve(m: ModelArrays, nrow: int, h: float, position_iterations: int,
     for r in range(nrow):
         lam[e, r] = 0.0
         if row_type[e, r] >= 0:
-            lam[e, r] = lam_init[e, r]
+            lam[e, r] = WARM * lam_init[e, r]
             _apply(e, r, lam[e, r], minv_jt, qd, nv)
     hs = h
     if tgs != 0:
