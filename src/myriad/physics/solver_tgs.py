@@ -28,9 +28,10 @@ import warp as wp
 from .constraints import DOF, FRICTION, NORMAL, SOFT, _row_dot
 from .structs import ModelArrays
 
-# fraction of the last substep's impulses a row starts from: below 1 so that the impulses of a
-# configuration with no solution (a hand pressed into the head by an arm held at its limit)
-# decay instead of growing without bound from step to step
+# fraction of the last substep's impulse a contact or limit row starts from: below 1 so that
+# the impulses of a configuration with no solution (a hand pressed into the head by an arm held
+# at its limit) decay instead of growing without bound from step to step. Friction rows start
+# from all of it: static friction on a slope would otherwise creep.
 WARM = wp.constant(0.9)
 
 
@@ -146,7 +147,9 @@ def solve(m: ModelArrays, nrow: int, h: float, position_iterations: int,
     for r in range(nrow):
         lam[e, r] = 0.0
         if row_type[e, r] >= 0:
-            lam[e, r] = WARM * lam_init[e, r]
+            lam[e, r] = lam_init[e, r]
+            if row_type[e, r] == NORMAL:
+                lam[e, r] = WARM * lam_init[e, r]
             _apply(e, r, lam[e, r], minv_jt, qd, nv)
     hs = h
     if tgs != 0:
