@@ -14,7 +14,8 @@ import numpy as np
 import torch
 import warp as wp
 
-from . import collision, constraints, dynamics, forces, integrate, kinematics, solver_tgs
+from . import (collision, constraints, dynamics, forces, integrate, kinematics, sensors,
+               solver_tgs)
 from .collision.narrowphase import unsupported_pairs
 from .model import Model, ModelError
 from .structs import EnvParams, ModelArrays
@@ -310,6 +311,17 @@ class Simulator:
         self._prev_key = zeros(N, self._contacts.capacity, dtype=wp.int32)
         self._prev_count = zeros(N, dtype=wp.int32)
         self._dq = zeros(N, m.nv)
+        self._qd_before = zeros(N, m.nv)
+        # force/torque sensors: one 6D wrench per site that carries a force or torque sensor
+        self.sensor_sites = list(dict.fromkeys(int(s) for s in m.sensor_site))
+        self._sensor_site = wp.array(np.asarray(self.sensor_sites, np.int32), dtype=wp.int32, device=dev)
+        self._sensor_site_body = wp.array(np.asarray(m.site_body[self.sensor_sites], np.int32)
+                                          if self.sensor_sites else np.zeros(0, np.int32),
+                                          dtype=wp.int32, device=dev)
+        self._sensor_wrench = zeros(N, len(self.sensor_sites), dtype=wp.spatial_vector)
+        # MuJoCo's sensordata order: (site slot, 0 for force / 3 for torque) of each sensor
+        self._sensor_columns = [(self.sensor_sites.index(int(site)), 0 if kind == "force" else 3)
+                                for site, kind in zip(m.sensor_site, m.sensor_type)]
         self._contact_force = zeros(N, self._contacts.capacity, dtype=wp.vec3)
         self._net_contact_force = zeros(N, m.nbody, dtype=wp.vec3)
         self._dof_constraint_force = zeros(N, m.nv)
@@ -351,6 +363,9 @@ class Simulator:
         self.contact_force = t(self._contact_force)   # [N, capacity, 3] on geom 2, world
         self.net_contact_force = t(self._net_contact_force)  # [N, nbody, 3]
         self.dof_constraint_force = t(self._dof_constraint_force)  # [N, nv]
+        # [N, len(sensor_sites), 6]: force then torque that each sensor site's body receives
+        # from its parent, in the site frame (MuJoCo's force/torque sensor semantics)
+        self.sensor_wrench = t(self._sensor_wrench)
 
         self.forward()
 
@@ -449,11 +464,19 @@ class Simulator:
             self._m, self.nrow, self.h, p.position_iterations, p.velocity_iterations,
             int(p.solver == "tgs"), p.max_depenetration_velocity, self._row_type, self._row_err,
             self._row_inv_mass, self._row_mu, self._row_bounce, self._row_k, self._row_d,
-            self._jac_rows, self._minv_jt, self._lam_init, self._qacc, self._qd, self._dq, self._lam])
+            self._jac_rows, self._minv_jt, self._lam_init, self._qacc, self._qd, self._qd_before,
+            self._dq, self._lam])
 
     def _integrate(self) -> None:
         self._launch(integrate.integrate, self.num_envs,
                      [self._m, self._dq, self._q, self._qd, self._nonfinite])
+
+    @property
+    def sensor_data(self) -> torch.Tensor:
+        """[N, nsensor, 3]: each MJCF force/torque sensor's reading, in the model's order."""
+        if not self._sensor_columns:
+            return self.sensor_wrench.new_zeros(self.num_envs, 0, 3)
+        return torch.stack([self.sensor_wrench[:, s, c:c + 3] for s, c in self._sensor_columns], 1)
 
     def _constraint_outputs(self) -> None:
         c = self._contacts
@@ -461,13 +484,20 @@ class Simulator:
             self._m, self.nrow, self.h, self._geom_body, c.capacity, c.count, c.geom,
             self._row_dir, self._lam, self._row_type, self._jac_rows, self._contact_force,
             self._net_contact_force, self._dof_constraint_force])
+        if self.sensor_sites:  # site poses are current: the final kinematics computed them
+            self._launch(sensors.force_sensors, self.num_envs, [
+                self._m, self._p, self.h, self._body_x, self._body_com, self._body_iframe,
+                self._cvel, self._cdof, self._cdof_dot, self._qd, self._qd_before,
+                self._geom_body, c.capacity, c.count, c.geom, c.pos, self._contact_force,
+                self._sensor_site_body, self._sensor_site, self._site_x, self._cacc, self._cfrc,
+                self._sensor_wrench])
 
     # ------------------------------------------------------------------ CUDA
     def _step_graph(self) -> None:
         if self._graph is None:
             # compile outside the capture
             for module in (kinematics, collision.narrowphase, dynamics, forces, constraints,
-                           solver_tgs, integrate):
+                           solver_tgs, integrate, sensors):
                 wp.load_module(module, device=self.device)
             with wp.ScopedCapture(device=self.device, stream=self._stream) as capture:
                 self._step_kernels()

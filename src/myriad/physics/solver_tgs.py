@@ -137,11 +137,14 @@ def solve(m: ModelArrays, nrow: int, h: float, position_iterations: int,
           row_d: wp.array2d(dtype=float), jac: wp.array3d(dtype=float),
           minv_jt: wp.array3d(dtype=float), lam_init: wp.array2d(dtype=float),
           qacc: wp.array2d(dtype=float),
-          qd: wp.array2d(dtype=float), dq: wp.array2d(dtype=float), lam: wp.array2d(dtype=float)):
-    """On exit qd holds the new velocity, dq the displacement to integrate, lam the impulses."""
+          qd: wp.array2d(dtype=float), qd_before: wp.array2d(dtype=float),
+          dq: wp.array2d(dtype=float), lam: wp.array2d(dtype=float)):
+    """On exit qd holds the new velocity (qd_before the old), dq the displacement to integrate,
+    lam the impulses."""
     e = wp.tid()
     nv = m.nv
     for i in range(nv):
+        qd_before[e, i] = qd[e, i]
         qd[e, i] = qd[e, i] + h * qacc[e, i]
         dq[e, i] = 0.0
     for r in range(nrow):
