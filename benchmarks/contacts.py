@@ -1,0 +1,100 @@
+"""Contact-rich stepping: 64 boxes dropped in a 4x4x4 grid onto a plane, per env.
+
+Myriad (TGS, Isaac Gym's timing: dt 1/60 in 2 substeps, 4 position + 1 velocity iteration,
+512 contact slots per env) against MuJoCo's C step on the same model (its default solver, two
+1/120 s steps per env step), one MjData at a time on one thread. Both run the same 2 s of
+falling, colliding and settling, from the same start. Also reports device memory per env.
+
+    python benchmarks/contacts.py
+    python benchmarks/contacts.py --device cuda:0 --envs 256 1024 4096
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+
+import mujoco
+import torch
+import warp as wp
+
+import myriad
+from myriad.physics.structs import EnvParams
+
+
+def boxes_xml(n_side: int = 4) -> str:
+    bodies = []
+    for i in range(n_side):
+        for j in range(n_side):
+            for k in range(n_side):
+                x, y, z = (i - 1.5) * 0.25, (j - 1.5) * 0.25, 0.2 + 0.25 * k
+                bodies.append(f'<body pos="{x:.3f} {y:.3f} {z:.3f}" euler="{7 * i} {5 * j} {11 * k}">'
+                              f'<freejoint/><geom type="box" size="0.08 0.08 0.08" mass="1"/></body>')
+    return (f'<mujoco><compiler angle="degree"/><worldbody><geom type="plane" size="10 10 0.1"/>'
+            f'{"".join(bodies)}</worldbody></mujoco>')
+
+
+PARAMS = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=4, velocity_iterations=1,
+                          contacts_per_env=512)
+STEPS = 120  # 2 s
+
+
+def myriad_rate(model, num_envs: int, device: str):
+    sim = myriad.Simulator(model, num_envs=num_envs, device=device, params=PARAMS)
+    sync = torch.cuda.synchronize if sim.device.is_cuda else (lambda: None)
+    sim.step()  # warm-up: kernel loading, graph capture
+    sim.q, sim.qd = torch.as_tensor(model.qpos0), 0.0
+    sync()
+    start = time.perf_counter()
+    peak = 0
+    for _ in range(STEPS):
+        sim.step()
+        peak = max(peak, int(sim.contact_count.max()))
+    sync()
+    elapsed = time.perf_counter() - start
+    assert torch.isfinite(sim.q).all()
+    return STEPS * num_envs / elapsed, peak
+
+
+def mujoco_rate(model) -> float:
+    mj = model.mj_model
+    mj.opt.timestep = 1 / 120
+    d = mujoco.MjData(mj)
+    start = time.perf_counter()
+    mujoco.mj_step(mj, d, nstep=2 * STEPS)
+    return STEPS / (time.perf_counter() - start)
+
+
+def memory_per_env(model, device: str) -> float:
+    def total(n):
+        sim = myriad.Simulator(model, num_envs=n, device=device, params=PARAMS)
+        arrays = [v for v in vars(sim).values() if isinstance(v, wp.array)]
+        arrays += [getattr(sim._p, f) for f in EnvParams.vars]
+        arrays += [getattr(sim._contacts, f) for f in ("count", "geom", "pos", "normal", "dist", "key")]
+        return sum(a.capacity for a in arrays)
+    return total(2) - total(1)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--envs", nargs="+", type=int, default=[1, 4, 16])
+    parser.add_argument("--device", default="cpu")
+    args = parser.parse_args()
+    wp.config.quiet = True
+    model = myriad.load_xml(boxes_xml(), "64 boxes")
+    print(f"machine: {platform.machine()}, {os.cpu_count()} cores; warp {wp.__version__}, "
+          f"mujoco {mujoco.__version__}; device {args.device}")
+    reference = mujoco_rate(model)
+    print("| scene | envs | Myriad env-steps/s | MuJoCo C env-steps/s (1 thread) | ratio | peak contacts/env |")
+    print("|---|---|---|---|---|---|")
+    for n in args.envs:
+        rate, peak = myriad_rate(model, n, args.device)
+        print(f"| 64 boxes (nv=384) | {n} | {rate:,.1f} | {reference:,.1f} | {rate / reference:.2f} | {peak} |",
+              flush=True)
+    print(f"memory: {memory_per_env(model, args.device):,.0f} bytes/env")
+
+
+if __name__ == "__main__":
+    main()
