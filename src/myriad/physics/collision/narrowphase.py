@@ -13,13 +13,20 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from .convex import Meshes, convex_contact, support
+
 PLANE = wp.constant(0)
 SPHERE = wp.constant(2)
 CAPSULE = wp.constant(3)
 BOX = wp.constant(6)
+ELLIPSOID = wp.constant(4)
+CYLINDER = wp.constant(5)
+MESH = wp.constant(7)
 
-# (type1, type2) with type1 <= type2, MuJoCo geom type numbers
-SUPPORTED_PAIRS = {(0, 2), (0, 3), (0, 6), (2, 2), (2, 3), (2, 6), (3, 3), (3, 6), (6, 6)}
+# (type1, type2) with type1 <= type2, MuJoCo geom type numbers: closed forms for planes, spheres,
+# capsules and boxes; MPR for every other pair of convex shapes (ellipsoid, cylinder, mesh)
+CONVEX = (2, 3, 4, 5, 6, 7)
+SUPPORTED_PAIRS = {(0, t) for t in CONVEX} | {(a, b) for a in CONVEX for b in CONVEX if a <= b}
 
 # up to 8 polygon points (rows: u, v, height) while clipping a face against another
 poly8 = wp.types.matrix(shape=(8, 3), dtype=float)
@@ -391,9 +398,110 @@ def _capsule_box(e: int, pair: wp.vec2i, key: int, x1: wp.transform, s1: wp.vec3
               c_normal, c_dist)
 
 
+@wp.func
+def _convex(e: int, pair: wp.vec2i, key: int, t1: int, s1: wp.vec3, m1: int, x1: wp.transform,
+            t2: int, s2: wp.vec3, m2: int, x2: wp.transform, meshes: Meshes, margin: float,
+            capacity: int, count: wp.array(dtype=wp.int32), c_geom: wp.array2d(dtype=wp.vec2i),
+            c_key: wp.array2d(dtype=wp.int32), c_pos: wp.array2d(dtype=wp.vec3),
+            c_normal: wp.array2d(dtype=wp.vec3), c_dist: wp.array2d(dtype=float)):
+    hit, n, dist, pos = convex_contact(t1, s1, m1, x1, t2, s2, m2, x2, meshes, margin)
+    if hit != 0:
+        _emit(e, pair, key, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos, c_normal,
+              c_dist)
+
+
+@wp.func
+def _plane_cylinder(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x2: wp.transform,
+                    s2: wp.vec3, margin: float, capacity: int, count: wp.array(dtype=wp.int32),
+                    c_geom: wp.array2d(dtype=wp.vec2i), c_key: wp.array2d(dtype=wp.int32),
+                    c_pos: wp.array2d(dtype=wp.vec3), c_normal: wp.array2d(dtype=wp.vec3),
+                    c_dist: wp.array2d(dtype=float)):
+    """The lower cap's rim at four points a quarter turn apart, starting from its lowest point,
+    and the other cap's lowest rim point: a cylinder standing or lying gets a stable support."""
+    rot = wp.transform_get_rotation(x2)
+    axis = wp.quat_rotate(rot, wp.vec3(0.0, 0.0, 1.0))
+    center = wp.transform_get_translation(x2)
+    # direction, in the cap plane, toward the plane (down the normal)
+    down = -n - axis * wp.dot(-n, axis)
+    if wp.length_sq(down) < 1.0e-12:
+        down = wp.quat_rotate(rot, wp.vec3(1.0, 0.0, 0.0))  # standing upright: any rim direction
+    down = wp.normalize(down)
+    side = wp.cross(axis, down)
+    lower = 1.0
+    if wp.dot(axis, n) > 0.0:
+        lower = -1.0
+    for k in range(5):
+        cap = center + axis * (lower * s2[1])
+        rim = down
+        if k == 1:
+            rim = side
+        elif k == 2:
+            rim = -down
+        elif k == 3:
+            rim = -side
+        elif k == 4:
+            cap = center - axis * (lower * s2[1])
+        point = cap + rim * s2[0]
+        dist = wp.dot(point - c1, n)
+        _emit(e, pair, key + k, point - n * (0.5 * dist), n, dist, margin, capacity, count,
+              c_geom, c_key, c_pos, c_normal, c_dist)
+
+
+@wp.func
+def _plane_mesh(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x2: wp.transform,
+                mesh: int, meshes: Meshes, margin: float, capacity: int,
+                count: wp.array(dtype=wp.int32), c_geom: wp.array2d(dtype=wp.vec2i),
+                c_key: wp.array2d(dtype=wp.int32), c_pos: wp.array2d(dtype=wp.vec3),
+                c_normal: wp.array2d(dtype=wp.vec3), c_dist: wp.array2d(dtype=float)):
+    """Hull vertices within the offset, at most four: the deepest, the one farthest from it, and
+    the farthest on either side of the line through those two."""
+    beg = meshes.vertadr[mesh]
+    num = meshes.vertnum[mesh]
+    chosen = wp.vec4i(-1, -1, -1, -1)
+    deepest = float(margin)
+    for i in range(beg, beg + num):
+        d = wp.dot(wp.transform_point(x2, meshes.vert[i]) - c1, n)
+        if d < deepest:
+            deepest = d
+            chosen[0] = i
+    if chosen[0] < 0:
+        return
+    p0 = wp.transform_point(x2, meshes.vert[chosen[0]])
+    far = float(-1.0)
+    for i in range(beg, beg + num):
+        q = wp.transform_point(x2, meshes.vert[i])
+        if wp.dot(q - c1, n) < margin and i != chosen[0]:
+            d = wp.length_sq(q - p0 - n * wp.dot(q - p0, n))
+            if d > far + 1.0e-12:
+                far = d
+                chosen[1] = i
+    if chosen[1] >= 0:
+        p1 = wp.transform_point(x2, meshes.vert[chosen[1]])
+        lo = float(-1.0e-12)
+        hi = float(1.0e-12)
+        for i in range(beg, beg + num):
+            q = wp.transform_point(x2, meshes.vert[i])
+            if wp.dot(q - c1, n) < margin and i != chosen[0] and i != chosen[1]:
+                side = wp.dot(wp.cross(p1 - p0, q - p0), n)
+                if side > hi:
+                    hi = side
+                    chosen[2] = i
+                if side < lo:
+                    lo = side
+                    chosen[3] = i
+    for c in range(4):
+        i = chosen[c]
+        if i >= 0:
+            q = wp.transform_point(x2, meshes.vert[i])
+            dist = wp.dot(q - c1, n)
+            _emit(e, pair, key + c, q - n * (0.5 * dist), n, dist, margin, capacity, count,
+                  c_geom, c_key, c_pos, c_normal, c_dist)
+
+
 @wp.kernel
 def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.int32),
-                geom_size: wp.array(dtype=wp.vec3), geom_x: wp.array2d(dtype=wp.transform),
+                geom_size: wp.array(dtype=wp.vec3), geom_dataid: wp.array(dtype=wp.int32),
+                meshes: Meshes, geom_x: wp.array2d(dtype=wp.transform),
                 margin: float, capacity: int, count: wp.array(dtype=wp.int32),
                 c_geom: wp.array2d(dtype=wp.vec2i), c_key: wp.array2d(dtype=wp.int32),
                 c_pos: wp.array2d(dtype=wp.vec3),
@@ -441,6 +549,20 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
                     found += 1
                     _emit(e, pair, p * 8 + k, point - n * (0.5 * dist), n, dist, margin, capacity,
                           count, c_geom, c_key, c_pos, c_normal, c_dist)
+        elif t2 == ELLIPSOID:
+            point = support(t2, s2, -1, meshes, x2, -n, 0.0)
+            dist = wp.dot(point - c1, n)
+            _emit(e, pair, p * 8, point - n * (0.5 * dist), n, dist, margin, capacity, count,
+                  c_geom, c_key, c_pos, c_normal, c_dist)
+        elif t2 == CYLINDER:
+            _plane_cylinder(e, pair, p * 8, c1, n, x2, s2, margin, capacity, count, c_geom, c_key,
+                            c_pos, c_normal, c_dist)
+        elif t2 == MESH:
+            _plane_mesh(e, pair, p * 8, c1, n, x2, geom_dataid[g2], meshes, margin, capacity,
+                        count, c_geom, c_key, c_pos, c_normal, c_dist)
+    elif t1 == SPHERE and t2 != SPHERE and t2 != CAPSULE and t2 != BOX:
+        _convex(e, pair, p * 8, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
+                margin, capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
     elif t1 == SPHERE:
         if t2 == SPHERE or t2 == CAPSULE:
             other = c2
@@ -468,6 +590,9 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
     elif t1 == BOX and t2 == BOX:
         _box_box(e, pair, p * 8, x1, s1, x2, s2, margin, capacity, count, c_geom, c_key, c_pos,
                  c_normal, c_dist)
+    else:
+        _convex(e, pair, p * 8, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
+                margin, capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
 
 
 @wp.kernel
