@@ -1,4 +1,6 @@
-"""Contact-rich stepping: 64 boxes dropped in a 4x4x4 grid onto a plane, per env.
+"""Contact-rich stepping against MuJoCo: 64 boxes dropped in a 4x4x4 grid onto a plane per env,
+and the ant on its floor under random actions (new ones every step, the same in both engines'
+runs up to their different contact models).
 
 Myriad (TGS, Isaac Gym's timing: dt 1/60 in 2 substeps, 4 position + 1 velocity iteration,
 512 contact slots per env) against MuJoCo's C step on the same model (its default solver, two
@@ -6,6 +8,7 @@ Myriad (TGS, Isaac Gym's timing: dt 1/60 in 2 substeps, 4 position + 1 velocity 
 falling, colliding and settling, from the same start. Also reports device memory per env.
 
     python benchmarks/contacts.py
+    python benchmarks/contacts.py --scene ant --envs 1 16 256 1024
     python benchmarks/contacts.py --device cuda:0 --envs 256 1024 4096
 """
 
@@ -17,6 +20,7 @@ import platform
 import time
 
 import mujoco
+import numpy as np
 import torch
 import warp as wp
 
@@ -46,10 +50,13 @@ def myriad_rate(model, num_envs: int, device: str):
     sync = torch.cuda.synchronize if sim.device.is_cuda else (lambda: None)
     sim.step()  # warm-up: kernel loading, graph capture
     sim.q, sim.qd = torch.as_tensor(model.qpos0), 0.0
+    gen = torch.Generator(device=sim.torch_device).manual_seed(0)
     sync()
     start = time.perf_counter()
     peak = 0
     for _ in range(STEPS):
+        if model.nu:
+            sim.ctrl = torch.rand(num_envs, model.nu, generator=gen, device=sim.torch_device) * 2 - 1
         sim.step()
         peak = max(peak, int(sim.contact_count.max()))
     sync()
@@ -62,8 +69,12 @@ def mujoco_rate(model) -> float:
     mj = model.mj_model
     mj.opt.timestep = 1 / 120
     d = mujoco.MjData(mj)
+    rng = np.random.default_rng(0)
     start = time.perf_counter()
-    mujoco.mj_step(mj, d, nstep=2 * STEPS)
+    for _ in range(STEPS):
+        if mj.nu:
+            d.ctrl[:] = rng.uniform(-1, 1, mj.nu)
+        mujoco.mj_step(mj, d, nstep=2)
     return STEPS / (time.perf_counter() - start)
 
 
@@ -81,19 +92,25 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--envs", nargs="+", type=int, default=[1, 4, 16])
     parser.add_argument("--device", default="cpu")
+    parser.add_argument("--scene", choices=["boxes", "ant"], help="only this scene")
     args = parser.parse_args()
     wp.config.quiet = True
-    model = myriad.load_xml(boxes_xml(), "64 boxes")
+    scenes = {"boxes": ("64 boxes", lambda: myriad.load_xml(boxes_xml(), "64 boxes")),
+              "ant": ("ant, random actions", lambda: myriad.load(myriad.asset_path("ant.xml")))}
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores; warp {wp.__version__}, "
           f"mujoco {mujoco.__version__}; device {args.device}")
-    reference = mujoco_rate(model)
     print("| scene | envs | Myriad env-steps/s | MuJoCo C env-steps/s (1 thread) | ratio | peak contacts/env |")
     print("|---|---|---|---|---|---|")
-    for n in args.envs:
-        rate, peak = myriad_rate(model, n, args.device)
-        print(f"| 64 boxes (nv=384) | {n} | {rate:,.1f} | {reference:,.1f} | {rate / reference:.2f} | {peak} |",
-              flush=True)
-    print(f"memory: {memory_per_env(model, args.device):,.0f} bytes/env")
+    for key, (name, load) in scenes.items():
+        if args.scene and args.scene != key:
+            continue
+        model = load()
+        reference = mujoco_rate(model)
+        for n in args.envs:
+            rate, peak = myriad_rate(model, n, args.device)
+            print(f"| {name} (nv={model.nv}) | {n} | {rate:,.1f} | {reference:,.1f} | "
+                  f"{rate / reference:.2f} | {peak} |", flush=True)
+        print(f"| {name} | memory | {memory_per_env(model, args.device):,.0f} bytes/env | | | |")
 
 
 if __name__ == "__main__":

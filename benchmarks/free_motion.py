@@ -31,7 +31,8 @@ from myriad.physics.structs import EnvParams
 
 def myriad_rate(model, num_envs: int, device: str, min_seconds: float) -> float:
     sim = myriad.Simulator(model, num_envs=num_envs, device=device,
-                           params=myriad.SimParams(dt=1 / 60, substeps=2, gravity=(0, 0, 0)))
+                           params=myriad.SimParams(dt=1 / 60, substeps=2, gravity=(0, 0, 0),
+                                                   constraints=False))
     gen = torch.Generator(device=sim.torch_device).manual_seed(0)
     sim.joint_force = 0.1 * torch.randn(num_envs, model.nv, generator=gen, device=sim.torch_device)
     sync = torch.cuda.synchronize if sim.device.is_cuda else (lambda: None)

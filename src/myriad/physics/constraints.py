@@ -99,7 +99,8 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
     e = wp.tid()
     nv = m.nv
     ncontact = wp.min(contact_count[e], contact_capacity)
-    for k in range(contact_capacity):
+    # slots past the contact count are skipped by the solver: only the used ones are built
+    for k in range(ncontact):
         for d in range(3):
             row_type[e, 3 * k + d] = INACTIVE
         if k < ncontact:
@@ -254,15 +255,19 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
         r = base + dof
         warm = lam[e, r]
         bound = dof_frictionloss[e, dof] * h
-        for i in range(nv):
-            jac[e, r, i] = 0.0
-        jac[e, r, dof] = 1.0
-        _finish_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, DOF)
-        row_mu[e, r] = bound
-        row_k[e, r] = dof_max_velocity[e, dof]
+        cap = dof_max_velocity[e, dof]
+        row_type[e, r] = INACTIVE
         lam_init[e, r] = 0.0
-        if row_type[e, r] != INACTIVE:
-            lam_init[e, r] = wp.clamp(warm, -bound, bound)
+        # always: impulses from other rows can push a dof past its cap within the solve
+        if cap > 0.0:
+            for i in range(nv):
+                jac[e, r, i] = 0.0
+            jac[e, r, dof] = 1.0
+            _finish_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, DOF)
+            row_mu[e, r] = bound
+            row_k[e, r] = cap
+            if row_type[e, r] != INACTIVE:
+                lam_init[e, r] = wp.clamp(warm, -bound, bound)
 
 
 @wp.func

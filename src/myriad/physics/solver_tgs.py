@@ -43,7 +43,17 @@ def _apply(e: int, r: int, dl: float, minv_jt: wp.array3d(dtype=float), v: wp.ar
 
 
 @wp.func
-def _sweep(m: ModelArrays, e: int, nrow: int, first: int, biased: int, tgs: int, hs: float, h: float,
+def _row(i: int, used: int, skip: int):
+    """The i-th row in use: contact rows [0, used) come first, then the rows from `used + skip`
+    on (limits, tendons, dofs); the `skip` contact slots past the env's contact count are empty."""
+    if i < used:
+        return i
+    return i + skip
+
+
+@wp.func
+def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, first: int, biased: int,
+           tgs: int, hs: float, h: float,
            max_depenetration: float, row_type: wp.array2d(dtype=wp.int32),
            row_err: wp.array2d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
            row_mu: wp.array2d(dtype=float), row_bounce: wp.array2d(dtype=float),
@@ -52,12 +62,13 @@ def _sweep(m: ModelArrays, e: int, nrow: int, first: int, biased: int, tgs: int,
            v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float), lam: wp.array2d(dtype=float)):
     nv = m.nv
     # normal rows first, then friction rows, whose bounds then hold this sweep's normal impulses
-    for rr in range(2 * nrow):
-        r = rr % nrow
+    count = nrow - skip
+    for rr in range(2 * count):
+        r = _row(rr % count, used, skip)
         t = row_type[e, r]
-        if rr < nrow and t != NORMAL:
+        if rr < count and t != NORMAL:
             continue
-        if rr >= nrow and t == NORMAL:
+        if rr >= count and t == NORMAL:
             continue
         if t == NORMAL:
             jv = _row_dot(jac, e, r, v, nv)
@@ -129,7 +140,8 @@ def _sweep(m: ModelArrays, e: int, nrow: int, first: int, biased: int, tgs: int,
 
 
 @wp.kernel
-def solve(m: ModelArrays, nrow: int, h: float, position_iterations: int,
+def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.array(dtype=wp.int32),
+          h: float, position_iterations: int,
           velocity_iterations: int, tgs: int, max_depenetration: float,
           row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
           row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
@@ -147,7 +159,10 @@ def solve(m: ModelArrays, nrow: int, h: float, position_iterations: int,
         qd_before[e, i] = qd[e, i]
         qd[e, i] = qd[e, i] + h * qacc[e, i]
         dq[e, i] = 0.0
-    for r in range(nrow):
+    used = 3 * wp.min(contact_count[e], contact_capacity)
+    skip = 3 * contact_capacity - used
+    for i in range(nrow - skip):
+        r = _row(i, used, skip)
         lam[e, r] = 0.0
         if row_type[e, r] >= 0:
             lam[e, r] = lam_init[e, r]
@@ -158,7 +173,7 @@ def solve(m: ModelArrays, nrow: int, h: float, position_iterations: int,
     if tgs != 0:
         hs = h / float(position_iterations)
     for it in range(position_iterations):
-        _sweep(m, e, nrow, int(it == 0), 1, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
+        _sweep(m, e, nrow, used, skip, int(it == 0), 1, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
                row_mu, row_bounce, row_k, row_d, jac, minv_jt, qd, dq, lam)
         if tgs != 0:
             for i in range(nv):
@@ -167,7 +182,7 @@ def solve(m: ModelArrays, nrow: int, h: float, position_iterations: int,
         for i in range(nv):
             dq[e, i] = h * qd[e, i]
     for it in range(velocity_iterations):
-        _sweep(m, e, nrow, 0, 0, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
+        _sweep(m, e, nrow, used, skip, 0, 0, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
                row_mu, row_bounce, row_k, row_d, jac, minv_jt, qd, dq, lam)
 
 
@@ -199,9 +214,12 @@ def constraint_forces(m: ModelArrays, nrow: int, h: float, geom_body: wp.array(d
             if b1 >= 0:
                 net_contact_force[e, b1] = net_contact_force[e, b1] - f
         contact_force[e, k] = f
+    used = 3 * ncontact
+    skip = 3 * contact_capacity - used
     for i in range(m.nv):
         s = float(0.0)
-        for r in range(nrow):
+        for rr in range(nrow - skip):
+            r = _row(rr, used, skip)
             if row_type[e, r] >= 0:
                 s = s + jac[e, r, i] * lam[e, r]
         dof_constraint_force[e, i] = s / h
