@@ -13,6 +13,10 @@ def _default_device() -> str:
     return "cuda:0" if torch.cuda.is_available() else "cpu"
 
 
+def sim_gravity(model, params):
+    return model.gravity if params.gravity is None else params.gravity
+
+
 def demo(args) -> int:
     import torch
 
@@ -22,11 +26,11 @@ def demo(args) -> int:
     num_envs = args.envs or (4096 if device.startswith("cuda") else 256)
     path = args.model or myriad.asset_path("ant.xml")
     model = myriad.load(path)
-    params = myriad.SimParams(dt=1 / 60, substeps=2, gravity=tuple(args.gravity))
+    gravity = None if args.gravity is None else tuple(args.gravity)
+    params = myriad.SimParams(dt=1 / 60, substeps=2, gravity=gravity)
     print(f"myriad demo: {model}\n  {num_envs} envs on {device}, dt {params.dt:.4f} s x "
-          f"{params.substeps} substeps, gravity {params.gravity}")
-    print("  (contacts, joint limits and the TGS solver arrive with the next engine stage: bodies "
-          "move under gravity, actuators and joint springs only)")
+          f"{params.substeps} substeps, TGS {params.position_iterations} + "
+          f"{params.velocity_iterations} iterations, gravity {[float(g) for g in sim_gravity(model, params)]}")
     t0 = time.perf_counter()
     sim = myriad.Simulator(model, num_envs=num_envs, device=device, params=params)
     print(f"  simulator built in {time.perf_counter() - t0:.1f} s (includes kernel compilation on "
@@ -60,6 +64,14 @@ def demo(args) -> int:
     print(f"  mean |q - q0| per env: min {spread.min():.3f}, mean {spread.mean():.3f}, "
           f"max {spread.max():.3f} (every env got its own random actions)")
     print(f"  body spread about the mean body position: {moved.norm(dim=2).mean():.3f} m")
+    root_height = sim.body_pose[:, 0, 2]
+    print(f"  first body's height: min {root_height.min():.3f}, mean {root_height.mean():.3f}, "
+          f"max {root_height.max():.3f} m; contacts per env: mean "
+          f"{sim.contact_count.float().mean():.1f}, max {int(sim.contact_count.max())}")
+    overflow = (sim.contact_count > sim.params.contacts_per_env).sum()
+    if overflow:
+        print(f"  {int(overflow)} envs had more contacts than their {sim.params.contacts_per_env} "
+              "slots: raise SimParams(contacts_per_env=...)")
     return 0 if bool(finite.all()) else 1
 
 
@@ -71,11 +83,10 @@ def main(argv=None) -> int:
     p.add_argument("--envs", type=int, help="number of envs (default 256 on CPU, 4096 on CUDA)")
     p.add_argument("--device", help="cpu or cuda:N (default: cuda:0 when present)")
     p.add_argument("--seconds", type=float, default=2.0, help="simulated time")
-    p.add_argument("--gravity", type=float, nargs=3, default=(0.0, 0.0, 0.0),
-                   help="gravity vector (default zero: with no contacts yet, a robot would fall)")
-    p.add_argument("--action-scale", type=float, default=0.2,
-                   help="random actions in [-scale, scale] (no joint limits yet: large torques spin "
-                        "joints up without bound)")
+    p.add_argument("--gravity", type=float, nargs=3, default=None,
+                   help="gravity vector (default: the model's, 0 0 -9.81 unless it says otherwise)")
+    p.add_argument("--action-scale", type=float, default=1.0,
+                   help="random actions in [-scale, scale]")
     p.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
     try:
