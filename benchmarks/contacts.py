@@ -25,7 +25,7 @@ import torch
 import warp as wp
 
 import myriad
-from myriad.physics.structs import EnvParams
+from memory import memory_per_env
 
 
 def boxes_xml(n_side: int = 4) -> str:
@@ -78,16 +78,6 @@ def mujoco_rate(model) -> float:
     return STEPS / (time.perf_counter() - start)
 
 
-def memory_per_env(model, device: str) -> float:
-    def total(n):
-        sim = myriad.Simulator(model, num_envs=n, device=device, params=PARAMS)
-        arrays = [v for v in vars(sim).values() if isinstance(v, wp.array)]
-        arrays += [getattr(sim._p, f) for f in EnvParams.vars]
-        arrays += [getattr(sim._contacts, f) for f in ("count", "geom", "pos", "normal", "dist", "key")]
-        return sum(a.capacity for a in arrays)
-    return total(2) - total(1)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--envs", nargs="+", type=int, default=[1, 4, 16])
@@ -110,7 +100,7 @@ def main() -> None:
             rate, peak = myriad_rate(model, n, args.device)
             print(f"| {name} (nv={model.nv}) | {n} | {rate:,.1f} | {reference:,.1f} | "
                   f"{rate / reference:.2f} | {peak} |", flush=True)
-        print(f"| {name} | memory | {memory_per_env(model, args.device):,.0f} bytes/env | | | |")
+        print(f"| {name} | memory | {memory_per_env(model, PARAMS, args.device):,.0f} bytes/env | | | |")
 
 
 if __name__ == "__main__":

@@ -51,30 +51,28 @@ def mass_matrix(m: ModelArrays, p: EnvParams, body_x: wp.array2d(dtype=wp.transf
             j = m.dof_parent[j]
 
 
-@wp.kernel
-def bias_forces(m: ModelArrays, p: EnvParams, body_x: wp.array2d(dtype=wp.transform),
+@wp.func
+def body_forces(m: ModelArrays, p: EnvParams, e: int, body_x: wp.array2d(dtype=wp.transform),
                 body_com: wp.array2d(dtype=wp.vec3), body_iframe: wp.array2d(dtype=wp.quat),
-                qd: wp.array2d(dtype=float), cvel: wp.array2d(dtype=wp.spatial_vector),
+                qd: wp.array2d(dtype=float), qd_before: wp.array2d(dtype=float), inv_h: float,
+                cvel: wp.array2d(dtype=wp.spatial_vector),
                 cdof: wp.array2d(dtype=wp.spatial_vector),
                 cdof_dot: wp.array2d(dtype=wp.spatial_vector),
-                # scratch
-                cacc: wp.array2d(dtype=wp.spatial_vector), cfrc: wp.array2d(dtype=wp.spatial_vector),
-                bias: wp.array2d(dtype=float)):
-    """Recursive Newton-Euler at qdd = 0: Coriolis, centrifugal and gravity (MuJoCo's qfrc_bias).
+                cacc: wp.array2d(dtype=wp.spatial_vector), cfrc: wp.array2d(dtype=wp.spatial_vector)):
+    """Forward pass of Newton-Euler: each body's acceleration and the force it needs, I·a + v ×* I·v.
 
-    Gravity enters as an upward acceleration of the world, so every body feels it through cacc.
+    Accelerations come from the velocity-product terms plus (qd - qd_before)·inv_h (inv_h = 0:
+    none, for the bias force). Gravity enters as an upward acceleration of the world.
     """
-    e = wp.tid()
     world_acc = wp.spatial_vector(wp.vec3(), -p.gravity[e])
     for b in range(m.nbody):
         parent = m.body_parent[b]
         a = world_acc
         if parent >= 0:
             a = cacc[e, parent]
-        jbeg = m.body_jntadr[b]
         if m.body_jntnum[b] > 0:
-            for i in range(m.jnt_dofadr[jbeg], m.body_last_dof[b] + 1):
-                a = a + cdof_dot[e, i] * qd[e, i]
+            for i in range(m.jnt_dofadr[m.body_jntadr[b]], m.body_last_dof[b] + 1):
+                a = a + cdof_dot[e, i] * qd[e, i] + cdof[e, i] * ((qd[e, i] - qd_before[e, i]) * inv_h)
         cacc[e, b] = a
         ref = wp.transform_get_translation(body_x[e, m.body_root[b]])
         mass = p.body_mass[e, b]
@@ -84,11 +82,32 @@ def bias_forces(m: ModelArrays, p: EnvParams, body_x: wp.array2d(dtype=wp.transf
         v = cvel[e, b]
         cfrc[e, b] = inertia_times(mass, h, rot_inertia, a) + force_cross(
             v, inertia_times(mass, h, rot_inertia, v))
+
+
+@wp.func
+def accumulate_subtrees(m: ModelArrays, e: int, cfrc: wp.array2d(dtype=wp.spatial_vector)):
+    """Children before parents: each body's force becomes that of its whole subtree."""
     for k in range(m.nbody):
         b = m.nbody - 1 - k
         parent = m.body_parent[b]
         if parent >= 0:
             cfrc[e, parent] = cfrc[e, parent] + cfrc[e, b]
+
+
+@wp.kernel
+def bias_forces(m: ModelArrays, p: EnvParams, body_x: wp.array2d(dtype=wp.transform),
+                body_com: wp.array2d(dtype=wp.vec3), body_iframe: wp.array2d(dtype=wp.quat),
+                qd: wp.array2d(dtype=float), cvel: wp.array2d(dtype=wp.spatial_vector),
+                cdof: wp.array2d(dtype=wp.spatial_vector),
+                cdof_dot: wp.array2d(dtype=wp.spatial_vector),
+                # scratch
+                cacc: wp.array2d(dtype=wp.spatial_vector), cfrc: wp.array2d(dtype=wp.spatial_vector),
+                bias: wp.array2d(dtype=float)):
+    """Recursive Newton-Euler at qdd = 0: Coriolis, centrifugal and gravity (MuJoCo's qfrc_bias)."""
+    e = wp.tid()
+    body_forces(m, p, e, body_x, body_com, body_iframe, qd, qd, 0.0, cvel, cdof, cdof_dot, cacc,
+                cfrc)
+    accumulate_subtrees(m, e, cfrc)
     for i in range(m.nv):
         bias[e, i] = wp.dot(cdof[e, i], cfrc[e, m.dof_body[i]])
 

@@ -9,7 +9,7 @@ at the site, in the site's frame.
 
 import warp as wp
 
-from .spatial import force_cross, inertia_about_point, inertia_times
+from .dynamics import accumulate_subtrees, body_forces
 from .structs import EnvParams, ModelArrays
 
 
@@ -30,24 +30,8 @@ def force_sensors(m: ModelArrays, p: EnvParams, h: float,
                   # output: [env, sensor site] (force, torque) in the site frame
                   wrench: wp.array2d(dtype=wp.spatial_vector)):
     e = wp.tid()
-    world_acc = wp.spatial_vector(wp.vec3(), -p.gravity[e])
-    for b in range(m.nbody):
-        parent = m.body_parent[b]
-        a = world_acc
-        if parent >= 0:
-            a = cacc[e, parent]
-        if m.body_jntnum[b] > 0:
-            for i in range(m.jnt_dofadr[m.body_jntadr[b]], m.body_last_dof[b] + 1):
-                a = a + cdof_dot[e, i] * qd[e, i] + cdof[e, i] * ((qd[e, i] - qd_before[e, i]) / h)
-        cacc[e, b] = a
-        ref = wp.transform_get_translation(body_x[e, m.body_root[b]])
-        mass = p.body_mass[e, b]
-        c = body_com[e, b] - ref
-        hm = mass * c
-        rot_inertia = inertia_about_point(mass, c, p.body_inertia[e, b], body_iframe[e, b])
-        v = cvel[e, b]
-        cfrc[e, b] = inertia_times(mass, hm, rot_inertia, a) + force_cross(
-            v, inertia_times(mass, hm, rot_inertia, v))
+    body_forces(m, p, e, body_x, body_com, body_iframe, qd, qd_before, 1.0 / h, cvel, cdof,
+                cdof_dot, cacc, cfrc)
     # contacts are external forces: subtract what they supply (force on geom 2, minus on geom 1)
     for k in range(wp.min(contact_count[e], contact_capacity)):
         pair = contact_geom[e, k]
@@ -61,11 +45,7 @@ def force_sensors(m: ModelArrays, p: EnvParams, h: float,
                 ref = wp.transform_get_translation(body_x[e, m.body_root[b]])
                 fb = f * sign
                 cfrc[e, b] = cfrc[e, b] - wp.spatial_vector(wp.cross(contact_pos[e, k] - ref, fb), fb)
-    for kk in range(m.nbody):
-        b = m.nbody - 1 - kk
-        parent = m.body_parent[b]
-        if parent >= 0:
-            cfrc[e, parent] = cfrc[e, parent] + cfrc[e, b]
+    accumulate_subtrees(m, e, cfrc)
     for s in range(sensor_site.shape[0]):
         b = sensor_site_body[s]
         x = site_x[e, sensor_site[s]]

@@ -13,15 +13,9 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from .convex import Meshes, convex_contact, support
+from .convex import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, Meshes, convex_contact, support
 
 PLANE = wp.constant(0)
-SPHERE = wp.constant(2)
-CAPSULE = wp.constant(3)
-BOX = wp.constant(6)
-ELLIPSOID = wp.constant(4)
-CYLINDER = wp.constant(5)
-MESH = wp.constant(7)
 
 # (type1, type2) with type1 <= type2, MuJoCo geom type numbers: closed forms for planes, spheres,
 # capsules and boxes; MPR for every other pair of convex shapes (ellipsoid, cylinder, mesh)
