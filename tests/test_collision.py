@@ -152,6 +152,11 @@ def test_overflow_is_counted_not_written(device):
     counts = sim.contact_count.cpu()
     assert torch.all(counts == counts[0]) and counts[0] > 2  # more than fit: the overflow
     assert sim.contact_geom.shape == (3, 2, 2)
+    with pytest.warns(RuntimeWarning, match=r"3 of 3 envs found more than their 2 contact slots.*"
+                                            r"contacts_per_env"):
+        assert sim.contact_overflow() == 3
+    sim.step()  # the solver uses the slots that exist; the rest were dropped
+    assert torch.isfinite(sim.q).all()
 
 
 def test_unsupported_pair_is_an_error():

@@ -68,10 +68,7 @@ def demo(args) -> int:
     print(f"  first body's height: min {root_height.min():.3f}, mean {root_height.mean():.3f}, "
           f"max {root_height.max():.3f} m; contacts per env: mean "
           f"{sim.contact_count.float().mean():.1f}, max {int(sim.contact_count.max())}")
-    overflow = (sim.contact_count > sim.params.contacts_per_env).sum()
-    if overflow:
-        print(f"  {int(overflow)} envs had more contacts than their {sim.params.contacts_per_env} "
-              "slots: raise SimParams(contacts_per_env=...)")
+    sim.contact_overflow()  # warns, naming the capacity to raise, if contacts were dropped
     return 0 if bool(finite.all()) else 1
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 
 import numpy as np
 import torch
@@ -201,6 +202,7 @@ class Simulator:
         self.h = params.dt / params.substeps
         self._graph = None
         self._jac = {}
+        self._warned_overflow = False
 
         N, dev = num_envs, self.device
         m = model
@@ -476,6 +478,22 @@ class Simulator:
     def _integrate(self) -> None:
         self._launch(integrate.integrate, self.num_envs,
                      [self._m, self._dq, self._q, self._qd, self._nonfinite])
+
+    def contact_overflow(self) -> int:
+        """Number of envs whose contacts did not all fit their slots in the last substep.
+
+        The extra contacts were dropped (never written elsewhere). The first time any overflow is
+        seen, a warning names the capacity to raise. Reads the device: call it from the host
+        loop now and then, not inside a captured step.
+        """
+        over = int((self.contact_count > self._contacts.capacity).sum())
+        if over and not self._warned_overflow:
+            self._warned_overflow = True
+            warnings.warn(f"{over} of {self.num_envs} envs found more than their "
+                          f"{self._contacts.capacity} contact slots (most: "
+                          f"{int(self.contact_count.max())}); raise "
+                          "SimParams(contacts_per_env=...)", RuntimeWarning, stacklevel=2)
+        return over
 
     @property
     def sensor_data(self) -> torch.Tensor:
