@@ -157,13 +157,3 @@ def test_overflow_is_counted_not_written(device):
         assert sim.contact_overflow() == 3
     sim.step()  # the solver uses the slots that exist; the rest were dropped
     assert torch.isfinite(sim.q).all()
-
-
-def test_unsupported_pair_is_an_error():
-    model = myriad.load_xml("""<mujoco><asset><hfield name="h" nrow="2" ncol="2" size="1 1 .1 .1"/></asset>
-      <worldbody><geom type="hfield" hfield="h"/>
-      <body><freejoint/><geom name="can" type="cylinder" size="0.1 0.2"/></body></worldbody></mujoco>""",
-                            "terrain_scene")
-    with pytest.raises(myriad.ModelError, match=r"terrain_scene: no narrowphase yet .*hfield"):
-        myriad.Simulator(model)
-    myriad.Simulator(model, params=myriad.SimParams(constraints=False))  # fine without contacts

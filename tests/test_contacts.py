@@ -174,3 +174,44 @@ def test_convex_shapes_come_to_rest_on_the_floor(geom, rest_height, device):
     assert sim.q[0, 2].item() == pytest.approx(rest_height, abs=2e-3)
     assert sim.qd[0].abs().max().item() < 1e-2
     np.testing.assert_allclose(sim.q[0, 3:7].abs().cpu().numpy(), [0, 0, 0, 1], atol=1e-2)  # upright
+
+
+def _terrain(heights: np.ndarray, size: str, body: str) -> myriad.Model:
+    nrow, ncol = heights.shape
+    elevation = " ".join(f"{h:.6f}" for h in heights.ravel())
+    return myriad.load_xml(f"""<mujoco><asset><hfield name="terrain" nrow="{nrow}" ncol="{ncol}"
+      size="{size}" elevation="{elevation}"/></asset><worldbody>
+      <geom type="hfield" hfield="terrain"/>{body}</worldbody></mujoco>""", "terrain")
+
+
+def test_box_rests_on_a_flat_height_field(device):
+    heights = np.ones((5, 5))
+    heights[0, 0] = 0.0  # MuJoCo normalizes elevations to [0, 1]: one low corner, a 0.2 m plateau
+    model = _terrain(heights, "2 2 0.2 0.1", '<body pos="0.3 0.2 0.5"><freejoint/>'
+                     '<geom type="box" size="0.1 0.1 0.1" mass="1"/></body>')
+    sim = myriad.Simulator(model, num_envs=1, device=device, params=ISAAC)
+    for _ in range(240):
+        sim.step()
+    assert sim.q[0, 2].item() == pytest.approx(0.2 + 0.1, abs=2e-3)
+    assert sim.qd[0].abs().max().item() < 1e-2
+
+
+def test_sphere_rolls_down_a_height_field_ramp_at_five_sevenths_g_sin(device):
+    """Rolling without slipping: a = 5/7 g sin(theta) for a solid sphere."""
+    slope = 0.25  # rise over run along x
+    x = np.linspace(-2.0, 2.0, 9)
+    heights = np.tile((slope * (x + 2.0)) / 1.0, (5, 1))  # top height 1 m: data = height in m
+    model = _terrain(heights, "2 2 1 0.1", '<body pos="0.5 0 1.5"><freejoint/>'
+                     '<geom type="sphere" size="0.1" mass="1"/></body>')
+    sim = myriad.Simulator(model, num_envs=1, device=device, params=ISAAC)
+    theta = np.arctan(slope)
+    # place it on the ramp, at rest
+    sim.q[0, 2] = slope * (0.5 + 2.0) + 0.1 / np.cos(theta)
+    for _ in range(10):
+        sim.step()
+    v0 = sim.qd[0, :3].cpu().numpy().copy()
+    for _ in range(30):
+        sim.step()
+    accel = np.linalg.norm(sim.qd[0, :3].cpu().numpy() - v0) / 0.5
+    assert accel == pytest.approx(5 / 7 * 9.81 * np.sin(theta), rel=0.03)
+    assert sim.qd[0, 0].item() < 0  # downhill, toward -x

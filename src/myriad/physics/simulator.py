@@ -17,7 +17,6 @@ import warp as wp
 
 from . import (collision, constraints, dynamics, forces, integrate, kinematics, sensors,
                solver_tgs)
-from .collision.narrowphase import unsupported_pairs
 from .model import Model, ModelError
 from .structs import EnvParams, ModelArrays
 
@@ -272,10 +271,6 @@ class Simulator:
 
         # collision: candidate pairs fixed now; contacts go to per-env slots
         pairs = collision.candidate_pairs(model) if params.constraints else np.zeros((0, 2))
-        missing = unsupported_pairs(model, pairs)
-        if missing:
-            raise ModelError(f"{model.source}: no narrowphase yet for geom type pairs {missing}; "
-                             "filter them out with contype/conaffinity or <exclude>")
         self._pairs = wp.array(pairs, dtype=wp.vec2i, device=dev)
         self._geom_type = wp.array(m.geom_type, dtype=wp.int32, device=dev)
         self._geom_size = wp.array(m.geom_size, dtype=wp.vec3, device=dev)
@@ -287,6 +282,12 @@ class Simulator:
         self._meshes.vert = wp.array(m.mesh_vert.reshape(-1, 3), dtype=wp.vec3, device=dev)
         self._meshes.vertadr = wp.array(m.mesh_vertadr, dtype=wp.int32, device=dev)
         self._meshes.vertnum = wp.array(m.mesh_vertnum, dtype=wp.int32, device=dev)
+        self._hfields = collision.HFields()
+        self._hfields.size = wp.array(m.hfield_size.reshape(-1, 4), dtype=wp.vec4, device=dev)
+        self._hfields.nrow = wp.array(m.hfield_nrow, dtype=wp.int32, device=dev)
+        self._hfields.ncol = wp.array(m.hfield_ncol, dtype=wp.int32, device=dev)
+        self._hfields.adr = wp.array(m.hfield_adr, dtype=wp.int32, device=dev)
+        self._hfields.data = wp.array(m.hfield_data, dtype=wp.float32, device=dev)
         self._geom_x = zeros(N, m.ngeom, dtype=wp.transform)
         self._contacts = collision.ContactBuffers(N, params.contacts_per_env if len(pairs) else 0,
                                                   dev)
@@ -418,7 +419,7 @@ class Simulator:
         if len(self._pairs):
             self._launch(collision.narrowphase, (n, len(self._pairs)), [
                 self._pairs, self._geom_type, self._geom_size, self._geom_dataid, self._meshes,
-                self._geom_x,
+                self._hfields, self._geom_x,
                 self.params.contact_offset, c.capacity, c.count, c.geom, c.key, c.pos, c.normal,
                 c.dist])
 

@@ -14,13 +14,14 @@ import numpy as np
 import warp as wp
 
 from .convex import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, Meshes, convex_contact, support
+from .heightfield import HFields, ellipsoid_probe, probe_point, surface
 
 PLANE = wp.constant(0)
+HFIELD = wp.constant(1)
 
-# (type1, type2) with type1 <= type2, MuJoCo geom type numbers: closed forms for planes, spheres,
-# capsules and boxes; MPR for every other pair of convex shapes (ellipsoid, cylinder, mesh)
-CONVEX = (2, 3, 4, 5, 6, 7)
-SUPPORTED_PAIRS = {(0, t) for t in CONVEX} | {(a, b) for a in CONVEX for b in CONVEX if a <= b}
+# probes per shape against a height field (see heightfield.probe_point); meshes: at most this many
+# of their vertices (the hull's vertices come first in MuJoCo's mesh data)
+HFIELD_PROBES = wp.constant(32)
 
 # up to 8 polygon points (rows: u, v, height) while clipping a face against another
 poly8 = wp.types.matrix(shape=(8, 3), dtype=float)
@@ -495,7 +496,7 @@ def _plane_mesh(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x2: w
 @wp.kernel
 def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.int32),
                 geom_size: wp.array(dtype=wp.vec3), geom_dataid: wp.array(dtype=wp.int32),
-                meshes: Meshes, geom_x: wp.array2d(dtype=wp.transform),
+                meshes: Meshes, hfields: HFields, geom_x: wp.array2d(dtype=wp.transform),
                 margin: float, capacity: int, count: wp.array(dtype=wp.int32),
                 c_geom: wp.array2d(dtype=wp.vec2i), c_key: wp.array2d(dtype=wp.int32),
                 c_pos: wp.array2d(dtype=wp.vec3),
@@ -524,7 +525,7 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
                 if t2 == CAPSULE:
                     center = _segment(x2, s2[1], 2.0 * float(k) - 1.0)
                 dist = wp.dot(center - c1, n) - s2[0]
-                _emit(e, pair, p * 8 + k, center - n * (s2[0] + 0.5 * dist), n, dist, margin,
+                _emit(e, pair, p * 32 + k, center - n * (s2[0] + 0.5 * dist), n, dist, margin,
                       capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
         elif t2 == BOX:
             # corners below the offset, at most four (a box resting on a face touches with four)
@@ -541,21 +542,38 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
                 dist = wp.dot(point - c1, n)
                 if dist < margin and found < 4:
                     found += 1
-                    _emit(e, pair, p * 8 + k, point - n * (0.5 * dist), n, dist, margin, capacity,
+                    _emit(e, pair, p * 32 + k, point - n * (0.5 * dist), n, dist, margin, capacity,
                           count, c_geom, c_key, c_pos, c_normal, c_dist)
         elif t2 == ELLIPSOID:
             point = support(t2, s2, -1, meshes, x2, -n, 0.0)
             dist = wp.dot(point - c1, n)
-            _emit(e, pair, p * 8, point - n * (0.5 * dist), n, dist, margin, capacity, count,
+            _emit(e, pair, p * 32, point - n * (0.5 * dist), n, dist, margin, capacity, count,
                   c_geom, c_key, c_pos, c_normal, c_dist)
         elif t2 == CYLINDER:
-            _plane_cylinder(e, pair, p * 8, c1, n, x2, s2, margin, capacity, count, c_geom, c_key,
+            _plane_cylinder(e, pair, p * 32, c1, n, x2, s2, margin, capacity, count, c_geom, c_key,
                             c_pos, c_normal, c_dist)
         elif t2 == MESH:
-            _plane_mesh(e, pair, p * 8, c1, n, x2, geom_dataid[g2], meshes, margin, capacity,
+            _plane_mesh(e, pair, p * 32, c1, n, x2, geom_dataid[g2], meshes, margin, capacity,
                         count, c_geom, c_key, c_pos, c_normal, c_dist)
+    elif t1 == HFIELD:
+        h = geom_dataid[g1]
+        if t2 == ELLIPSOID:
+            point = ellipsoid_probe(hfields, h, x1, s2, meshes, x2)
+            found, n, dist = surface(hfields, h, x1, point)
+            if found != 0:
+                _emit(e, pair, p * 32, point - n * (0.5 * dist), n, dist, margin, capacity, count,
+                      c_geom, c_key, c_pos, c_normal, c_dist)
+        else:
+            for k in range(HFIELD_PROBES):
+                valid, point, radius = probe_point(t2, s2, geom_dataid[g2], meshes, x2, k)
+                if valid != 0:
+                    found, n, height = surface(hfields, h, x1, point)
+                    if found != 0:
+                        dist = height - radius
+                        _emit(e, pair, p * 32 + k, point - n * (radius + 0.5 * dist), n, dist,
+                              margin, capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
     elif t1 == SPHERE and t2 != SPHERE and t2 != CAPSULE and t2 != BOX:
-        _convex(e, pair, p * 8, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
+        _convex(e, pair, p * 32, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
                 margin, capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
     elif t1 == SPHERE:
         if t2 == SPHERE or t2 == CAPSULE:
@@ -563,11 +581,11 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
             if t2 == CAPSULE:
                 other = _closest_on_segment(_segment(x2, s2[1], -1.0), _segment(x2, s2[1], 1.0), c1)
             n, dist, pos = _spheres(c1, s1[0], other, s2[0])
-            _emit(e, pair, p * 8, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos,
+            _emit(e, pair, p * 32, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos,
                   c_normal, c_dist)
         elif t2 == BOX:
             n, dist, pos = _sphere_box(c1, s1[0], x2, s2)
-            _emit(e, pair, p * 8, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos,
+            _emit(e, pair, p * 32, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos,
                   c_normal, c_dist)
     elif t1 == CAPSULE and t2 == CAPSULE:
         a1 = _segment(x1, s1[1], -1.0)
@@ -576,16 +594,16 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
         b2 = _segment(x2, s2[1], 1.0)
         st = _closest_between_segments(a1, b1, a2, b2)
         n, dist, pos = _spheres(a1 + (b1 - a1) * st[0], s1[0], a2 + (b2 - a2) * st[1], s2[0])
-        _emit(e, pair, p * 8, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos,
+        _emit(e, pair, p * 32, pos, n, dist, margin, capacity, count, c_geom, c_key, c_pos,
               c_normal, c_dist)
     elif t1 == CAPSULE and t2 == BOX:
-        _capsule_box(e, pair, p * 8, x1, s1, x2, s2, margin, capacity, count, c_geom, c_key, c_pos,
+        _capsule_box(e, pair, p * 32, x1, s1, x2, s2, margin, capacity, count, c_geom, c_key, c_pos,
                      c_normal, c_dist)
     elif t1 == BOX and t2 == BOX:
-        _box_box(e, pair, p * 8, x1, s1, x2, s2, margin, capacity, count, c_geom, c_key, c_pos,
+        _box_box(e, pair, p * 32, x1, s1, x2, s2, margin, capacity, count, c_geom, c_key, c_pos,
                  c_normal, c_dist)
     else:
-        _convex(e, pair, p * 8, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
+        _convex(e, pair, p * 32, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
                 margin, capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
 
 
@@ -599,15 +617,3 @@ def geom_poses(geom_body: wp.array(dtype=wp.int32), geom_pos: wp.array(dtype=wp.
     if b >= 0:
         x = body_x[e, b] * x
     geom_x[e, g] = x
-
-
-def unsupported_pairs(model, pairs: np.ndarray) -> list[tuple[str, str]]:
-    """Type names of candidate pairs the narrowphase cannot handle yet."""
-    from ..model import GEOM_TYPES
-
-    missing = set()
-    for g1, g2 in pairs:
-        key = (int(model.geom_type[g1]), int(model.geom_type[g2]))
-        if key not in SUPPORTED_PAIRS:
-            missing.add((GEOM_TYPES[key[0]], GEOM_TYPES[key[1]]))
-    return sorted(missing)
