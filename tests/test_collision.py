@@ -144,6 +144,17 @@ def test_candidate_pairs_follow_mujoco_filters():
                      ("ga", "gc"), ("gb", "gd"), ("gc", "gd")}
 
 
+def test_self_collision_switch():
+    model = myriad.load(myriad.asset_path("humanoid.xml"))
+    names = model.geom_names
+    with_self = {tuple(sorted((names[a], names[b]))) for a, b in candidate_pairs(model)}
+    without = {tuple(sorted((names[a], names[b]))) for a, b in candidate_pairs(model, False)}
+    assert ("left_hand", "right_hand") in with_self
+    assert all("floor" in pair for pair in without) and len(without) > 0
+    root = model.body_index("torso")
+    assert {tuple(sorted((names[a], names[b]))) for a, b in candidate_pairs(model, {root: False})} == without
+
+
 def test_overflow_is_counted_not_written(device):
     model = myriad.load_xml(_scene(0), "scene0")
     sim = myriad.Simulator(model, num_envs=3, device=device,

@@ -41,6 +41,7 @@ class SimParams:
     max_joint_velocity: float = 100.0     # default per-dof speed cap (PhysX's default), rad/s or m/s
     contacts_per_env: int = 64            # contact capacity of each env
     constraints: bool = True              # False: smooth dynamics only (no contacts, no limits)
+    self_collisions: bool = True          # bodies of one articulation collide with each other
 
     def __post_init__(self):
         def bad(field, why):
@@ -270,7 +271,8 @@ class Simulator:
         self._dof_max_velocity = tiled(np.full(m.nv, params.max_joint_velocity, np.float32))
 
         # collision: candidate pairs fixed now; contacts go to per-env slots
-        pairs = collision.candidate_pairs(model) if params.constraints else np.zeros((0, 2))
+        pairs = (collision.candidate_pairs(model, params.self_collisions) if params.constraints
+                 else np.zeros((0, 2)))
         self._pairs = wp.array(pairs, dtype=wp.vec2i, device=dev)
         self._geom_type = wp.array(m.geom_type, dtype=wp.int32, device=dev)
         self._geom_size = wp.array(m.geom_size, dtype=wp.vec3, device=dev)

@@ -12,10 +12,15 @@ from __future__ import annotations
 import numpy as np
 
 
-def candidate_pairs(model) -> np.ndarray:
-    """[npair, 2] geom indices of every pair that may collide."""
+def candidate_pairs(model, self_collision=True) -> np.ndarray:
+    """[npair, 2] geom indices of every pair that may collide.
+
+    `self_collision`: whether the bodies of one articulation (a tree below the world) collide with
+    each other: one bool for all trees, or one per tree root body (a dict {root body: bool}).
+    """
     body = model.geom_body
     parent = np.where(body >= 0, model.body_parent[np.maximum(body, 0)], -2)
+    root = np.where(body >= 0, model.body_root[np.maximum(body, 0)], -1)
     excluded = {tuple(sorted(p)) for p in model.exclude_body_pairs.tolist()}
     pairs = []
     for g1 in range(model.ngeom):
@@ -30,6 +35,11 @@ def candidate_pairs(model) -> np.ndarray:
                 continue                       # parent and child (the world is nobody's parent here)
             if tuple(sorted((b1, b2))) in excluded:
                 continue
+            if b1 >= 0 and root[g1] == root[g2]:
+                allowed = self_collision if isinstance(self_collision, bool) \
+                    else self_collision.get(int(root[g1]), True)
+                if not allowed:
+                    continue
             if model.geom_type[g1] <= model.geom_type[g2]:
                 pairs.append((g1, g2))
             else:
