@@ -40,6 +40,19 @@ def _sgn(x: float):
 
 
 @wp.func
+def box_corner(half: wp.vec3, k: int):
+    """Corner k (0-7) of a box: bit 0, 1, 2 of k flip x, y, z to the negative side."""
+    corner = wp.vec3(half[0], half[1], half[2])
+    if k & 1:
+        corner[0] = -corner[0]
+    if k & 2:
+        corner[1] = -corner[1]
+    if k & 4:
+        corner[2] = -corner[2]
+    return corner
+
+
+@wp.func
 def support_local(t: int, size: wp.vec3, mesh: int, meshes: Meshes, d: wp.vec3):
     """The shape's farthest point along d, in its own frame."""
     if t == SPHERE:

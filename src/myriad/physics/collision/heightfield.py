@@ -9,7 +9,7 @@ legged robots; it is exact on a triangle's face and approximates where a shape s
 
 import warp as wp
 
-from .convex import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, Meshes, support
+from .convex import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, Meshes, box_corner, support
 
 
 @wp.struct
@@ -69,14 +69,7 @@ def probe_point(t: int, size: wp.vec3, mesh: int, meshes: Meshes, x: wp.transfor
             return 1, wp.transform_point(x, wp.vec3(0.0, 0.0, size[1] * float(k - 1))), size[0]
     elif t == BOX:
         if k < 8:
-            corner = wp.vec3(size[0], size[1], size[2])
-            if k & 1:
-                corner[0] = -corner[0]
-            if k & 2:
-                corner[1] = -corner[1]
-            if k & 4:
-                corner[2] = -corner[2]
-            return 1, wp.transform_point(x, corner), 0.0
+            return 1, wp.transform_point(x, box_corner(size, k)), 0.0
     elif t == CYLINDER:
         if k < 16:
             angle = float(k % 8) * 0.7853981633974483

@@ -13,7 +13,8 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from .convex import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, Meshes, convex_contact, support
+from .convex import (BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, Meshes, box_corner,
+                     convex_contact, support)
 from .heightfield import HFields, ellipsoid_probe, probe_point, surface
 
 PLANE = wp.constant(0)
@@ -531,14 +532,7 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
             # corners below the offset, at most four (a box resting on a face touches with four)
             found = int(0)
             for k in range(8):
-                corner = wp.vec3(s2[0], s2[1], s2[2])
-                if k & 1:
-                    corner[0] = -corner[0]
-                if k & 2:
-                    corner[1] = -corner[1]
-                if k & 4:
-                    corner[2] = -corner[2]
-                point = wp.transform_point(x2, corner)
+                point = wp.transform_point(x2, box_corner(s2, k))
                 dist = wp.dot(point - c1, n)
                 if dist < margin and found < 4:
                     found += 1
