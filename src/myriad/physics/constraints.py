@@ -101,61 +101,58 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
     ncontact = wp.min(contact_count[e], contact_capacity)
     # slots past the contact count are skipped by the solver: only the used ones are built
     for k in range(ncontact):
+        pair = contact_geom[e, k]
+        b1 = geom_body[pair[0]]
+        b2 = geom_body[pair[1]]
+        n = contact_normal[e, k]
+        p = contact_pos[e, k]
+        # tangent basis: any orthonormal pair (the friction disk is isotropic)
+        t1 = wp.cross(n, wp.vec3(1.0, 0.0, 0.0))
+        if wp.length_sq(t1) < 1.0e-6:
+            t1 = wp.cross(n, wp.vec3(0.0, 1.0, 0.0))
+        t1 = wp.normalize(t1)
+        t2 = wp.cross(n, t1)
+        mu = 0.5 * (geom_friction[e, pair[0]] + geom_friction[e, pair[1]])
+        restitution = 0.5 * (geom_restitution[e, pair[0]] + geom_restitution[e, pair[1]])
         for d in range(3):
-            row_type[e, 3 * k + d] = INACTIVE
-        if k < ncontact:
-            pair = contact_geom[e, k]
-            b1 = geom_body[pair[0]]
-            b2 = geom_body[pair[1]]
-            n = contact_normal[e, k]
-            p = contact_pos[e, k]
-            # tangent basis: any orthonormal pair (the friction disk is isotropic)
-            t1 = wp.cross(n, wp.vec3(1.0, 0.0, 0.0))
-            if wp.length_sq(t1) < 1.0e-6:
-                t1 = wp.cross(n, wp.vec3(0.0, 1.0, 0.0))
-            t1 = wp.normalize(t1)
-            t2 = wp.cross(n, t1)
-            mu = 0.5 * (geom_friction[e, pair[0]] + geom_friction[e, pair[1]])
-            restitution = 0.5 * (geom_restitution[e, pair[0]] + geom_restitution[e, pair[1]])
-            for d in range(3):
-                r = 3 * k + d
-                direction = n
-                kind = NORMAL
-                if d == 1:
-                    direction = t1
-                    kind = FRICTION
-                elif d == 2:
-                    direction = t2
-                    kind = FRICTION2
-                for i in range(nv):
-                    jac[e, r, i] = 0.0
-                # relative velocity of body 2's point with respect to body 1's, along direction
-                _add_point_jacobian(m, e, b2, p, direction, 1.0, body_x, cdof, jac, r)
-                _add_point_jacobian(m, e, b1, p, direction, -1.0, body_x, cdof, jac, r)
-                _finish_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, kind)
-                row_mu[e, r] = mu
-                row_dir[e, r] = direction
-                row_err[e, r] = 0.0
-                row_bounce[e, r] = 0.0
-                if d == 0:
-                    row_err[e, r] = contact_dist[e, k] - rest_offset
-                    # approach speed before the solve (unconstrained velocity qd + h·qacc)
-                    approach = _row_dot(jac, e, r, qd, nv) + h * _row_dot(jac, e, r, qacc, nv)
-                    if approach < -bounce_threshold:
-                        row_bounce[e, r] = -restitution * approach
-            # friction needs its normal row: without it, drop the contact
-            if row_type[e, 3 * k] == INACTIVE:
-                row_type[e, 3 * k + 1] = INACTIVE
-                row_type[e, 3 * k + 2] = INACTIVE
-            # warm start from the same contact (same pair and feature) of the last substep
-            same = int(-1)
-            for j in range(prev_count[e]):
-                if same < 0 and prev_key[e, j] == contact_key[e, k]:
-                    same = j
-            for d in range(3):
-                lam_init[e, 3 * k + d] = 0.0
-                if same >= 0 and row_type[e, 3 * k + d] != INACTIVE:
-                    lam_init[e, 3 * k + d] = lam[e, 3 * same + d]
+            r = 3 * k + d
+            direction = n
+            kind = NORMAL
+            if d == 1:
+                direction = t1
+                kind = FRICTION
+            elif d == 2:
+                direction = t2
+                kind = FRICTION2
+            for i in range(nv):
+                jac[e, r, i] = 0.0
+            # relative velocity of body 2's point with respect to body 1's, along direction
+            _add_point_jacobian(m, e, b2, p, direction, 1.0, body_x, cdof, jac, r)
+            _add_point_jacobian(m, e, b1, p, direction, -1.0, body_x, cdof, jac, r)
+            _finish_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, kind)
+            row_mu[e, r] = mu
+            row_dir[e, r] = direction
+            row_err[e, r] = 0.0
+            row_bounce[e, r] = 0.0
+            if d == 0:
+                row_err[e, r] = contact_dist[e, k] - rest_offset
+                # approach speed before the solve (unconstrained velocity qd + h·qacc)
+                approach = _row_dot(jac, e, r, qd, nv) + h * _row_dot(jac, e, r, qacc, nv)
+                if approach < -bounce_threshold:
+                    row_bounce[e, r] = -restitution * approach
+        # friction needs its normal row: without it, drop the contact
+        if row_type[e, 3 * k] == INACTIVE:
+            row_type[e, 3 * k + 1] = INACTIVE
+            row_type[e, 3 * k + 2] = INACTIVE
+        # warm start from the same contact (same pair and feature) of the last substep
+        same = int(-1)
+        for j in range(prev_count[e]):
+            if same < 0 and prev_key[e, j] == contact_key[e, k]:
+                same = j
+        for d in range(3):
+            lam_init[e, 3 * k + d] = 0.0
+            if same >= 0 and row_type[e, 3 * k + d] != INACTIVE:
+                lam_init[e, 3 * k + d] = lam[e, 3 * same + d]
     for k in range(ncontact):
         prev_key[e, k] = contact_key[e, k]
     prev_count[e] = ncontact

@@ -1,4 +1,4 @@
-"""Generalized forces of one substep: user forces, actuators, joint springs/dampers, tendon springs.
+"""Generalized forces of one substep: user forces, actuators, joint springs and dampers.
 
 Writes the explicit force `qfrc` (already minus the bias forces) and `implicit_diag`, the diagonal
 joint-space terms h·d + h²·k that the solve adds to the mass matrix. Implicit terms are exact for

@@ -10,7 +10,7 @@ import warp as wp
 
 from . import model as M
 from .spatial import motion_cross, velocity_at
-from .structs import EnvParams, ModelArrays
+from .structs import ModelArrays
 
 FREE = wp.constant(M.JOINT_FREE)
 BALL = wp.constant(M.JOINT_BALL)
@@ -118,14 +118,16 @@ def kinematics(m: ModelArrays, q: wp.array2d(dtype=float), qd: wp.array2d(dtype=
 
 
 @wp.kernel
-def site_poses(m: ModelArrays, body_x: wp.array2d(dtype=wp.transform),
-               site_x: wp.array2d(dtype=wp.transform)):
-    e, s = wp.tid()
-    x = wp.transform(m.site_pos[s], m.site_quat[s])
-    b = m.site_body[s]
+def attached_frames(body: wp.array(dtype=wp.int32), pos: wp.array(dtype=wp.vec3),
+                    quat: wp.array(dtype=wp.quat), body_x: wp.array2d(dtype=wp.transform),
+                    frame_x: wp.array2d(dtype=wp.transform)):
+    """World frames of things fixed to bodies (sites, geoms); body -1 is the world."""
+    e, i = wp.tid()
+    x = wp.transform(pos[i], quat[i])
+    b = body[i]
     if b >= 0:
         x = body_x[e, b] * x
-    site_x[e, s] = x
+    frame_x[e, i] = x
 
 
 @wp.func

@@ -17,7 +17,7 @@ import warp as wp
 
 from . import (collision, constraints, dynamics, forces, integrate, kinematics, sensors,
                solver_tgs)
-from .model import Model, ModelError
+from .model import Model
 from .structs import EnvParams, ModelArrays
 
 
@@ -363,7 +363,7 @@ class Simulator:
         self.bias_force = t(self._bias)           # [N, nv] C(q, qd)·qd + g(q)
         self.qacc = t(self._qacc)                 # [N, nv] acceleration of the last substep
         self.dof_actuator_force = t(self._qfrc_actuator)  # [N, nv] generalized actuator force
-        self.geom_pose = t(self._geom_x)          # [N, ngeom, 7] (after collide())
+        self.geom_pose = t(self._geom_x)          # [N, ngeom, 7] as of the last collision stage
         c = self._contacts
         self.contact_count = t(c.count)           # [N] contacts found (above capacity: overflow)
         self.contact_geom = t(c.geom)             # [N, capacity, 2] geom 1, geom 2
@@ -415,7 +415,7 @@ class Simulator:
         n, m, c = self.num_envs, self.model, self._contacts
         if c.capacity == 0:
             return
-        self._launch(collision.geom_poses, (n, m.ngeom), [
+        self._launch(kinematics.attached_frames, (n, m.ngeom), [
             self._geom_body, self._geom_pos, self._geom_quat, self._body_x, self._geom_x])
         c.count.zero_()
         if len(self._pairs):
@@ -434,8 +434,9 @@ class Simulator:
             self._body_vel, self._jnt_anchor, self._jnt_xaxis, self._cvel, self._cdof,
             self._cdof_dot])
         if self.model.nsite:
-            self._launch(kinematics.site_poses, (self.num_envs, self.model.nsite),
-                         [self._m, self._body_x, self._site_x])
+            self._launch(kinematics.attached_frames, (self.num_envs, self.model.nsite),
+                         [self._m.site_body, self._m.site_pos, self._m.site_quat, self._body_x,
+                          self._site_x])
 
     def _dynamics(self) -> None:
         self._launch(dynamics.mass_matrix, self.num_envs, [
@@ -472,8 +473,8 @@ class Simulator:
     def _solve_constraints(self) -> None:
         p = self.params
         self._launch(solver_tgs.solve, self.num_envs, [
-            self._m, self.nrow, self._contacts.capacity, self._contacts.count, self.h, p.position_iterations, p.velocity_iterations,
-            int(p.solver == "tgs"), p.max_depenetration_velocity, self._row_type, self._row_err,
+            self._m, self.nrow, self._contacts.capacity, self._contacts.count, self.h,
+            p.position_iterations, p.velocity_iterations, int(p.solver == "tgs"), p.max_depenetration_velocity, self._row_type, self._row_err,
             self._row_inv_mass, self._row_mu, self._row_bounce, self._row_k, self._row_d,
             self._jac_rows, self._minv_jt, self._lam_init, self._qacc, self._qd, self._qd_before,
             self._dq, self._lam])

@@ -2,7 +2,7 @@
 
 from .convex import Meshes
 from .heightfield import HFields
-from .narrowphase import ContactBuffers, geom_poses, narrowphase
+from .narrowphase import ContactBuffers, narrowphase
 from .pairs import candidate_pairs
 
-__all__ = ["HFields", "Meshes", "ContactBuffers", "candidate_pairs", "geom_poses", "narrowphase"]
+__all__ = ["HFields", "Meshes", "ContactBuffers", "candidate_pairs", "narrowphase"]

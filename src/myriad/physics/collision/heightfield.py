@@ -60,7 +60,6 @@ def surface(hf: HFields, h: int, x: wp.transform, point: wp.vec3):
 @wp.func
 def probe_point(t: int, size: wp.vec3, mesh: int, meshes: Meshes, x: wp.transform, k: int):
     """(valid, point, radius) of the k-th probe of a shape: the points that can touch first."""
-    rot = wp.transform_get_rotation(x)
     if t == SPHERE:
         if k == 0:
             return 1, wp.transform_get_translation(x), size[0]

@@ -10,7 +10,6 @@ nothing is ever written outside an env's slots.
 
 from __future__ import annotations
 
-import numpy as np
 import warp as wp
 
 from .convex import (BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, Meshes, box_corner,
@@ -599,15 +598,3 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
     else:
         _convex(e, pair, p * 32, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
                 margin, capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
-
-
-@wp.kernel
-def geom_poses(geom_body: wp.array(dtype=wp.int32), geom_pos: wp.array(dtype=wp.vec3),
-               geom_quat: wp.array(dtype=wp.quat), body_x: wp.array2d(dtype=wp.transform),
-               geom_x: wp.array2d(dtype=wp.transform)):
-    e, g = wp.tid()
-    x = wp.transform(geom_pos[g], geom_quat[g])
-    b = geom_body[g]
-    if b >= 0:
-        x = body_x[e, b] * x
-    geom_x[e, g] = x
