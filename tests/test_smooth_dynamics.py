@@ -127,6 +127,29 @@ def test_acceleration_error_is_bounded_by_conditioning(model, device):
         assert err < 10 * cond * 2.0**-23, (err, cond)
 
 
+def test_body_wrenches_act_like_mujoco_xfrc_applied(model, device):
+    """sim.body_force (force at the center of mass, torque; world) is MuJoCo's xfrc_applied:
+    the generalized force it adds, qacc·M difference, matches Jᵀ·wrench from MuJoCo."""
+    substep = 0.002
+    mj = model.mj_model
+    sim = myriad.Simulator(model, num_envs=NUM_ENVS, device=device,
+                           params=myriad.SimParams(dt=substep, substeps=1, constraints=False))
+    datas = _set_random_states(model, sim, seed=5)
+    rng = np.random.default_rng(6)
+    wrench = rng.normal(size=(NUM_ENVS, model.nbody, 6)) * 10.0
+    sim.body_force = torch.as_tensor(wrench, dtype=torch.float32)
+    sim._applied_forces()
+    applied = sim._qfrc_applied.numpy()
+    for e, d in enumerate(datas):
+        expected = np.zeros(mj.nv)
+        for b in range(model.nbody):
+            # qfrc of a force at the body's center of mass and a torque: J_comᵀ f + J_rotᵀ τ
+            mujoco.mj_applyFT(mj, d, wrench[e, b, :3], wrench[e, b, 3:], d.xipos[b + 1], b + 1,
+                              expected)
+        scale = np.abs(expected).max()
+        np.testing.assert_allclose(applied[e], expected, atol=1e-4 * scale)
+
+
 def test_site_poses_and_jacobians(device):
     model = myriad.load(myriad.asset_path("ant.xml"))
     assert model.nsite > 0

@@ -86,3 +86,32 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
                     implicit_diag[e, i] = h * p.dof_damping[e, i]
     for i in range(m.nv):
         qfrc[e, i] = qfrc[e, i] + qfrc_actuator[e, i]
+
+
+@wp.kernel
+def body_wrenches(m: ModelArrays, body_x: wp.array2d(dtype=wp.transform),
+                  body_com: wp.array2d(dtype=wp.vec3), cdof: wp.array2d(dtype=wp.spatial_vector),
+                  joint_force: wp.array2d(dtype=float),
+                  body_force: wp.array2d(dtype=wp.spatial_vector),
+                  # scratch: each body's wrench, then its subtree's, at the tree's reference point
+                  wrench: wp.array2d(dtype=wp.spatial_vector),
+                  qfrc_applied: wp.array2d(dtype=float)):
+    """qfrc_applied = joint_force + Jᵀ·(force at the center of mass, torque) of every body.
+
+    `body_force[e, b]` is (force, torque) in world axes, the force acting at the body's center of
+    mass. A dof feels the wrenches of all bodies it carries: Σ over its subtree, projected on the
+    dof's motion vector (so no per-body Jacobian is ever formed).
+    """
+    e = wp.tid()
+    for b in range(m.nbody):
+        f = wp.spatial_top(body_force[e, b])
+        torque = wp.spatial_bottom(body_force[e, b])
+        arm = body_com[e, b] - wp.transform_get_translation(body_x[e, m.body_root[b]])
+        wrench[e, b] = wp.spatial_vector(torque + wp.cross(arm, f), f)
+    for k in range(m.nbody):
+        b = m.nbody - 1 - k
+        parent = m.body_parent[b]
+        if parent >= 0:
+            wrench[e, parent] = wrench[e, parent] + wrench[e, b]
+    for i in range(m.nv):
+        qfrc_applied[e, i] = joint_force[e, i] + wp.dot(cdof[e, i], wrench[e, m.dof_body[i]])

@@ -161,6 +161,7 @@ class Simulator:
     q = _View()              # [N, nq] generalized positions (quaternions xyzw)
     qd = _View()             # [N, nv] generalized velocities
     joint_force = _View()    # [N, nv] generalized force applied during the next step
+    body_force = _View()     # [N, nbody, 6] force at the center of mass, then torque; world axes
     ctrl = _View()           # [N, nu] actuator inputs
     # per-env parameters (each env may differ; domain randomization writes these)
     body_mass = _View()      # [N, nbody]
@@ -241,6 +242,9 @@ class Simulator:
         self._qd = zeros(N, m.nv)
         self._qacc = zeros(N, m.nv)
         self._joint_force = zeros(N, m.nv)
+        self._body_force = zeros(N, m.nbody, dtype=wp.spatial_vector)
+        self._qfrc_applied = zeros(N, m.nv)
+        self._wrench = zeros(N, m.nbody, dtype=wp.spatial_vector)
         self._ctrl = zeros(N, m.nu)
         # derived quantities
         self._body_x = zeros(N, m.nbody, dtype=wp.transform)
@@ -340,6 +344,7 @@ class Simulator:
         t = wp.to_torch
         self._views = {
             "q": t(self._q), "qd": t(self._qd), "joint_force": t(self._joint_force),
+            "body_force": t(self._body_force),
             "ctrl": t(self._ctrl),
             "body_mass": t(p.body_mass), "body_inertia": t(p.body_inertia),
             "geom_friction": t(self._geom_friction), "geom_restitution": t(self._geom_restitution),
@@ -447,8 +452,11 @@ class Simulator:
             self._cdof, self._cdof_dot, self._cacc, self._cfrc, self._bias])
 
     def _applied_forces(self) -> None:
+        self._launch(forces.body_wrenches, self.num_envs, [
+            self._m, self._body_x, self._body_com, self._cdof, self._joint_force, self._body_force,
+            self._wrench, self._qfrc_applied])
         self._launch(forces.generalized_forces, self.num_envs, [
-            self._m, self._p, self.h, self._q, self._qd, self._ctrl, self._joint_force, self._bias,
+            self._m, self._p, self.h, self._q, self._qd, self._ctrl, self._qfrc_applied, self._bias,
             self._qfrc_actuator, self._qfrc, self._implicit_diag])
 
     def _solve_unconstrained(self) -> None:
