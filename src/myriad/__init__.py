@@ -1,10 +1,23 @@
 """Myriad: massively parallel rigid-body physics and robot learning, on CPU and NVIDIA GPUs."""
 
+import os as _os
+import sys as _sys
 from importlib import resources as _resources
+
+# Videos are drawn by MuJoCo's offscreen renderer, whose OpenGL backend is fixed when MuJoCo is
+# imported: on a Linux machine without a display, use EGL (works on Mesa with no GPU).
+if _sys.platform.startswith("linux") and not _os.environ.get("DISPLAY"):
+    _os.environ.setdefault("MUJOCO_GL", "egl")
 
 from .physics import Model, ModelError, SimParams, Simulator, from_mujoco, load, load_xml
 
 __version__ = "0.1.0"
+
+
+def make(name: str, num_envs: int | None = None, device: str = "cpu", **overrides):
+    """Build a task by name (see `myriad.tasks.make`): ``myriad.make("Ant", num_envs=512)``."""
+    from .tasks import make as _make
+    return _make(name, num_envs=num_envs, device=device, **overrides)
 
 
 def asset_path(name: str) -> str:
@@ -17,4 +30,4 @@ def asset_path(name: str) -> str:
 
 
 __all__ = ["Model", "ModelError", "SimParams", "Simulator", "asset_path", "from_mujoco", "load",
-           "load_xml"]
+           "load_xml", "make"]

@@ -1,4 +1,13 @@
-"""`myriad` command line. `myriad demo` simulates a batch of envs and reports what happened."""
+"""`myriad` command line.
+
+    myriad train task=Ant [num_envs=N device=cpu|cuda:0 seed=S max_iterations=I max_time_s=T
+                           experiment=NAME checkpoint=PATH ...]   train with rl_games PPO
+    myriad play task=Ant [checkpoint=PATH num_steps=1000 video=out.mp4]   video of a policy
+    myriad demo [--model FILE ...]                                 simulate under random actions
+
+train and play take Hydra overrides: any key of cfg/config.yaml, and task.* / train.* keys of
+the task's configs (e.g. task.env.episodeLength=500, train.params.config.learning_rate=1e-4).
+"""
 
 from __future__ import annotations
 
@@ -72,9 +81,36 @@ def demo(args) -> int:
     return 0 if bool(finite.all()) else 1
 
 
+def _hydra_command(command: str, overrides: list[str]) -> int:
+    from .rl import run
+
+    if any(a in ("-h", "--help") for a in overrides):
+        print(__doc__)
+        return 0
+    try:
+        return {"train": run.train, "play": run.play}[command](overrides)
+    except KeyboardInterrupt:
+        print("interrupted (the last checkpoint is kept)", file=sys.stderr)
+        return 130
+    except Exception as err:
+        from hydra.errors import HydraException
+        from omegaconf.errors import OmegaConfBaseException
+
+        if isinstance(err, (HydraException, OmegaConfBaseException, ValueError, KeyError,
+                            FileNotFoundError, RuntimeError)):
+            print(f"myriad {command}: error: {err}", file=sys.stderr)
+            return 2
+        raise
+
+
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] in ("train", "play"):
+        return _hydra_command(argv[0], argv[1:])
     parser = argparse.ArgumentParser(prog="myriad", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("train", help="train a task with PPO: myriad train task=Ant (Hydra overrides)")
+    sub.add_parser("play", help="video of a trained policy: myriad play task=Ant checkpoint=...")
     p = sub.add_parser("demo", help="simulate a batch of envs under random actions and report")
     p.add_argument("--model", help="MJCF or URDF file (default: Myriad's ant)")
     p.add_argument("--envs", type=int, help="number of envs (default 256 on CPU, 4096 on CUDA)")

@@ -1,0 +1,291 @@
+"""`Envs`: `num_envs` copies of a `Scene`, read and written as Isaac Gym-style tensors.
+
+State tensors are buffers on the simulation device, shaped per env, refreshed by `step()` and
+`forward()` (Isaac Gym's acquire + refresh in one):
+
+    root_states        [N, actors, 13]  position, quaternion xyzw, linear velocity (of the root
+                                        body's origin), angular velocity; world frame
+    dof_pos, dof_vel   [N, dofs]        hinge and slide joints of all actors, actor by actor
+    dof_state          [N, dofs, 2]     (position, velocity)
+    rigid_body_states  [N, bodies, 13]  as root_states, for every body
+    net_contact_force  [N, bodies, 3]   sum of contact forces on each body, world frame
+    force_sensors      [N, sensors, 6]  force, torque from the parent, in the sensor site frame
+    dof_forces         [N, dofs]        effort + drive + joint-limit/friction force on each dof
+
+Writers take tensors on the simulation device, float32, of the exact shape they document (or a
+subset of envs with `env_ids`); anything else raises `ValueError` naming the writer, the expected
+and the given shape, dtype and device. State writes take effect at once: `forward()` is run for
+you, so the tensors above already show the new state.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from ..physics import Model, SimParams, Simulator
+from ..physics.model import JOINT_FREE, JOINT_HINGE, JOINT_SLIDE
+
+
+def _quat_rotate(q: torch.Tensor, v: torch.Tensor, inverse: bool = False) -> torch.Tensor:
+    """Rotate v by the unit quaternions q (x, y, z, w), batched over leading dims."""
+    u, w = q[..., :3], q[..., 3:4]
+    if inverse:
+        u = -u
+    t = 2.0 * torch.cross(u, v, dim=-1)
+    return v + w * t + torch.cross(u, t, dim=-1)
+
+
+class Envs:
+    def __init__(self, model: Model, actors, drives: dict, ground: dict | None, num_envs: int,
+                 device, params: SimParams | None):
+        self.model, self.actors = model, list(actors)
+        self.sim = Simulator(model, num_envs=num_envs, device=device, params=params)
+        self.num_envs, self.device = num_envs, torch.device(self.sim.torch_device)
+        m = model
+
+        # --- index maps from actors / DOFs / bodies to the simulator's columns
+        self.actor_names = [a.name for a in self.actors]
+        body_actor = np.array([self.actor_names.index(n.split("/", 1)[0]) for n in m.body_names])
+        self.actor_root_body = [int(np.flatnonzero(body_actor == i)[0])
+                                for i in range(len(self.actors))]
+        self.actor_fixed = [bool(a.fix_base) for a in self.actors]
+        dof_joints = [j for j in range(m.njnt) if m.jnt_type[j] in (JOINT_HINGE, JOINT_SLIDE)]
+        self.dof_names = [m.joint_names[j] for j in dof_joints]
+        self.body_names = list(m.body_names)
+        self.sensor_names = [m.site_names[s] for s in self.sim.sensor_sites]
+        self.num_actors, self.num_dofs = len(self.actors), len(dof_joints)
+        self.num_bodies, self.num_sensors = m.nbody, len(self.sensor_names)
+        dof_actor = body_actor[m.jnt_body[dof_joints]] if dof_joints else np.zeros(0, int)
+        self.actor_dof_slices = {}
+        for i, name in enumerate(self.actor_names):
+            cols = np.flatnonzero(dof_actor == i)
+            self.actor_dof_slices[name] = slice(int(cols[0]), int(cols[-1]) + 1) if len(cols) \
+                else slice(0, 0)
+        long = dict(dtype=torch.long, device=self.device)
+        self._dof_q = torch.as_tensor(m.jnt_qposadr[dof_joints], **long)
+        self._dof_v = torch.as_tensor(m.jnt_dofadr[dof_joints], **long)
+        free_root = [i for i in range(self.num_actors) if not self.actor_fixed[i]]
+        for i in free_root:
+            b = self.actor_root_body[i]
+            if m.body_jntnum[b] != 1 or m.jnt_type[m.body_jntadr[b]] != JOINT_FREE:
+                raise ValueError(f"actor {self.actor_names[i]!r}: a free base needs its root body "
+                                 "to have exactly one joint, a free joint")
+        self._free_actors = torch.as_tensor(free_root, **long)
+        root_jnt = [m.body_jntadr[self.actor_root_body[i]] for i in free_root]
+        self._root_q = torch.as_tensor(m.jnt_qposadr[root_jnt], **long)
+        self._root_v = torch.as_tensor(m.jnt_dofadr[root_jnt], **long)
+        self._root_body = torch.as_tensor(self.actor_root_body, **long)
+        # drive actuators: the sim.ctrl column of each DOF's position or velocity drive
+        drive_col = np.full(self.num_dofs, -1)
+        for a, names in drives.items():
+            for n in names:
+                drive_col[self.dof_names.index(n[: -len("/drive")])] = m.actuator_names.index(n)
+        self._drive_dofs = torch.as_tensor(np.flatnonzero(drive_col >= 0), **long)
+        self._drive_ctrl = torch.as_tensor(drive_col[drive_col >= 0], **long)
+        if ground is not None:
+            self.sim.geom_restitution[:, m.geom_names.index("ground")] = ground["restitution"]
+
+        # --- state buffers
+        N, f32 = num_envs, dict(dtype=torch.float32, device=self.device)
+        self.root_states = torch.zeros(N, self.num_actors, 13, **f32)
+        self.dof_state = torch.zeros(N, self.num_dofs, 2, **f32)
+        self.dof_pos, self.dof_vel = self.dof_state[..., 0], self.dof_state[..., 1]
+        self.rigid_body_states = torch.zeros(N, m.nbody, 13, **f32)
+        self.net_contact_force = self.sim.net_contact_force            # [N, nbody, 3] view
+        self.force_sensors = self.sim.sensor_wrench                    # [N, nsensor, 6] view
+        self.dof_forces = torch.zeros(N, self.num_dofs, **f32)
+        self.dof_position_targets = torch.zeros(N, self.num_dofs, **f32)
+        self.dof_velocity_targets = torch.zeros(N, self.num_dofs, **f32)
+        self.refresh()
+
+    # ------------------------------------------------------------------ lookups
+    def _lookup(self, names: list[str], name: str, kind: str) -> int:
+        if name in names:
+            return names.index(name)
+        matches = [i for i, n in enumerate(names) if n.split("/", 1)[-1] == name]
+        if len(matches) == 1:
+            return matches[0]
+        if len(matches) > 1:
+            raise KeyError(f"{kind} {name!r} is ambiguous: {[names[i] for i in matches]}; "
+                           "use 'actor/name'")
+        raise KeyError(f"no {kind} named {name!r}; the {kind}s are {names}")
+
+    def actor_index(self, name: str) -> int:
+        return self._lookup(self.actor_names, name, "actor")
+
+    def dof_index(self, name: str) -> int:
+        return self._lookup(self.dof_names, name, "DOF")
+
+    def body_index(self, name: str) -> int:
+        return self._lookup(self.body_names, name, "body")
+
+    def sensor_index(self, name: str) -> int:
+        return self._lookup(self.sensor_names, name, "force sensor")
+
+    def dof_limits(self) -> torch.Tensor:
+        """[N, dofs, 2] lower, upper limit of each DOF (±inf where the joint is unlimited)."""
+        m = self.model
+        joints = m.dof_jnt[self._dof_v.cpu().numpy()]
+        rng = self.sim.joint_range[:, torch.as_tensor(joints, device=self.device)].clone()
+        unlimited = torch.as_tensor(~m.jnt_limited[joints].astype(bool), device=self.device)
+        rng[:, unlimited, 0], rng[:, unlimited, 1] = -torch.inf, torch.inf
+        return rng
+
+    # ------------------------------------------------------------------ stepping
+    def step(self) -> None:
+        """Advance every env by `sim.params.dt`; refresh the state tensors; clear body forces."""
+        self.sim.step()
+        self.sim.body_force.zero_()
+        self.refresh()
+
+    def forward(self) -> None:
+        """Recompute derived quantities after a state write; refresh the state tensors."""
+        self.sim.forward()
+        self.refresh()
+
+    def refresh(self) -> None:
+        sim = self.sim
+        pose, vel = sim.body_pose, sim.body_vel
+        self.rigid_body_states[..., :7] = pose
+        self.rigid_body_states[..., 7:] = vel
+        self.root_states.copy_(self.rigid_body_states[:, self._root_body])
+        self.dof_pos.copy_(sim.q[:, self._dof_q])
+        self.dof_vel.copy_(sim.qd[:, self._dof_v])
+        self.dof_forces.copy_((sim.joint_force + sim.dof_actuator_force
+                               + sim.dof_constraint_force)[:, self._dof_v])
+
+    # ------------------------------------------------------------------ writers
+    def _check(self, writer: str, value, shape: tuple) -> torch.Tensor:
+        if not isinstance(value, torch.Tensor):
+            raise ValueError(f"{writer}: expected a torch.Tensor of shape {shape}, got "
+                             f"{type(value).__name__}")
+        problems = []
+        if tuple(value.shape) != tuple(shape):
+            problems.append(f"shape {tuple(value.shape)} (expected {tuple(shape)})")
+        if value.dtype != torch.float32:
+            problems.append(f"dtype {value.dtype} (expected torch.float32)")
+        if value.device != self.device:
+            problems.append(f"device {value.device} (expected {self.device})")
+        if problems:
+            raise ValueError(f"{writer}: the tensor has " + ", ".join(problems))
+        return value
+
+    def _env_ids(self, writer: str, env_ids) -> torch.Tensor | slice:
+        """None -> all envs; a long tensor of env indices or a bool mask [N] -> index tensor."""
+        if env_ids is None:
+            return slice(None)
+        if not isinstance(env_ids, torch.Tensor) or env_ids.device != self.device:
+            raise ValueError(f"{writer}: env_ids must be a torch tensor on {self.device}")
+        if env_ids.dtype == torch.bool:
+            if env_ids.shape != (self.num_envs,):
+                raise ValueError(f"{writer}: a boolean env_ids mask must have shape "
+                                 f"({self.num_envs},), not {tuple(env_ids.shape)}")
+            return env_ids.nonzero().flatten()
+        if env_ids.dtype not in (torch.int32, torch.int64) or env_ids.dim() != 1:
+            raise ValueError(f"{writer}: env_ids must be a 1-D integer tensor (or a bool mask)")
+        return env_ids.long()
+
+    def _count(self, ids) -> int:
+        return self.num_envs if isinstance(ids, slice) else len(ids)
+
+    def set_root_states(self, states: torch.Tensor, env_ids=None) -> None:
+        """Teleport actors: states [len(env_ids) or N, actors, 13] as in `root_states`.
+
+        Rows of fixed-base actors are ignored: their base is welded to the world.
+        """
+        ids = self._env_ids("set_root_states", env_ids)
+        states = self._check("set_root_states", states,
+                             (self._count(ids), self.num_actors, 13))[:, self._free_actors]
+        quat = torch.nn.functional.normalize(states[..., 3:7], dim=-1)
+        omega_body = _quat_rotate(quat, states[..., 10:13], inverse=True)
+        q, qd = self.sim.q, self.sim.qd
+        rows = torch.arange(self.num_envs, device=self.device)[ids][:, None]
+        for k in range(3):
+            q[rows, self._root_q + k] = states[..., k]
+            qd[rows, self._root_v + k] = states[..., 7 + k]
+            qd[rows, self._root_v + 3 + k] = omega_body[..., k]
+        for k in range(4):
+            q[rows, self._root_q + 3 + k] = quat[..., k]
+        self.forward()
+
+    def set_dof_state(self, pos: torch.Tensor, vel: torch.Tensor, env_ids=None) -> None:
+        """Set DOF positions and velocities [len(env_ids) or N, dofs]."""
+        ids = self._env_ids("set_dof_state", env_ids)
+        shape = (self._count(ids), self.num_dofs)
+        pos = self._check("set_dof_state (pos)", pos, shape)
+        vel = self._check("set_dof_state (vel)", vel, shape)
+        rows = torch.arange(self.num_envs, device=self.device)[ids][:, None]
+        self.sim.q[rows, self._dof_q] = pos
+        self.sim.qd[rows, self._dof_v] = vel
+        self.forward()
+
+    def set_dof_efforts(self, efforts: torch.Tensor) -> None:
+        """Generalized force on each DOF [N, dofs], applied every step until changed."""
+        efforts = self._check("set_dof_efforts", efforts, (self.num_envs, self.num_dofs))
+        self.sim.joint_force[:, self._dof_v] = efforts
+
+    def set_dof_position_targets(self, targets: torch.Tensor) -> None:
+        """Targets [N, dofs] of the position drives (entries of other DOFs are kept, unused)."""
+        self.dof_position_targets.copy_(
+            self._check("set_dof_position_targets", targets, (self.num_envs, self.num_dofs)))
+        self.sim.ctrl[:, self._drive_ctrl] = self.dof_position_targets[:, self._drive_dofs]
+
+    def set_dof_velocity_targets(self, targets: torch.Tensor) -> None:
+        """Targets [N, dofs] of the velocity drives."""
+        self.dof_velocity_targets.copy_(
+            self._check("set_dof_velocity_targets", targets, (self.num_envs, self.num_dofs)))
+        self.sim.ctrl[:, self._drive_ctrl] = self.dof_velocity_targets[:, self._drive_dofs]
+
+    def apply_body_forces(self, forces: torch.Tensor | None = None,
+                          torques: torch.Tensor | None = None,
+                          positions: torch.Tensor | None = None, frame: str = "world") -> None:
+        """Forces and torques [N, bodies, 3] on bodies during the next `step()` only.
+
+        Forces act at the center of mass, or at `positions` [N, bodies, 3] (world points, or
+        points in the body frame with frame="local"). With frame="local" the vectors are in each
+        body's frame. Calls before one step add up.
+        """
+        if frame not in ("world", "local"):
+            raise ValueError(f"apply_body_forces: frame={frame!r}; valid: 'world', 'local'")
+        shape = (self.num_envs, self.num_bodies, 3)
+        rot = self.sim.body_pose[..., 3:7]
+        wrench = self.sim.body_force
+        if forces is not None:
+            f = self._check("apply_body_forces (forces)", forces, shape)
+            f = _quat_rotate(rot, f) if frame == "local" else f
+            wrench[..., :3] += f
+            if positions is not None:
+                p = self._check("apply_body_forces (positions)", positions, shape)
+                if frame == "local":
+                    p = _quat_rotate(rot, p) + self.sim.body_pose[..., :3]
+                wrench[..., 3:] += torch.cross(p - self.sim.body_com, f, dim=-1)
+        if torques is not None:
+            t = self._check("apply_body_forces (torques)", torques, shape)
+            wrench[..., 3:] += _quat_rotate(rot, t) if frame == "local" else t
+
+    # ------------------------------------------------------------------ per-articulation algebra
+    def jacobians(self, actor: str) -> torch.Tensor:
+        """[N, actor bodies, 6, actor dofs incl. a free base's 6] body-origin Jacobians (linear
+        rows first), columns in the simulator's dof order for that actor."""
+        bodies, cols = self._actor_columns(actor)
+        jac = self.sim.body_jacobians()
+        return jac[:, bodies][..., cols]
+
+    def mass_matrix(self, actor: str) -> torch.Tensor:
+        """[N, actor dofs, actor dofs] joint-space mass matrix (with armature) of one actor."""
+        _, cols = self._actor_columns(actor)
+        return self.sim.mass_matrix[:, cols][:, :, cols]
+
+    def _actor_columns(self, actor: str):
+        i = self.actor_index(actor)
+        m = self.model
+        prefix = self.actor_names[i] + "/"
+        bodies = [b for b, n in enumerate(m.body_names) if n.startswith(prefix)]
+        cols = [v for v in range(m.nv) if m.body_names[m.dof_body[v]].startswith(prefix)]
+        long = dict(dtype=torch.long, device=self.device)
+        return torch.as_tensor(bodies, **long), torch.as_tensor(cols, **long)
+
+    def __repr__(self) -> str:
+        return (f"Envs({self.num_envs} envs on {self.device}: actors {self.actor_names}, "
+                f"{self.num_dofs} dofs, {self.num_bodies} bodies, {self.num_sensors} sensors)")

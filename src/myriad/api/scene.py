@@ -1,0 +1,166 @@
+"""`Scene`: what one env holds (a ground and a list of actors), replicated `num_envs` times.
+
+An actor is one asset (an MJCF or URDF file whose world body has one child: an articulation or a
+single rigid body) placed at a start pose, with Isaac Gym's per-actor options: a fixed or free
+base, self-collisions on or off, and a drive mode for its hinge and slide joints (its DOFs).
+`Scene.build` composes all actors into one MuJoCo spec (element names become "actor/name"),
+compiles it, reads it into a `myriad.Model` and returns the batched `Envs`.
+
+Only bodies are taken from an asset file: geoms, sites and lights attached directly to its world
+body (a floor, say) are left out, as Isaac Gym does; `add_ground` gives the env a floor.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+
+import mujoco
+import numpy as np
+
+from ..physics import Model, ModelError, SimParams, from_mujoco
+
+DOF_MODES = ("effort", "position", "velocity", "none")
+
+
+@dataclasses.dataclass
+class Actor:
+    name: str
+    path: str
+    pos: tuple
+    quat: tuple                 # x, y, z, w
+    fix_base: bool
+    self_collisions: bool
+    dof_mode: str               # effort: set_dof_efforts; position / velocity: implicit PD drives
+    stiffness: float | list     # drive gains, one value or one per DOF of the actor
+    damping: float | list
+
+
+class Scene:
+    """Builder of one env; every env of the `Envs` it builds holds the same actors."""
+
+    def __init__(self):
+        self.actors: list[Actor] = []
+        self.ground: dict | None = None
+
+    def add_ground(self, friction: float = 1.0, restitution: float = 0.0) -> "Scene":
+        """A static plane z = 0 that every actor collides with."""
+        if not (friction >= 0 and 0 <= restitution <= 1):
+            raise ValueError(f"add_ground: friction={friction} must be >= 0 and "
+                             f"restitution={restitution} in [0, 1]")
+        self.ground = {"friction": float(friction), "restitution": float(restitution)}
+        return self
+
+    def add_actor(self, name: str, path: str | os.PathLike, pos=None, quat=(0, 0, 0, 1),
+                  fix_base: bool = False, self_collisions: bool = True, dof_mode: str = "effort",
+                  stiffness=0.0, damping=0.0) -> "Scene":
+        """Add an actor. `pos=None` keeps the root body's position from the file.
+
+        dof_mode: "effort" (forces from `Envs.set_dof_efforts`), "position" (implicit PD drive to
+        `set_dof_position_targets` with `stiffness`, `damping`), "velocity" (drive to
+        `set_dof_velocity_targets` with `damping`) or "none" (passive joints).
+        """
+        if not name or "/" in name:
+            raise ValueError(f"actor name {name!r}: must be non-empty and contain no '/'")
+        if any(a.name == name for a in self.actors):
+            raise ValueError(f"actor name {name!r} is used twice; actor names must be unique")
+        if dof_mode not in DOF_MODES:
+            raise ValueError(f"actor {name!r}: dof_mode={dof_mode!r}; valid: {DOF_MODES}")
+        if dof_mode == "position" and np.any(np.asarray(stiffness) <= 0):
+            raise ValueError(f"actor {name!r}: a position drive needs stiffness > 0")
+        if dof_mode == "velocity" and np.any(np.asarray(damping) <= 0):
+            raise ValueError(f"actor {name!r}: a velocity drive needs damping > 0")
+        if np.shape(quat) != (4,) or (pos is not None and np.shape(pos) != (3,)):
+            raise ValueError(f"actor {name!r}: pos must be 3 numbers and quat 4 (x, y, z, w)")
+        path = os.fspath(path)
+        if not os.path.isfile(path):
+            raise ModelError(f"{path}: no such model file (actor {name!r})")
+        self.actors.append(Actor(name, path, pos, tuple(quat), fix_base, self_collisions,
+                                 dof_mode, stiffness, damping))
+        return self
+
+    # ------------------------------------------------------------------ composition
+    def compose(self) -> tuple[mujoco.MjSpec, dict]:
+        """One MuJoCo spec of the whole env, and per actor the names of its drive actuators."""
+        if not self.actors:
+            raise ValueError("the scene has no actors: call add_actor first")
+        spec = mujoco.MjSpec()
+        spec.modelname = "+".join(a.name for a in self.actors)
+        spec.worldbody.add_light(pos=[0, 0, 6], dir=[0, 0, -1],
+                                 type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
+        spec.visual.headlight.ambient = [0.4, 0.4, 0.4]
+        spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+                         builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.6, 0.75, 0.9],
+                         rgb2=[0.1, 0.15, 0.2], width=256, height=256)
+        if self.ground is not None:
+            # the plane is infinite for collisions; its size only bounds the drawn checkerboard
+            spec.add_texture(name="checker", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                             builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.3, 0.33, 0.38],
+                             rgb2=[0.22, 0.25, 0.3], width=256, height=256)
+            spec.add_material(name="ground", textures=["", "checker"], texrepeat=[500, 500])
+            spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE,
+                                    size=[500, 500, 1], material="ground",
+                                    friction=[self.ground["friction"], 0.005, 0.0001])
+        drives = {}
+        for actor in self.actors:
+            drives[actor.name] = self._attach(spec, actor)
+        return spec, drives
+
+    def _attach(self, spec: mujoco.MjSpec, actor: Actor) -> list[str]:
+        try:
+            child = mujoco.MjSpec.from_file(actor.path)
+        except Exception as err:
+            raise ModelError(f"{actor.path}: MuJoCo rejected the model: {err}") from err
+        roots = child.worldbody.bodies
+        if len(roots) != 1:
+            raise ModelError(f"{actor.path}: an actor's file must have exactly one body under the "
+                             f"world body (one articulation or rigid body); it has {len(roots)}")
+        root = roots[0]
+        free = [j for j in root.joints if j.type == mujoco.mjtJoint.mjJNT_FREE]
+        if actor.fix_base:
+            for j in free:
+                child.delete(j)
+        elif not root.joints:
+            root.add_freejoint(name="root")
+        child.option.timestep = spec.option.timestep   # options are the simulator's, not the file's
+        child.option.gravity = spec.option.gravity
+        pos = root.pos.copy() if actor.pos is None else np.asarray(actor.pos, float)
+        x, y, z, w = actor.quat
+        root.pos, root.quat = [0, 0, 0], [1, 0, 0, 0]
+        frame = spec.worldbody.add_frame(pos=pos, quat=[w, x, y, z])
+        prefix = actor.name + "/"
+        frame.attach_body(root, prefix, "")
+
+        bodies = [b for b in spec.bodies if b.name.startswith(prefix)]
+        if not actor.self_collisions:
+            for i, b1 in enumerate(bodies):
+                for b2 in bodies[i + 1:]:
+                    spec.add_exclude(bodyname1=b1.name, bodyname2=b2.name)
+        joints = [j for b in bodies for j in b.joints
+                  if j.type in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)]
+        if actor.dof_mode not in ("position", "velocity"):
+            return []
+        stiffness = np.broadcast_to(np.asarray(actor.stiffness, float), (len(joints),))
+        damping = np.broadcast_to(np.asarray(actor.damping, float), (len(joints),))
+        names = []
+        for j, kp, kv in zip(joints, stiffness, damping):
+            act = spec.add_actuator(name=f"{j.name}/drive", target=j.name,
+                                    trntype=mujoco.mjtTrn.mjTRN_JOINT)
+            if actor.dof_mode == "position":
+                act.set_to_position(kp=float(kp), kv=float(kv))
+            else:
+                act.set_to_velocity(kv=float(kv))
+            names.append(act.name)
+        return names
+
+    def build(self, num_envs: int, device="cpu", params: SimParams | None = None):
+        """Compile the scene and allocate `num_envs` copies of it: returns `myriad.api.Envs`."""
+        from .envs import Envs
+
+        spec, drives = self.compose()
+        try:
+            mj_model = spec.compile()
+        except Exception as err:
+            raise ModelError(f"scene {spec.modelname!r}: MuJoCo rejected it: {err}") from err
+        model: Model = from_mujoco(mj_model, source=f"scene {spec.modelname!r}")
+        return Envs(model, self.actors, drives, self.ground, num_envs, device, params)

@@ -1,0 +1,1 @@
+"""Reinforcement learning glue: rl_games PPO (`train`) and policy playback with video (`play`)."""

@@ -1,0 +1,30 @@
+"""A trained rl_games policy as a plain function: observations -> deterministic actions."""
+
+from __future__ import annotations
+
+import torch
+from rl_games.algos_torch import torch_ext
+from rl_games.algos_torch.model_builder import ModelBuilder
+
+
+def load_policy(checkpoint: str, train_cfg: dict, task):
+    """The policy's mean action (clamped to [-1, 1]) for a batch of observations of `task`."""
+    params = train_cfg["params"]
+    config = params["config"]
+    network = ModelBuilder().load(params).build({
+        "actions_num": task.num_actions, "input_shape": (task.num_obs,), "num_seqs": 1,
+        "value_size": 1, "normalize_value": config.get("normalize_value", False),
+        "normalize_input": config.get("normalize_input", False)})
+    state = torch_ext.load_checkpoint(checkpoint)
+    try:
+        network.load_state_dict(state["model"])
+    except (RuntimeError, KeyError) as err:
+        raise ValueError(f"checkpoint {checkpoint} does not fit the {type(task).__name__} network "
+                         f"of the train config ({config.get('name')}): {err}") from err
+    network.to(task.device).eval()
+
+    def policy(obs: torch.Tensor) -> torch.Tensor:
+        out = network({"is_train": False, "prev_actions": None, "obs": obs, "rnn_states": None})
+        return torch.clamp(out["mus"], -1.0, 1.0)
+
+    return policy

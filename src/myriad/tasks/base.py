@@ -1,0 +1,143 @@
+"""`VecTask`: the batched RL environment every task derives from (the original's semantics).
+
+One `step(actions)`:
+  1. clip the actions to ±clipActions; `pre_physics_step(actions)` turns them into inputs
+  2. `controlFrequencyInv` physics steps
+  3. `progress_buf += 1`; `post_physics_step()` computes observations, rewards and terminations
+  4. envs that terminated or reached `episodeLength` steps are reset (`reset_idx`), and their
+     observations recomputed, so the returned observation of a finished env is the first of its
+     next episode (rl_games' convention); `extras["time_outs"]` marks episodes cut by the time
+     limit, apart from terminations
+  5. returns `({"obs": clipped observations[, "states": ...]}, rewards, resets, extras)`
+
+All buffers live on the simulation device. The original resets finished envs one step late
+(their state is written at the start of the next step); here the reset happens in the same step.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+from ..physics import SimParams
+
+
+def sim_params(sim_cfg: dict) -> SimParams:
+    """SimParams from a task's `sim` section (the original's keys, PhysX settings under physx)."""
+    physx = dict(sim_cfg.get("physx", {}))
+    solver = {0: "pgs", 1: "tgs"}[int(physx.pop("solver_type", 1))]
+    keys = {"num_position_iterations": "position_iterations",
+            "num_velocity_iterations": "velocity_iterations",
+            "contact_offset": "contact_offset", "rest_offset": "rest_offset",
+            "bounce_threshold_velocity": "bounce_threshold_velocity",
+            "max_depenetration_velocity": "max_depenetration_velocity",
+            "contacts_per_env": "contacts_per_env"}
+    unknown = sorted(set(physx) - set(keys))
+    if unknown:
+        raise KeyError(f"sim.physx: unknown keys {unknown}; valid: {sorted(keys) + ['solver_type']}")
+    return SimParams(dt=float(sim_cfg["dt"]), substeps=int(sim_cfg.get("substeps", 1)),
+                     gravity=tuple(sim_cfg.get("gravity", (0.0, 0.0, -9.81))), solver=solver,
+                     **{keys[k]: v for k, v in physx.items()})
+
+
+class VecTask:
+    num_obs: int
+    num_actions: int
+    num_states: int = 0
+
+    def __init__(self, cfg: dict, device: str = "cpu"):
+        self.cfg = cfg
+        env = cfg["env"]
+        self.device = torch.device(device)
+        self.num_envs = int(env["numEnvs"])
+        self.max_episode_length = int(env["episodeLength"])
+        self.control_freq_inv = int(env.get("controlFrequencyInv", 1))
+        self.clip_obs = float(env.get("clipObservations", math.inf))
+        self.clip_actions = float(env.get("clipActions", 1.0))
+        for key, value in (("numEnvs", self.num_envs), ("episodeLength", self.max_episode_length),
+                           ("controlFrequencyInv", self.control_freq_inv)):
+            if value < 1:
+                raise ValueError(f"env.{key}={value}: must be >= 1")
+        self.sim_params = sim_params(cfg["sim"])
+        self.dt = self.sim_params.dt * self.control_freq_inv     # one env step, seconds
+
+        self.envs = self.create_envs()
+        N, dev = self.num_envs, self.device
+        self.obs_buf = torch.zeros(N, self.num_obs, device=dev)
+        self.states_buf = torch.zeros(N, self.num_states, device=dev)
+        self.rew_buf = torch.zeros(N, device=dev)
+        self.reset_buf = torch.zeros(N, dtype=torch.long, device=dev)
+        self.timeout_buf = torch.zeros(N, dtype=torch.long, device=dev)
+        self.progress_buf = torch.zeros(N, dtype=torch.long, device=dev)
+        self.actions = torch.zeros(N, self.num_actions, device=dev)
+        self.extras: dict = {}
+        self.obs_dict: dict = {}
+
+        self.observation_space = gym.spaces.Box(-self.clip_obs, self.clip_obs, (self.num_obs,),
+                                                np.float32)
+        self.action_space = gym.spaces.Box(-1.0, 1.0, (self.num_actions,), np.float32)
+        self.state_space = gym.spaces.Box(-self.clip_obs, self.clip_obs, (self.num_states,),
+                                          np.float32)
+
+    # ------------------------------------------------------------------ subclass interface
+    def create_envs(self):
+        """Build the scene and return `myriad.api.Envs` with `self.num_envs` envs."""
+        raise NotImplementedError
+
+    def pre_physics_step(self, actions: torch.Tensor) -> None:
+        raise NotImplementedError
+
+    def post_physics_step(self) -> None:
+        """Fill obs_buf, rew_buf and reset_buf (terminations; time-outs are added by step)."""
+        raise NotImplementedError
+
+    def compute_observations(self) -> None:
+        raise NotImplementedError
+
+    def reset_idx(self, env_ids: torch.Tensor) -> None:
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ the loop
+    def step(self, actions: torch.Tensor):
+        if actions.shape != (self.num_envs, self.num_actions):
+            raise ValueError(f"step: actions must have shape {(self.num_envs, self.num_actions)}, "
+                             f"not {tuple(actions.shape)}")
+        actions = torch.clamp(actions.to(self.device, torch.float32), -self.clip_actions,
+                              self.clip_actions)
+        self.pre_physics_step(actions)
+        for _ in range(self.control_freq_inv):
+            self.envs.step()
+        self.progress_buf += 1
+        self.post_physics_step()
+        timeout = self.progress_buf >= self.max_episode_length
+        self.timeout_buf[:] = (timeout & (self.reset_buf == 0)).long()
+        # a non-finite env (blown-up physics) ends its episode; its reward must stay finite
+        broken = self.envs.sim.nonfinite != 0
+        self.rew_buf[:] = torch.where(torch.isfinite(self.rew_buf), self.rew_buf, 0.0)
+        self.reset_buf[:] = (self.reset_buf.bool() | timeout | broken).long()
+        self.extras["time_outs"] = self.timeout_buf.clone()
+        done = self.reset_buf.nonzero().flatten()
+        if len(done):
+            self.reset_idx(done)
+            self.envs.sim.nonfinite[done] = 0
+            self.compute_observations()
+        return self._obs(), self.rew_buf, self.reset_buf, self.extras
+
+    def reset(self) -> dict:
+        """Reset every env; returns the observation dict."""
+        self.reset_idx(torch.arange(self.num_envs, device=self.device))
+        self.compute_observations()
+        return self._obs()
+
+    def _obs(self) -> dict:
+        self.obs_dict["obs"] = torch.clamp(torch.nan_to_num(self.obs_buf), -self.clip_obs,
+                                           self.clip_obs)
+        if self.num_states > 0:
+            self.obs_dict["states"] = torch.clamp(self.states_buf, -self.clip_obs, self.clip_obs)
+        return self.obs_dict
+
+    def get_number_of_agents(self) -> int:
+        return 1

@@ -1,0 +1,47 @@
+"""Batched rotation helpers for observations, quaternions (x, y, z, w)."""
+
+import torch
+
+
+def quat_rotate(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
+    u, w = q[..., :3], q[..., 3:4]
+    t = 2.0 * torch.cross(u, v, dim=-1)
+    return v + w * t + torch.cross(u, t, dim=-1)
+
+
+def quat_rotate_inverse(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
+    return quat_rotate(torch.cat((-q[..., :3], q[..., 3:4]), dim=-1), v)
+
+
+def wrap_angle(a: torch.Tensor) -> torch.Tensor:
+    """To (-π, π]."""
+    return torch.atan2(torch.sin(a), torch.cos(a))
+
+
+def euler_xyz(q: torch.Tensor):
+    """Roll, pitch, yaw of q = Rz(yaw)·Ry(pitch)·Rx(roll), each in (-π, π]."""
+    x, y, z, w = q.unbind(-1)
+    roll = torch.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    pitch = torch.asin(torch.clamp(2.0 * (w * y - z * x), -1.0, 1.0))
+    yaw = torch.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return roll, pitch, yaw
+
+
+def heading_up_and_angles(quat: torch.Tensor, to_target: torch.Tensor):
+    """Up projection, heading projection, roll, yaw and angle to the target of a torso whose
+    forward axis is +x and up axis +z; `to_target` is the horizontal offset to the target."""
+    up = quat_rotate(quat, torch.tensor([0.0, 0.0, 1.0], device=quat.device).expand_as(to_target))
+    heading = quat_rotate(quat, torch.tensor([1.0, 0.0, 0.0], device=quat.device).expand_as(to_target))
+    direction = torch.nn.functional.normalize(to_target, dim=-1)
+    roll, _, yaw = euler_xyz(quat)
+    angle_to_target = wrap_angle(torch.atan2(to_target[:, 1], to_target[:, 0]) - yaw)
+    return up[:, 2], (heading * direction).sum(-1), roll, yaw, angle_to_target
+
+
+def unscale(x: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
+    """Map [lower, upper] to [-1, 1]."""
+    return (2.0 * x - upper - lower) / (upper - lower)
+
+
+__all__ = ["quat_rotate", "quat_rotate_inverse", "wrap_angle", "euler_xyz",
+           "heading_up_and_angles", "unscale"]
