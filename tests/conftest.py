@@ -4,6 +4,8 @@ import sys
 import pytest
 import warp as wp
 
+import myriad  # noqa: F401  (before any test imports MuJoCo: picks its headless GL backend)
+
 sys.path.insert(0, os.path.dirname(__file__))  # tests/models.py
 wp.config.quiet = True
 

@@ -82,6 +82,12 @@ def demo(args) -> int:
 
 
 def _hydra_command(command: str, overrides: list[str]) -> int:
+    import warnings
+
+    import warp as wp
+
+    wp.config.quiet = True      # no per-module load lines between the progress lines
+    warnings.filterwarnings("ignore", category=FutureWarning, module="torch.jit")
     from .rl import run
 
     if any(a in ("-h", "--help") for a in overrides):

@@ -43,11 +43,17 @@ def task_and_train_configs(cfg) -> tuple[dict, dict, str]:
         if int(cfg.num_envs) < 1:
             raise ValueError(f"num_envs={cfg.num_envs}: must be >= 1")
         task_cfg["env"]["numEnvs"] = int(cfg.num_envs)
-        ppo = train_cfg["params"]["config"]
-        batch = int(cfg.num_envs) * ppo["horizon_length"]
-        ppo["minibatch_size"] = min(ppo["minibatch_size"], batch)
-        while batch % ppo["minibatch_size"]:
-            ppo["minibatch_size"] //= 2
+    # PPO splits num_envs × horizon_length samples into equal minibatches: keep the minibatch
+    # size a divisor, as close as possible below the configured one
+    ppo = train_cfg["params"]["config"]
+    batch = int(task_cfg["env"]["numEnvs"]) * ppo["horizon_length"]
+    count = max(1, math.ceil(batch / ppo["minibatch_size"]))
+    while batch % count:
+        count += 1
+    if batch // count != ppo["minibatch_size"]:
+        print(f"minibatch_size {ppo['minibatch_size']} -> {batch // count}: {count} equal "
+              f"minibatches of num_envs × horizon_length = {batch} samples")
+        ppo["minibatch_size"] = batch // count
     if cfg.max_iterations is not None:
         train_cfg["params"]["config"]["max_epochs"] = int(cfg.max_iterations)
     return task_cfg, train_cfg, device
@@ -79,9 +85,10 @@ def train(overrides: list[str]) -> int:
     if not max_time > 0:
         raise ValueError(f"max_time_s={cfg.max_time_s}: must be > 0")
     t0 = time.monotonic()
+    print(f"building {name}: {task_cfg['env']['numEnvs']} envs on {device} (a first run compiles "
+          "the physics kernels: about a minute on a laptop CPU)", flush=True)
     task = TASKS[name](task_cfg, device=device)
-    print(f"{name}: {task.num_envs} envs on {device} built in {time.monotonic() - t0:.1f} s "
-          "(the first run compiles the physics kernels)", flush=True)
+    print(f"built in {time.monotonic() - t0:.1f} s", flush=True)
     run = {"train_dir": cfg.train_dir, "experiment": experiment, "max_time_s": max_time,
            "describe": {"task": name, "device": device, "num_envs": task.num_envs,
                         "seed": int(cfg.seed),

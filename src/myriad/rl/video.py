@@ -45,6 +45,7 @@ class VideoWriter:
         q = self.envs.sim.q[0].detach().cpu().numpy().astype(np.float64)
         self.data.qpos[:] = self.envs.model.qpos_to_mujoco(q)
         mujoco.mj_kinematics(self.mj_model, self.data)
+        mujoco.mj_comPos(self.mj_model, self.data)    # subtree centers: the camera follows them
         self.renderer.update_scene(self.data, camera=self.camera)
         self.frames.append(self.renderer.render().copy())
 

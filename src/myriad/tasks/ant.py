@@ -114,7 +114,6 @@ class Ant(VecTask):
         to_target[:, 2] = 0.0
         self.potentials[env_ids] = -torch.norm(to_target, dim=-1) / self.dt
         self.progress_buf[env_ids] = 0
-        self.reset_buf[env_ids] = 0
 
 
 def compute_ant_observations(torso_state, targets, dof_pos, dof_vel, dof_lower, dof_upper,
