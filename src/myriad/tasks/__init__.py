@@ -8,8 +8,10 @@ from omegaconf import OmegaConf
 
 from .ant import Ant
 from .base import VecTask
+from .humanoid import Humanoid
+from .ingenuity import Ingenuity
 
-TASKS = {"Ant": Ant}
+TASKS = {"Ant": Ant, "Humanoid": Humanoid, "Ingenuity": Ingenuity}
 
 
 def task_config(name: str) -> dict:
