@@ -64,7 +64,8 @@ class Envs:
                 else slice(0, 0)
         long = dict(dtype=torch.long, device=self.device)
         self._dof_q = torch.as_tensor(m.jnt_qposadr[dof_joints], **long)
-        self._dof_v = torch.as_tensor(m.jnt_dofadr[dof_joints], **long)
+        # the simulator's q̇ columns (and qpos columns) of the DOFs, in DOF order
+        self.dof_columns = torch.as_tensor(m.jnt_dofadr[dof_joints], **long)
         free_root = [i for i in range(self.num_actors) if not self.actor_fixed[i]]
         for i in free_root:
             b = self.actor_root_body[i]
@@ -126,7 +127,7 @@ class Envs:
     def dof_limits(self) -> torch.Tensor:
         """[N, dofs, 2] lower, upper limit of each DOF (±inf where the joint is unlimited)."""
         m = self.model
-        joints = m.dof_jnt[self._dof_v.cpu().numpy()]
+        joints = m.dof_jnt[self.dof_columns.cpu().numpy()]
         rng = self.sim.joint_range[:, torch.as_tensor(joints, device=self.device)].clone()
         unlimited = torch.as_tensor(~m.jnt_limited[joints].astype(bool), device=self.device)
         rng[:, unlimited, 0], rng[:, unlimited, 1] = -torch.inf, torch.inf
@@ -151,9 +152,9 @@ class Envs:
         self.rigid_body_states[..., 7:] = vel
         self.root_states.copy_(self.rigid_body_states[:, self._root_body])
         self.dof_pos.copy_(sim.q[:, self._dof_q])
-        self.dof_vel.copy_(sim.qd[:, self._dof_v])
+        self.dof_vel.copy_(sim.qd[:, self.dof_columns])
         self.dof_forces.copy_((sim.joint_force + sim.dof_actuator_force
-                               + sim.dof_constraint_force)[:, self._dof_v])
+                               + sim.dof_constraint_force)[:, self.dof_columns])
 
     # ------------------------------------------------------------------ writers
     def _check(self, writer: str, value, shape: tuple) -> torch.Tensor:
@@ -217,13 +218,13 @@ class Envs:
         vel = self._check("set_dof_state (vel)", vel, shape)
         rows = torch.arange(self.num_envs, device=self.device)[ids][:, None]
         self.sim.q[rows, self._dof_q] = pos
-        self.sim.qd[rows, self._dof_v] = vel
+        self.sim.qd[rows, self.dof_columns] = vel
         self.forward()
 
     def set_dof_efforts(self, efforts: torch.Tensor) -> None:
         """Generalized force on each DOF [N, dofs], applied every step until changed."""
         efforts = self._check("set_dof_efforts", efforts, (self.num_envs, self.num_dofs))
-        self.sim.joint_force[:, self._dof_v] = efforts
+        self.sim.joint_force[:, self.dof_columns] = efforts
 
     def set_dof_position_targets(self, targets: torch.Tensor) -> None:
         """Targets [N, dofs] of the position drives (entries of other DOFs are kept, unused)."""

@@ -26,7 +26,7 @@ DOF_MODES = ("effort", "position", "velocity", "none")
 @dataclasses.dataclass
 class Actor:
     name: str
-    path: str
+    path: object                # file path, or a mujoco.MjSpec
     pos: tuple
     quat: tuple                 # x, y, z, w
     fix_base: bool
@@ -51,10 +51,11 @@ class Scene:
         self.ground = {"friction": float(friction), "restitution": float(restitution)}
         return self
 
-    def add_actor(self, name: str, path: str | os.PathLike, pos=None, quat=(0, 0, 0, 1),
+    def add_actor(self, name: str, path: str | os.PathLike | mujoco.MjSpec, pos=None, quat=(0, 0, 0, 1),
                   fix_base: bool = False, self_collisions: bool = True, dof_mode: str = "effort",
                   stiffness=0.0, damping=0.0) -> "Scene":
-        """Add an actor. `pos=None` keeps the root body's position from the file.
+        """Add an actor from a model file, or from a `mujoco.MjSpec` built in code (it is copied).
+        `pos=None` keeps the root body's position from the file.
 
         dof_mode: "effort" (forces from `Envs.set_dof_efforts`), "position" (implicit PD drive to
         `set_dof_position_targets` with `stiffness`, `damping`), "velocity" (drive to
@@ -72,9 +73,10 @@ class Scene:
             raise ValueError(f"actor {name!r}: a velocity drive needs damping > 0")
         if np.shape(quat) != (4,) or (pos is not None and np.shape(pos) != (3,)):
             raise ValueError(f"actor {name!r}: pos must be 3 numbers and quat 4 (x, y, z, w)")
-        path = os.fspath(path)
-        if not os.path.isfile(path):
-            raise ModelError(f"{path}: no such model file (actor {name!r})")
+        if not isinstance(path, mujoco.MjSpec):
+            path = os.fspath(path)
+            if not os.path.isfile(path):
+                raise ModelError(f"{path}: no such model file (actor {name!r})")
         self.actors.append(Actor(name, path, pos, tuple(quat), fix_base, self_collisions,
                                  dof_mode, stiffness, damping))
         return self
@@ -107,10 +109,13 @@ class Scene:
         return spec, drives
 
     def _attach(self, spec: mujoco.MjSpec, actor: Actor) -> list[str]:
-        try:
-            child = mujoco.MjSpec.from_file(actor.path)
-        except Exception as err:
-            raise ModelError(f"{actor.path}: MuJoCo rejected the model: {err}") from err
+        if isinstance(actor.path, mujoco.MjSpec):
+            child = actor.path.copy()
+        else:
+            try:
+                child = mujoco.MjSpec.from_file(actor.path)
+            except Exception as err:
+                raise ModelError(f"{actor.path}: MuJoCo rejected the model: {err}") from err
         roots = child.worldbody.bodies
         if len(roots) != 1:
             raise ModelError(f"{actor.path}: an actor's file must have exactly one body under the "

@@ -7,11 +7,12 @@ from importlib import resources
 from omegaconf import OmegaConf
 
 from .ant import Ant
+from .anymal import Anymal
 from .base import VecTask
 from .humanoid import Humanoid
 from .ingenuity import Ingenuity
 
-TASKS = {"Ant": Ant, "Humanoid": Humanoid, "Ingenuity": Ingenuity}
+TASKS = {"Ant": Ant, "Anymal": Anymal, "Humanoid": Humanoid, "Ingenuity": Ingenuity}
 
 
 def task_config(name: str) -> dict:
@@ -23,10 +24,14 @@ def task_config(name: str) -> dict:
 
 
 def apply_overrides(cfg: dict, overrides: dict, where: str) -> dict:
-    """Set `key=value` pairs in cfg: a dotted path ("sim.dt", "env.plane.restitution"), or a bare
-    key of the `env` section ("episodeLength"). Unknown keys fail, listing the valid ones."""
+    """Set `key=value` pairs in cfg: a dotted path ("sim.dt", "env.plane.restitution"), a bare
+    key of the `env` section ("episodeLength") or a whole top-level section
+    ("randomization={...}"). Unknown keys fail, listing the valid ones."""
     for key, value in overrides.items():
-        path = key.split(".") if "." in key else ["env", key]
+        if "." in key:
+            path = key.split(".")
+        else:       # a key of the env section, or a whole top-level section ("randomization")
+            path = ["env", key] if key in cfg["env"] or key not in cfg else [key]
         node = cfg
         for i, part in enumerate(path):
             if not isinstance(node, dict) or part not in node:

@@ -37,7 +37,7 @@ from .torch_utils import heading_up_and_angles, quat_rotate_inverse, unscale
 
 def dof_gears(envs) -> torch.Tensor:
     """[dofs] gear of the MJCF motor on each DOF (the original reads its efforts from them)."""
-    m, dof_cols = envs.model, envs._dof_v.tolist()
+    m, dof_cols = envs.model, envs.dof_columns.tolist()
     gears = torch.zeros(envs.num_dofs, device=envs.device)
     for a in range(m.nu):
         gears[dof_cols.index(int(m.actuator_dof[a]))] = float(m.actuator_gear[a])

@@ -65,6 +65,10 @@ class VecTask:
         self.dt = self.sim_params.dt * self.control_freq_inv     # one env step, seconds
 
         self.envs = self.create_envs()
+        self.randomizer = None
+        if cfg.get("randomization", {}).get("enabled", False):
+            from ..randomization import Randomizer
+            self.randomizer = Randomizer(cfg["randomization"], self)
         N, dev = self.num_envs, self.device
         self.obs_buf = torch.zeros(N, self.num_obs, device=dev)
         self.states_buf = torch.zeros(N, self.num_states, device=dev)
@@ -105,12 +109,19 @@ class VecTask:
         if actions.shape != (self.num_envs, self.num_actions):
             raise ValueError(f"step: actions must have shape {(self.num_envs, self.num_actions)}, "
                              f"not {tuple(actions.shape)}")
-        actions = torch.clamp(actions.to(self.device, torch.float32), -self.clip_actions,
-                              self.clip_actions)
+        actions = actions.to(self.device, torch.float32)
+        dr = self.randomizer
+        if dr is not None:
+            actions = dr.perturb_actions(actions)
+        actions = torch.clamp(actions, -self.clip_actions, self.clip_actions)
         self.pre_physics_step(actions)
-        for _ in range(self.control_freq_inv):
+        for i in range(self.control_freq_inv):
+            if dr is not None:
+                dr.apply_random_forces(new_draws=i == 0)
             self.envs.step()
         self.progress_buf += 1
+        if dr is not None:
+            dr.on_step()
         self.post_physics_step()
         timeout = self.progress_buf >= self.max_episode_length
         self.timeout_buf[:] = (timeout & (self.reset_buf == 0)).long()
@@ -121,6 +132,8 @@ class VecTask:
         self.extras["time_outs"] = self.timeout_buf.clone()
         done = self.reset_buf.nonzero().flatten()
         if len(done):
+            if dr is not None:
+                dr.on_reset(done)       # new physical parameters before the new episode starts
             self.reset_idx(done)
             self.envs.sim.nonfinite[done] = 0
             self.compute_observations()
@@ -133,8 +146,10 @@ class VecTask:
         return self._obs()
 
     def _obs(self) -> dict:
-        self.obs_dict["obs"] = torch.clamp(torch.nan_to_num(self.obs_buf), -self.clip_obs,
-                                           self.clip_obs)
+        obs = torch.nan_to_num(self.obs_buf)
+        if self.randomizer is not None:
+            obs = self.randomizer.perturb_observations(obs)
+        self.obs_dict["obs"] = torch.clamp(obs, -self.clip_obs, self.clip_obs)
         if self.num_states > 0:
             self.obs_dict["states"] = torch.clamp(self.states_buf, -self.clip_obs, self.clip_obs)
         return self.obs_dict

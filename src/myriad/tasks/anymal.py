@@ -1,0 +1,203 @@
+"""ANYmal (flat): a quadruped tracks commanded base velocities (seed A.2.2, Tables 5-7).
+
+The robot is ANYbotics' ANYmal C from the `example-robot-data` package (`pip install
+"myriad[anymal]"`), read from its URDF with fixes applied in code (see `anymal_c_spec`).
+
+Actions (12): position-drive targets, target = actionScale × action + default joint angle
+(drives Kp 85, Kd 2; efforts limited to the URDF's 80 N·m).
+Commands per episode: forward velocity U[-2, 2] m/s, lateral U[-1, 1] m/s, yaw rate U[-1, 1] rad/s.
+
+Observation (48), Table 5:
+    [0:3]    base linear velocity, base frame, × linearVelocityScale (2)
+    [3:6]    base angular velocity, base frame, × angularVelocityScale (0.25)
+    [6:9]    gravity direction in the base frame (unit vector)
+    [9:12]   commands (x, y, yaw) × (2, 2, 0.25)
+    [12:24]  joint angles - default angles (× dofPositionScale 1)
+    [24:36]  joint velocities × dofVelocityScale (0.05)
+    [36:48]  last actions
+Reward (Table 7, flat terrain), with φ(x) = exp(-|x|²/0.25) and dt the control step (0.02 s):
+    1·dt·φ(v*_xy - v_xy) + 0.5·dt·φ(ω*_z - ω_z) - 2e-5·dt·|τ|², clipped at 0 (as the original).
+An episode ends when the base or a thigh touches the ground (contact force > 1 N), or after
+episodeLength_s = 50 s.
+
+Deviations: the original rotates gravity by the base orientation instead of its inverse for
+the observation (giving the gravity direction in a mirrored frame); we report the gravity
+direction in the base frame, as Table 5 says. The torque weight is Table 7's 2e-5 (the original
+config has 2.5e-5).
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+import re
+import tempfile
+
+import mujoco
+import torch
+
+from ..api import Scene
+from ..physics import ModelError
+from .base import VecTask
+from .torch_utils import quat_rotate_inverse
+
+URDF = "share/example-robot-data/robots/anymal_c_simple_description/urdf/anymal.urdf"
+
+
+def anymal_c_urdf() -> str:
+    """Path of ANYmal C's URDF inside the installed example-robot-data package."""
+    import site
+    import sys
+
+    roots = list(site.getsitepackages()) + [site.getusersitepackages()] + sys.path
+    for root in roots:
+        for prefix in glob.glob(os.path.join(root, "cmeel.prefix")):
+            path = os.path.join(prefix, URDF)
+            if os.path.isfile(path):
+                return path
+    raise ModelError("ANYmal C needs the example-robot-data package: pip install "
+                     "\"myriad[anymal]\" (or pip install example-robot-data)")
+
+
+def anymal_c_spec() -> mujoco.MjSpec:
+    """ANYmal C as a MuJoCo spec with a free base, fixed in memory (the installed file is
+    never edited):
+    - visual meshes are dropped (they are .dae files MuJoCo cannot read; collision uses
+      primitives);
+    - inertias are the URDF's (MuJoCo would otherwise recompute them from the collision geoms:
+      81.5 kg instead of 52.1 kg);
+    - the link `hatch` declares a singular inertia (all six entries 0.001): its products of
+      inertia are zeroed; the camera links violate the triangle inequality and are balanced;
+    - fixed links are fused into their parents, leaving the base and the 12 leg links.
+    """
+    text = open(anymal_c_urdf()).read()
+    header = ('<mujoco><compiler discardvisual="true" inertiafromgeom="false" '
+              'balanceinertia="true" fusestatic="true"/></mujoco>'
+              '<link name="world"/><joint name="root" type="floating">'
+              '<parent link="world"/><child link="base"/></joint>')
+    text, found = re.subn(r"(<robot[^>]*>)", lambda m: m.group(1) + header, text, count=1)
+    singular = '<inertia ixx="0.001" ixy="0.001" ixz="0.001" iyy="0.001" iyz="0.001" izz="0.001"/>'
+    fixed = '<inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/>'
+    if not found or singular not in text:
+        raise ModelError(f"{anymal_c_urdf()}: not the ANYmal C URDF these fixes were written for")
+    try:
+        model = mujoco.MjModel.from_xml_string(text.replace(singular, fixed))
+    except Exception as err:
+        raise ModelError(f"{anymal_c_urdf()}: MuJoCo rejected the fixed URDF: {err}") from err
+    # the fused model, written back as MJCF (fixed links become frames of their parents)
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "anymal.xml")
+        mujoco.mj_saveLastXML(path, model)
+        return mujoco.MjSpec.from_file(path)
+
+
+class Anymal(VecTask):
+    num_obs = 48
+    num_actions = 12
+
+    def __init__(self, cfg: dict, device: str = "cpu"):
+        env = cfg["env"]
+        cfg["env"]["episodeLength"] = round(env["episodeLength_s"] / (
+            cfg["sim"]["dt"] * env.get("controlFrequencyInv", 1)))
+        learn = env["learn"]
+        self.lin_vel_scale = learn["linearVelocityScale"]
+        self.ang_vel_scale = learn["angularVelocityScale"]
+        self.dof_pos_scale = learn["dofPositionScale"]
+        self.dof_vel_scale = learn["dofVelocityScale"]
+        self.action_scale = env["control"]["actionScale"]
+        self.command_ranges = env["randomCommandVelocityRanges"]
+        super().__init__(cfg, device)
+        # reward weights per control step (Table 7's weights × dt)
+        self.reward_weights = {k: learn[k] * self.dt for k in
+                               ("linearVelocityXYRewardScale", "angularVelocityZRewardScale",
+                                "torqueRewardScale")}
+        e, dev = self.envs, self.device
+        defaults = env["defaultJointAngles"]
+        missing = sorted(set(n.split("/", 1)[1] for n in e.dof_names) - set(defaults))
+        if missing:
+            raise KeyError(f"env.defaultJointAngles lacks {missing}")
+        self.default_dof_pos = torch.tensor([defaults[n.split("/", 1)[1]] for n in e.dof_names],
+                                            device=dev)
+        self.base = e.body_index("anymal/base")
+        self.thighs = torch.tensor([i for i, n in enumerate(e.body_names) if "THIGH" in n],
+                                   device=dev)
+        self.initial_root_states = e.root_states.clone()
+        self.commands = torch.zeros(self.num_envs, 3, device=dev)
+        self.command_scale = torch.tensor([self.lin_vel_scale, self.lin_vel_scale,
+                                           self.ang_vel_scale], device=dev)
+        self.gravity_dir = torch.tensor([0.0, 0.0, -1.0], device=dev).repeat(self.num_envs, 1)
+        self.reset()
+
+    def create_envs(self):
+        env = self.cfg["env"]
+        control = env["control"]
+        scene = Scene().add_ground(friction=env["plane"]["staticFriction"],
+                                   restitution=env["plane"]["restitution"])
+        scene.add_actor("anymal", anymal_c_spec(), pos=tuple(env["baseInitState"]["pos"]),
+                        quat=tuple(env["baseInitState"]["rot"]), self_collisions=False,
+                        dof_mode="position", stiffness=control["stiffness"],
+                        damping=control["damping"])
+        return scene.build(self.num_envs, self.device, self.sim_params)
+
+    def pre_physics_step(self, actions):
+        self.actions[:] = actions
+        self.envs.set_dof_position_targets(self.action_scale * actions + self.default_dof_pos)
+
+    def post_physics_step(self):
+        self.compute_observations()
+        e = self.envs
+        torques = e.sim.dof_actuator_force[:, e.dof_columns]
+        self.rew_buf[:], terminated = compute_anymal_reward(
+            e.root_states[:, 0], self.commands, torques, e.net_contact_force, self.base,
+            self.thighs, self.reward_weights)
+        self.reset_buf[:] = terminated.long()
+
+    def compute_observations(self):
+        e = self.envs
+        self.obs_buf[:] = compute_anymal_observations(
+            e.root_states[:, 0], self.commands * self.command_scale, e.dof_pos,
+            self.default_dof_pos, e.dof_vel, self.gravity_dir, self.actions, self.lin_vel_scale,
+            self.ang_vel_scale, self.dof_pos_scale, self.dof_vel_scale)
+
+    def reset_idx(self, env_ids):
+        n, dev = len(env_ids), self.device
+        pos = self.default_dof_pos * torch.empty(n, self.num_actions, device=dev).uniform_(0.5, 1.5)
+        vel = torch.empty(n, self.num_actions, device=dev).uniform_(-0.1, 0.1)
+        self.envs.set_root_states(self.initial_root_states[env_ids], env_ids)
+        self.envs.set_dof_state(pos, vel, env_ids)
+        r = self.command_ranges
+        for k, key in enumerate(("linear_x", "linear_y", "yaw")):
+            self.commands[env_ids, k] = torch.empty(n, device=dev).uniform_(*r[key])
+        self.actions[env_ids] = 0.0
+        self.progress_buf[env_ids] = 0
+
+
+def compute_anymal_observations(base_state, commands_scaled, dof_pos, default_dof_pos, dof_vel,
+                                gravity_dir, actions, lin_vel_scale, ang_vel_scale,
+                                dof_pos_scale, dof_vel_scale):
+    quat = base_state[:, 3:7]
+    return torch.cat((
+        quat_rotate_inverse(quat, base_state[:, 7:10]) * lin_vel_scale,
+        quat_rotate_inverse(quat, base_state[:, 10:13]) * ang_vel_scale,
+        quat_rotate_inverse(quat, gravity_dir),
+        commands_scaled,
+        (dof_pos - default_dof_pos) * dof_pos_scale,
+        dof_vel * dof_vel_scale,
+        actions,
+    ), dim=-1)
+
+
+def compute_anymal_reward(base_state, commands, torques, contact_forces, base, thighs, weights):
+    """Table 7 (flat terrain); returns (reward, terminated)."""
+    quat = base_state[:, 3:7]
+    lin_vel = quat_rotate_inverse(quat, base_state[:, 7:10])
+    ang_vel = quat_rotate_inverse(quat, base_state[:, 10:13])
+    lin_error = torch.sum((commands[:, :2] - lin_vel[:, :2]) ** 2, dim=-1)
+    yaw_error = (commands[:, 2] - ang_vel[:, 2]) ** 2
+    reward = (torch.exp(-lin_error / 0.25) * weights["linearVelocityXYRewardScale"]
+              + torch.exp(-yaw_error / 0.25) * weights["angularVelocityZRewardScale"]
+              - torch.sum(torques**2, dim=-1) * weights["torqueRewardScale"])
+    reward = torch.clamp(reward, min=0.0)
+    terminated = (torch.norm(contact_forces[:, base], dim=-1) > 1.0) | torch.any(
+        torch.norm(contact_forces[:, thighs], dim=-1) > 1.0, dim=-1)
+    return reward, terminated
