@@ -177,3 +177,45 @@ def test_random_forces_follow_the_a41_process():
 def test_bad_randomization_configs_fail_at_start_up(dr, message):
     with pytest.raises(RandomizationError, match=message):
         ant_with(dr, num_envs=2)
+
+
+def test_tendon_drive_and_limit_parameters(tmp_path):
+    """Tendon gains and limits, drive gains and joint limits of a position-driven actor."""
+    from types import SimpleNamespace
+
+    import myriad
+    from myriad.api import Scene
+    from myriad.randomization import Randomizer
+
+    path = tmp_path / "finger.xml"
+    path.write_text("""<mujoco><compiler angle="radian"/><worldbody><body name="base">
+      <body name="a"><joint name="j1" type="hinge" axis="0 1 0" range="-1 1"/>
+        <geom type="capsule" fromto="0 0 0 0.1 0 0" size="0.01"/>
+        <body name="b" pos="0.1 0 0"><joint name="j2" type="hinge" axis="0 1 0" range="-1 1"/>
+          <geom type="capsule" fromto="0 0 0 0.1 0 0" size="0.01"/></body></body></body>
+      </worldbody><tendon><fixed name="t" stiffness="2" damping="0.5" limited="true"
+        range="-0.5 0.5"><joint joint="j1" coef="1"/><joint joint="j2" coef="-1"/></fixed>
+      </tendon></mujoco>""")
+    envs = Scene().add_actor("f", str(path), fix_base=True, dof_mode="position", stiffness=3.0,
+                             damping=0.1).build(N)
+    task = SimpleNamespace(envs=envs, num_envs=N, device=envs.device, num_obs=1, num_actions=1,
+                           dt=1 / 60, sim_params=myriad.SimParams())
+    torch.manual_seed(5)
+    Randomizer({"actor_params": {"f": {
+        "tendon_properties": {"damping": spec("loguniform", 0.3, 3.0),
+                              "stiffness": spec("loguniform", 0.75, 1.5),
+                              "upper": spec("uniform", -0.1, 0.1, "additive")},
+        "dof_properties": {"drive_stiffness": spec("uniform", 0.5, 2.0),
+                           "drive_damping": spec("uniform", 0.5, 2.0),
+                           "lower": spec("gaussian", 0.0, 0.05, "additive")}}}}, task)
+    sim = envs.sim
+    damping, stiffness = sim.tendon_damping[:, 0] / 0.5, sim.tendon_stiffness[:, 0] / 2.0
+    assert damping.min() >= 0.3 and damping.max() <= 3.0 and damping.std() > 0.3
+    assert stiffness.min() >= 0.75 and stiffness.max() <= 1.5
+    upper = sim.tendon_range[:, 0, 1] - 0.5
+    assert upper.abs().max() <= 0.1 + 1e-6 and upper.std() > 0.03
+    assert torch.all(sim.tendon_range[:, 0, 0] == -0.5), "the lower tendon limit is untouched"
+    kp, kv = sim.actuator_kp / 3.0, sim.actuator_kv / 0.1
+    assert kp.min() >= 0.5 and kp.max() <= 2.0 and kv.min() >= 0.5 and kv.max() <= 2.0
+    lower = sim.joint_range[:, :, 0] + 1.0
+    assert abs(lower.std() - 0.05) < 0.01 and torch.all(sim.joint_range[:, :, 1] == 1.0)
