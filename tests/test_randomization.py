@@ -219,3 +219,12 @@ def test_tendon_drive_and_limit_parameters(tmp_path):
     assert kp.min() >= 0.5 and kp.max() <= 2.0 and kv.min() >= 0.5 and kv.max() <= 2.0
     lower = sim.joint_range[:, :, 0] + 1.0
     assert abs(lower.std() - 0.05) < 0.01 and torch.all(sim.joint_range[:, :, 1] == 1.0)
+
+
+def test_scaling_noise_multiplies():
+    torch.manual_seed(6)
+    task = ant_with({"observations": spec("gaussian", 1.0, 0.1, range_correlated=[1.0, 0.0])},
+                    num_envs=512)
+    task.obs_buf[:] = 2.0
+    obs = task._obs()["obs"]
+    assert abs(obs.mean() - 2.0) < 0.01 and abs(obs.std() - 0.2) < 0.01

@@ -188,8 +188,11 @@ class Randomizer:
 
         self.obs_spec = self._noise_spec("observations")
         self.action_spec = self._noise_spec("actions")
-        self.obs_correlated = torch.zeros(N, task.num_obs, device=dev)
-        self.action_correlated = torch.zeros(N, task.num_actions, device=dev)
+        # the per-env correlated part: an offset (additive) or a factor (scaling)
+        self.obs_correlated = torch.full((N, task.num_obs), self._identity(self.obs_spec),
+                                         device=dev)
+        self.action_correlated = torch.full((N, task.num_actions),
+                                            self._identity(self.action_spec), device=dev)
 
         self.forces = None
         if cfg.get("random_forces"):
@@ -330,11 +333,17 @@ class Randomizer:
         due = env_ids[self.steps_since_sample[env_ids] >= self.frequency]
         self.resample(due)
 
+    @staticmethod
+    def _identity(spec) -> float:
+        return 1.0 if spec is not None and spec["operation"] == "scaling" else 0.0
+
     def _noise(self, spec, correlated, x):
         if spec is None:
             return x
-        noise = sample(spec, x.shape, x.device, ramp=self.ramp(spec)) + correlated
-        return x + noise if spec["operation"] == "additive" else x * (1.0 + noise)
+        noise = sample(spec, x.shape, x.device, ramp=self.ramp(spec))
+        if spec["operation"] == "additive":
+            return x + noise + correlated
+        return x * noise * correlated
 
     def perturb_observations(self, obs: torch.Tensor) -> torch.Tensor:
         return self._noise(self.obs_spec, self.obs_correlated, obs)
