@@ -168,7 +168,9 @@ def test_random_forces_follow_the_a41_process():
     ({"sim_params": {"gravity": spec("gaussian", 0, -1, "additive")}}, "std must be >= 0"),
     ({"sim_params": {"gravity": spec("normal", 0, 1, "additive")}}, "distribution='normal'"),
     ({"frequncy": 3}, "unknown keys \\['frequncy'\\]"),
-    ({"actor_params": {"ant": {"scale": spec("uniform", 0.9, 1.1)}}}, "not supported yet"),
+    ({"actor_params": {"ant": {"scale": spec("uniform", 0.9, 1.1)}}}, "setup_only: true"),
+    ({"actor_params": {"ant": {"scale": spec("uniform", 0.9, 1.1, setup_only=True)}}},
+     "only single-body actors"),
     ({"actor_params": {"ant": {"dof_properties": {"drive_stiffness": spec("uniform", 0.9, 1)}}}},
      "has no position or velocity drives"),
     ({"observations": spec("gaussian", 0, 1, "additive", schedule="linear")},
@@ -228,3 +230,31 @@ def test_scaling_noise_multiplies():
     task.obs_buf[:] = 2.0
     obs = task._obs()["obs"]
     assert abs(obs.mean() - 2.0) < 0.01 and abs(obs.std() - 0.2) < 0.01
+
+
+def test_object_scale_changes_geometry_and_mass_per_env(tmp_path):
+    """Boxes scaled by s per env rest at s × half-size on the ground, with mass × s³."""
+    from types import SimpleNamespace
+
+    import myriad
+    from myriad.api import Scene
+    from myriad.randomization import Randomizer
+
+    path = tmp_path / "cube.xml"
+    path.write_text("""<mujoco><worldbody><body name="cube">
+        <geom type="box" size="0.05 0.05 0.05" mass="0.2"/></body></worldbody></mujoco>""")
+    envs = Scene().add_ground().add_actor("cube", str(path), pos=(0, 0, 0.2)).build(8)
+    task = SimpleNamespace(envs=envs, num_envs=8, device=envs.device, num_obs=1, num_actions=1,
+                           dt=1 / 60, sim_params=myriad.SimParams())
+    torch.manual_seed(7)
+    dr = Randomizer({"actor_params": {"cube": {
+        "scale": spec("uniform", 0.5, 2.0, setup_only=True),
+        "rigid_body_properties": {"mass": spec("uniform", 1.0, 1.0)}}}}, task)
+    s = dr.actor_scale["cube"]
+    assert s.min() >= 0.5 and s.max() <= 2.0 and s.std() > 0.2
+    torch.testing.assert_close(envs.sim.geom_size[:, 1], 0.05 * s[:, None].expand(8, 3))
+    # the mass parameter starts from the scaled mass
+    torch.testing.assert_close(envs.sim.body_mass[:, 0], 0.2 * s**3)
+    for _ in range(120):
+        envs.step()
+    torch.testing.assert_close(envs.root_states[:, 0, 2], 0.05 * s, atol=2e-3, rtol=0)

@@ -118,12 +118,12 @@ def kinematics(m: ModelArrays, q: wp.array2d(dtype=float), qd: wp.array2d(dtype=
 
 
 @wp.kernel
-def attached_frames(body: wp.array(dtype=wp.int32), pos: wp.array(dtype=wp.vec3),
+def attached_frames(body: wp.array(dtype=wp.int32), pos: wp.array2d(dtype=wp.vec3),
                     quat: wp.array(dtype=wp.quat), body_x: wp.array2d(dtype=wp.transform),
                     frame_x: wp.array2d(dtype=wp.transform)):
     """World frames of things fixed to bodies (sites, geoms); body -1 is the world."""
     e, i = wp.tid()
-    x = wp.transform(pos[i], quat[i])
+    x = wp.transform(pos[e, i], quat[i])
     b = body[i]
     if b >= 0:
         x = body_x[e, b] * x

@@ -168,6 +168,8 @@ class Simulator:
     body_inertia = _View()   # [N, nbody, 3] principal moments
     geom_friction = _View()  # [N, ngeom] sliding friction coefficient (pairs average)
     geom_restitution = _View()  # [N, ngeom] restitution coefficient (pairs average)
+    geom_size = _View()      # [N, ngeom, 3] MuJoCo's size parameters (primitives)
+    geom_pos = _View()       # [N, ngeom, 3] position in the body frame
     nonfinite = _View()      # [N] 1 once an env's state went non-finite; the task resets it
     dof_damping = _View()    # [N, nv]
     dof_armature = _View()   # [N, nv]
@@ -279,9 +281,10 @@ class Simulator:
                  else np.zeros((0, 2)))
         self._pairs = wp.array(pairs, dtype=wp.vec2i, device=dev)
         self._geom_type = wp.array(m.geom_type, dtype=wp.int32, device=dev)
-        self._geom_size = wp.array(m.geom_size, dtype=wp.vec3, device=dev)
+        self._geom_size = tiled(m.geom_size, wp.vec3)     # per env: object scale randomization
         self._geom_body = wp.array(m.geom_body, dtype=wp.int32, device=dev)
-        self._geom_pos = wp.array(m.geom_pos, dtype=wp.vec3, device=dev)
+        self._geom_pos = tiled(m.geom_pos, wp.vec3)
+        self._site_pos = tiled(m.site_pos.reshape(-1, 3), wp.vec3)
         self._geom_quat = wp.array(m.geom_quat, dtype=wp.quat, device=dev)
         self._geom_dataid = wp.array(m.geom_dataid, dtype=wp.int32, device=dev)
         self._meshes = collision.Meshes()
@@ -347,7 +350,8 @@ class Simulator:
             "body_force": t(self._body_force),
             "ctrl": t(self._ctrl),
             "body_mass": t(p.body_mass), "body_inertia": t(p.body_inertia),
-            "geom_friction": t(self._geom_friction), "geom_restitution": t(self._geom_restitution),
+            "geom_friction": t(self._geom_friction), "geom_size": t(self._geom_size),
+            "geom_pos": t(self._geom_pos), "geom_restitution": t(self._geom_restitution),
             "dof_damping": t(p.dof_damping), "nonfinite": t(self._nonfinite),
             "dof_armature": t(p.dof_armature), "joint_stiffness": t(p.jnt_stiffness),
             "joint_range": t(self._joint_range), "dof_frictionloss": t(self._dof_frictionloss),
@@ -440,7 +444,7 @@ class Simulator:
             self._cdof_dot])
         if self.model.nsite:
             self._launch(kinematics.attached_frames, (self.num_envs, self.model.nsite),
-                         [self._m.site_body, self._m.site_pos, self._m.site_quat, self._body_x,
+                         [self._m.site_body, self._site_pos, self._m.site_quat, self._body_x,
                           self._site_x])
 
     def _dynamics(self) -> None:

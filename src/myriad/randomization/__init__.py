@@ -20,6 +20,8 @@
             damping: {...}            # lower, upper, drive_stiffness, drive_damping
           tendon_properties:          # stiffness, damping, limit_stiffness, lower, upper
             damping: {range: [0.3, 3.0], operation: scaling, distribution: loguniform}
+        <object>:
+          scale: {range: [0.95, 1.05], operation: scaling, distribution: uniform, setup_only: true}
       random_forces:                  # A.4.1, on one body of an actor
         body: object/object
         probability_range: [0.001, 0.1]   # per randomization episode, drawn log-uniformly
@@ -32,6 +34,9 @@ Distributions: `uniform` (range = [low, high]), `loguniform` ([low, high], both 
 `additive` (original + sample). Each parameter gets one sample per env (per DOF, body, geom or
 tendon), drawn from the original value of the model, never compounded.
 
+`scale` (per actor, `setup_only: true`, `operation: scaling`) scales a single-body actor once
+at start-up: its primitive geoms' sizes and positions by s, its mass by s³ and inertia by s⁵ (the
+center of mass stays where the model puts it); `Randomizer.actor_scale[actor]` holds s per env.
 `setup_only: true` parameters are sampled once, when the task is built. The others are
 re-sampled for envs that are being reset once at least `frequency` env steps have passed since
 that env's last sample. Observation and action noise add a fresh sample every step and a
@@ -41,8 +46,7 @@ first S env steps (`schedule: constant` switches it on at S).
 
 Names follow our engine's per-env views. Where the original differs: its DOF `stiffness` and
 `damping` are drive gains, here `drive_stiffness` and `drive_damping`; `num_buckets` (a PhysX
-material limit) is accepted and has no effect. Object `scale` is not supported yet and fails
-at start-up. Everything runs batched on the simulation device; an unknown name or an impossible
+material limit) is accepted and has no effect. Everything runs batched on the simulation device; an unknown name or an impossible
 range fails when the task is built, naming it.
 """
 
@@ -179,11 +183,15 @@ class Randomizer:
                                          "['gravity']")
             self.params.append(_Param("sim_params.gravity", "gravity", sim.gravity, None,
                                       _check_spec("sim_params.gravity", spec)))
+        self.actor_scale = {}
         for actor, groups in (cfg.get("actor_params") or {}).items():
             if actor not in envs.actor_names:
                 raise RandomizationError(f"randomization.actor_params.{actor}: no such actor; "
                                          f"the actors are {envs.actor_names}")
-            for group, entries in (groups or {}).items():
+            groups = dict(groups or {})
+            if "scale" in groups:       # first: the other parameters start from scaled values
+                self.actor_scale[actor] = self._scale_actor(actor, groups.pop("scale"))
+            for group, entries in groups.items():
                 self._add_actor_group(actor, group, entries or {})
 
         self.obs_spec = self._noise_spec("observations")
@@ -240,12 +248,9 @@ class Randomizer:
                                   "lower": ("tendon_range", (index(tendons), 0)),
                                   "upper": ("tendon_range", (index(tendons), 1))},
         }
-        if group == "scale":
-            raise RandomizationError(f"randomization.{where}: object scale randomization is not "
-                                     "supported yet (geometry is shared by all envs)")
         if group not in targets:
             raise RandomizationError(f"randomization.{where}: unknown group; valid: "
-                                     f"{sorted(targets) + ['scale (not supported yet)']}")
+                                     f"{sorted(targets) + ['scale']}")
         for name, spec in entries.items():
             if name not in targets[group]:
                 raise RandomizationError(f"randomization.{where}.{name}: unknown parameter; "
@@ -264,6 +269,32 @@ class Randomizer:
                 param.inertia_view = sim.body_inertia
                 param.inertia_original = sim.body_inertia[:, cols].clone()
             self.params.append(param)
+
+    def _scale_actor(self, actor, spec) -> torch.Tensor:
+        """Object scale, once at start-up: every geom's size and position in its body frame × s,
+        the body's mass × s³ and inertia × s⁵ (uniform density). Returns s per env."""
+        where = f"actor_params.{actor}.scale"
+        spec = _check_spec(where, spec)
+        if spec["operation"] != "scaling" or not spec.get("setup_only"):
+            raise RandomizationError(f"randomization.{where}: needs operation: scaling and "
+                                     "setup_only: true (an object is scaled once, at start-up)")
+        sim, m = self.task.envs.sim, self.task.envs.model
+        bodies = [b for b, n in enumerate(m.body_names) if n.startswith(actor + "/")]
+        if len(bodies) != 1:
+            raise RandomizationError(f"randomization.{where}: only single-body actors (objects) "
+                                     f"can be scaled; {actor!r} has {len(bodies)} bodies")
+        geoms = [g for g in range(m.ngeom) if m.geom_body[g] == bodies[0]]
+        unscalable = [m.geom_names[g] or str(g) for g in geoms if m.geom_type[g] in (0, 1, 7)]
+        if unscalable:
+            raise RandomizationError(f"randomization.{where}: geoms {unscalable} are planes, "
+                                     "height fields or meshes, which cannot be scaled yet")
+        scale = sample(spec, (self.task.num_envs,), self.task.device)
+        cols = torch.as_tensor(geoms, dtype=torch.long, device=self.task.device)
+        sim.geom_size[:, cols] *= scale[:, None, None]
+        sim.geom_pos[:, cols] *= scale[:, None, None]
+        sim.body_mass[:, bodies[0]] *= scale**3
+        sim.body_inertia[:, bodies[0]] *= (scale**5)[:, None]
+        return scale
 
     def _setup_random_forces(self, spec):
         known = {"body", "probability_range", "scale", "decay", "decay_interval_s"}

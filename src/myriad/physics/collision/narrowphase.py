@@ -495,7 +495,7 @@ def _plane_mesh(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x2: w
 
 @wp.kernel
 def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.int32),
-                geom_size: wp.array(dtype=wp.vec3), geom_dataid: wp.array(dtype=wp.int32),
+                geom_size: wp.array2d(dtype=wp.vec3), geom_dataid: wp.array(dtype=wp.int32),
                 meshes: Meshes, hfields: HFields, geom_x: wp.array2d(dtype=wp.transform),
                 margin: float, capacity: int, count: wp.array(dtype=wp.int32),
                 c_geom: wp.array2d(dtype=wp.vec2i), c_key: wp.array2d(dtype=wp.int32),
@@ -509,8 +509,8 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
     t2 = geom_type[g2]
     x1 = geom_x[e, g1]
     x2 = geom_x[e, g2]
-    s1 = geom_size[g1]
-    s2 = geom_size[g2]
+    s1 = geom_size[e, g1]
+    s2 = geom_size[e, g2]
     c1 = wp.transform_get_translation(x1)
     c2 = wp.transform_get_translation(x2)
 
