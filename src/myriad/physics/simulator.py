@@ -9,7 +9,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
+import threading
 import warnings
+import weakref
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import torch
@@ -190,7 +194,7 @@ class Simulator:
     gravity = _View()        # [N, 3]
 
     def __init__(self, model: Model, num_envs: int = 1, device="cpu",
-                 params: SimParams | None = None):
+                 params: SimParams | None = None, cpu_threads: int | None = None):
         if not isinstance(model, Model):
             raise TypeError(f"model must be a myriad.Model (from myriad.load), not {type(model).__name__}")
         if not isinstance(num_envs, int) or isinstance(num_envs, bool) or num_envs < 1:
@@ -206,6 +210,9 @@ class Simulator:
         self._graph = None
         self._jac = {}
         self._warned_overflow = False
+        if cpu_threads is not None and (not isinstance(cpu_threads, int) or cpu_threads < 1):
+            raise ValueError(f"cpu_threads={cpu_threads!r}: must be an integer >= 1 (or None: "
+                             "one per CPU core)")
 
         N, dev = num_envs, self.device
         m = model
@@ -386,6 +393,7 @@ class Simulator:
         # from its parent, in the site frame (MuJoCo's force/torque sensor semantics)
         self.sensor_wrench = t(self._sensor_wrench)
 
+        self._setup_cpu_shards(cpu_threads)
         self.forward()
 
     # ------------------------------------------------------------------ pipeline
@@ -394,7 +402,7 @@ class Simulator:
         if self.device.is_cuda:
             self._run_on_device(self._step_graph)
         else:
-            self._step_kernels()
+            self._run_sharded(self._step_kernels)
 
     def _step_kernels(self) -> None:
         for _ in range(self.params.substeps):
@@ -414,7 +422,7 @@ class Simulator:
         def run():
             self._kinematics()
             self._dynamics()
-        self._run_on_device(run) if self.device.is_cuda else run()
+        self._run_on_device(run) if self.device.is_cuda else self._run_sharded(run)
 
     def collide(self) -> None:
         """Contact detection alone, at the current kinematics (for debugging: step() runs it)."""
@@ -426,7 +434,7 @@ class Simulator:
             return
         self._launch(kinematics.attached_frames, (n, m.ngeom), [
             self._geom_body, self._geom_pos, self._geom_quat, self._body_x, self._geom_x])
-        c.count.zero_()
+        self._shard_of(c.count).zero_()
         if len(self._pairs):
             self._launch(collision.narrowphase, (n, len(self._pairs)), [
                 self._pairs, self._geom_type, self._geom_size, self._geom_dataid, self._meshes,
@@ -435,7 +443,73 @@ class Simulator:
                 c.dist])
 
     def _launch(self, kernel, dim, inputs) -> None:
+        shard = getattr(self._shard_local, "range", None)
+        if shard is not None:     # a CPU thread's share of the envs: per-env arrays sliced
+            inputs = [self._shard_of(a) for a in inputs]
+            size = shard[1] - shard[0]
+            dim = (size,) + tuple(dim[1:]) if isinstance(dim, tuple) else size
         wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
+
+    # ------------------------------------------------------------------ CPU threads
+    def _setup_cpu_shards(self, cpu_threads) -> None:
+        """On CPU, split the envs into contiguous shards stepped by one thread each.
+
+        Warp runs a CPU kernel on the calling thread and releases the GIL while it runs, so
+        shards of envs advance in parallel; every kernel is per env, so the result is the same
+        bit for bit. A shard's launches see views of the per-env arrays (first dimension
+        num_envs) restricted to its envs; model-wide arrays are passed whole.
+        """
+        self._shard_local = threading.local()
+        self._shards, self._pool = [], None
+        if self.device.is_cuda:
+            return
+        threads = cpu_threads or max(1, min(os.cpu_count() or 1, self.num_envs // 64))
+        threads = min(threads, self.num_envs)
+        if threads == 1:
+            return
+        bounds = np.linspace(0, self.num_envs, threads + 1).round().astype(int)
+        self._shards = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+        # arrays that are not per env, even when their length happens to equal num_envs
+        self._shared_ids = {id(a) for a in (
+            self._pairs, self._geom_type, self._geom_body, self._geom_quat, self._geom_dataid,
+            self._limit_jnt, self._limit_tendon, self._sensor_site, self._sensor_site_body,
+            self._m.site_body, self._m.site_quat)}
+        self._shard_params = {}
+        for a, b in self._shards:
+            p = EnvParams()
+            for name in EnvParams.vars:
+                whole = getattr(self._p, name)
+                setattr(p, name, whole[a:b] if whole.size else whole)   # empty: nothing to read
+            self._shard_params[(a, b)] = p
+        self._pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="myriad-sim")
+        weakref.finalize(self, self._pool.shutdown, wait=False)
+
+    def _shard_of(self, a):
+        """`a` restricted to the current thread's envs (unchanged outside a sharded run)."""
+        shard = getattr(self._shard_local, "range", None)
+        if shard is None:
+            return a
+        if a is self._p:
+            return self._shard_params[shard]
+        if isinstance(a, wp.array) and a.size and a.shape[0] == self.num_envs \
+                and id(a) not in self._shared_ids:
+            return a[shard[0]:shard[1]]
+        return a
+
+    def _run_sharded(self, fn) -> None:
+        if not self._shards:
+            fn()
+            return
+
+        def run(shard):
+            self._shard_local.range = shard
+            try:
+                fn()
+            finally:
+                self._shard_local.range = None
+
+        for future in [self._pool.submit(run, shard) for shard in self._shards]:
+            future.result()
 
     def _kinematics(self) -> None:
         self._launch(kinematics.kinematics, self.num_envs, [
