@@ -14,7 +14,7 @@ import torch
 import myriad
 from myriad.rl.policy import load_policy
 from myriad.rl.run import compose, task_and_train_configs
-from myriad.tasks.torch_utils import quat_rotate_inverse
+from myriad.torch_utils import quat_rotate_inverse
 
 
 def main() -> None:

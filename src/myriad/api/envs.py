@@ -25,15 +25,7 @@ import torch
 
 from ..physics import Model, SimParams, Simulator
 from ..physics.model import JOINT_FREE, JOINT_HINGE, JOINT_SLIDE
-
-
-def _quat_rotate(q: torch.Tensor, v: torch.Tensor, inverse: bool = False) -> torch.Tensor:
-    """Rotate v by the unit quaternions q (x, y, z, w), batched over leading dims."""
-    u, w = q[..., :3], q[..., 3:4]
-    if inverse:
-        u = -u
-    t = 2.0 * torch.cross(u, v, dim=-1)
-    return v + w * t + torch.cross(u, t, dim=-1)
+from ..torch_utils import quat_rotate, quat_rotate_inverse
 
 
 class Envs:
@@ -199,7 +191,7 @@ class Envs:
         states = self._check("set_root_states", states,
                              (self._count(ids), self.num_actors, 13))[:, self._free_actors]
         quat = torch.nn.functional.normalize(states[..., 3:7], dim=-1)
-        omega_body = _quat_rotate(quat, states[..., 10:13], inverse=True)
+        omega_body = quat_rotate_inverse(quat, states[..., 10:13])
         q, qd = self.sim.q, self.sim.qd
         rows = torch.arange(self.num_envs, device=self.device)[ids][:, None]
         for k in range(3):
@@ -254,16 +246,16 @@ class Envs:
         wrench = self.sim.body_force
         if forces is not None:
             f = self._check("apply_body_forces (forces)", forces, shape)
-            f = _quat_rotate(rot, f) if frame == "local" else f
+            f = quat_rotate(rot, f) if frame == "local" else f
             wrench[..., :3] += f
             if positions is not None:
                 p = self._check("apply_body_forces (positions)", positions, shape)
                 if frame == "local":
-                    p = _quat_rotate(rot, p) + self.sim.body_pose[..., :3]
+                    p = quat_rotate(rot, p) + self.sim.body_pose[..., :3]
                 wrench[..., 3:] += torch.cross(p - self.sim.body_com, f, dim=-1)
         if torques is not None:
             t = self._check("apply_body_forces (torques)", torques, shape)
-            wrench[..., 3:] += _quat_rotate(rot, t) if frame == "local" else t
+            wrench[..., 3:] += quat_rotate(rot, t) if frame == "local" else t
 
     # ------------------------------------------------------------------ per-articulation algebra
     def jacobians(self, actor: str) -> torch.Tensor:

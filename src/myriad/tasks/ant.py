@@ -32,7 +32,7 @@ import torch
 from .. import asset_path
 from ..api import Scene
 from .base import VecTask
-from .torch_utils import heading_up_and_angles, quat_rotate_inverse, unscale
+from ..torch_utils import heading_up_and_angles, quat_rotate_inverse, unscale
 
 
 def dof_gears(envs) -> torch.Tensor:

@@ -39,7 +39,7 @@ import torch
 from ..api import Scene
 from ..physics import ModelError
 from .base import VecTask
-from .torch_utils import quat_rotate_inverse
+from ..torch_utils import quat_rotate_inverse
 
 URDF = "share/example-robot-data/robots/anymal_c_simple_description/urdf/anymal.urdf"
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 import torch
 
 from .ant import Ant
-from .torch_utils import heading_up_and_angles, quat_rotate_inverse, unscale
+from ..torch_utils import heading_up_and_angles, quat_rotate_inverse, unscale
 
 
 class Humanoid(Ant):

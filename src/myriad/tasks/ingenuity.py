@@ -30,7 +30,7 @@ import torch
 from .. import asset_path
 from ..api import Scene
 from .base import VecTask
-from .torch_utils import quat_rotate
+from ..torch_utils import quat_rotate
 
 
 class Ingenuity(VecTask):

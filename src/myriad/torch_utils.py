@@ -1,4 +1,4 @@
-"""Batched rotation helpers for observations, quaternions (x, y, z, w)."""
+"""Batched rotation helpers in torch for the tensor API and task observations; quaternions (x, y, z, w)."""
 
 import torch
 
