@@ -1,4 +1,7 @@
-"""Batched rotation helpers in torch for the tensor API and task observations; quaternions (x, y, z, w)."""
+"""Batched rotation helpers in torch, shared by the tensor API and the task observations.
+
+Quaternions are (x, y, z, w).
+"""
 
 import torch
 
