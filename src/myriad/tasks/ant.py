@@ -116,9 +116,10 @@ class Ant(VecTask):
         self.progress_buf[env_ids] = 0
 
 
-def compute_ant_observations(torso_state, targets, dof_pos, dof_vel, dof_lower, dof_upper,
-                             dof_vel_scale, sensor_wrenches, contact_force_scale, actions, dt):
-    """Table 2 observation and the new potential, from the torso's root state [N, 13]."""
+def torso_observations(torso_state, targets, dt, angular_velocity_scale=1.0):
+    """The first 12 values of Tables 2 and 3 (torso height, torso-frame linear and angular
+    velocity, yaw, roll, angle to target, up and heading projections) and the new potential,
+    from the torso's root state [N, 13]."""
     pos, quat = torso_state[:, 0:3], torso_state[:, 3:7]
     to_target = targets - pos
     to_target[:, 2] = 0.0
@@ -127,12 +128,31 @@ def compute_ant_observations(torso_state, targets, dof_pos, dof_vel, dof_lower, 
     obs = torch.cat((
         pos[:, 2:3],
         quat_rotate_inverse(quat, torso_state[:, 7:10]),
-        quat_rotate_inverse(quat, torso_state[:, 10:13]),
+        quat_rotate_inverse(quat, torso_state[:, 10:13]) * angular_velocity_scale,
         yaw[:, None], roll[:, None], angle_to_target[:, None],
         up_proj[:, None], heading_proj[:, None],
+    ), dim=-1)
+    return obs, potentials
+
+
+def progress_up_heading(obs, potentials, prev_potentials, up_weight, heading_weight):
+    """The A.2.1 terms the walkers share: progress + upright bonus + heading term."""
+    heading_proj = obs[:, 11]
+    heading_reward = torch.where(heading_proj > 0.8, torch.full_like(heading_proj, heading_weight),
+                                 heading_weight * heading_proj / 0.8)
+    up_reward = torch.where(obs[:, 10] > 0.93, up_weight, 0.0)
+    return potentials - prev_potentials + up_reward + heading_reward
+
+
+def compute_ant_observations(torso_state, targets, dof_pos, dof_vel, dof_lower, dof_upper,
+                             dof_vel_scale, sensor_wrenches, contact_force_scale, actions, dt):
+    """Table 2 observation and the new potential, from the torso's root state [N, 13]."""
+    torso, potentials = torso_observations(torso_state, targets, dt)
+    obs = torch.cat((
+        torso,
         unscale(dof_pos, dof_lower, dof_upper),
         dof_vel * dof_vel_scale,
-        sensor_wrenches.reshape(len(pos), -1) * contact_force_scale,
+        sensor_wrenches.reshape(len(torso), -1) * contact_force_scale,
         actions,
     ), dim=-1)
     return obs, potentials
@@ -142,17 +162,12 @@ def compute_ant_reward(obs, actions, potentials, prev_potentials, up_weight, hea
                        actions_cost, energy_cost, joints_at_limit_cost, termination_height,
                        death_cost):
     """A.2.1 reward from the Table 2 observation; returns (reward, terminated)."""
-    heading_proj = obs[:, 11]
-    heading_reward = torch.where(heading_proj > 0.8, torch.full_like(heading_proj, heading_weight),
-                                 heading_weight * heading_proj / 0.8)
-    up_reward = torch.where(obs[:, 10] > 0.93, up_weight, 0.0)
     action_penalty = actions_cost * torch.sum(actions**2, dim=-1)
     energy_penalty = energy_cost * torch.sum(torch.abs(actions * obs[:, 20:28]), dim=-1)
     limit_penalty = joints_at_limit_cost * torch.sum(torch.abs(obs[:, 12:20]) > 0.99, dim=-1)
     alive_reward = 0.5
-    progress_reward = potentials - prev_potentials
-    reward = (progress_reward + alive_reward + up_reward + heading_reward
-              - action_penalty - energy_penalty - limit_penalty)
+    reward = (progress_up_heading(obs, potentials, prev_potentials, up_weight, heading_weight)
+              + alive_reward - action_penalty - energy_penalty - limit_penalty)
     fallen = obs[:, 0] < termination_height
     reward = torch.where(fallen, torch.full_like(reward, death_cost), reward)
     return reward, fallen

@@ -29,8 +29,8 @@ from __future__ import annotations
 
 import torch
 
-from .ant import Ant
-from ..torch_utils import heading_up_and_angles, quat_rotate_inverse, unscale
+from ..torch_utils import unscale
+from .ant import Ant, progress_up_heading, torso_observations
 
 
 class Humanoid(Ant):
@@ -66,21 +66,13 @@ def compute_humanoid_observations(torso_state, targets, dof_pos, dof_vel, dof_fo
                                   dof_upper, dof_vel_scale, angular_velocity_scale,
                                   sensor_wrenches, contact_force_scale, actions, dt):
     """Table 3 observation and the new potential, from the torso's root state [N, 13]."""
-    pos, quat = torso_state[:, 0:3], torso_state[:, 3:7]
-    to_target = targets - pos
-    to_target[:, 2] = 0.0
-    potentials = -torch.norm(to_target, dim=-1) / dt
-    up_proj, heading_proj, roll, yaw, angle_to_target = heading_up_and_angles(quat, to_target)
+    torso, potentials = torso_observations(torso_state, targets, dt, angular_velocity_scale)
     obs = torch.cat((
-        pos[:, 2:3],
-        quat_rotate_inverse(quat, torso_state[:, 7:10]),
-        quat_rotate_inverse(quat, torso_state[:, 10:13]) * angular_velocity_scale,
-        yaw[:, None], roll[:, None], angle_to_target[:, None],
-        up_proj[:, None], heading_proj[:, None],
+        torso,
         unscale(dof_pos, dof_lower, dof_upper),
         dof_vel * dof_vel_scale,
         dof_force * contact_force_scale,
-        sensor_wrenches.reshape(len(pos), -1) * contact_force_scale,
+        sensor_wrenches.reshape(len(torso), -1) * contact_force_scale,
         actions,
     ), dim=-1)
     return obs, potentials
@@ -92,19 +84,14 @@ def compute_humanoid_reward(obs, actions, potentials, prev_potentials, motor_str
     """A.2.1 reward from the Table 3 observation; returns (reward, terminated)."""
     n = actions.shape[1]
     dof_scaled, dof_vel_scaled = obs[:, 12:12 + n], obs[:, 12 + n:12 + 2 * n]
-    heading_proj = obs[:, 11]
-    heading_reward = torch.where(heading_proj > 0.8, torch.full_like(heading_proj, heading_weight),
-                                 heading_weight * heading_proj / 0.8)
-    up_reward = torch.where(obs[:, 10] > 0.93, up_weight, 0.0)
     action_penalty = actions_cost * torch.sum(actions**2, dim=-1)
     energy_penalty = energy_cost * torch.sum(torch.abs(actions * dof_vel_scaled) * motor_strength,
                                              dim=-1)
     beyond = torch.abs(dof_scaled) - 0.98
     limit_penalty = torch.sum(torch.where(beyond > 0, joints_at_limit_cost * beyond / 0.02, 0.0)
                               * motor_strength, dim=-1)
-    progress_reward = potentials - prev_potentials
-    reward = (progress_reward + alive_reward + up_reward + heading_reward
-              - action_penalty - energy_penalty - limit_penalty)
+    reward = (progress_up_heading(obs, potentials, prev_potentials, up_weight, heading_weight)
+              + alive_reward - action_penalty - energy_penalty - limit_penalty)
     fallen = obs[:, 0] < termination_height
     reward = torch.where(fallen, torch.full_like(reward, death_cost), reward)
     return reward, fallen
