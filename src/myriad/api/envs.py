@@ -15,7 +15,8 @@ State tensors are buffers on the simulation device, shaped per env, refreshed by
 Writers take tensors on the simulation device, float32, of the exact shape they document (or a
 subset of envs with `env_ids`); anything else raises `ValueError` naming the writer, the expected
 and the given shape, dtype and device. State writes take effect at once: `forward()` is run for
-you, so the tensors above already show the new state.
+you, so the tensors above already show the new state (pass forward=False to all but the last of
+several writes in a row to run it once).
 """
 
 from __future__ import annotations
@@ -66,8 +67,11 @@ class Envs:
                                  "to have exactly one joint, a free joint")
         self._free_actors = torch.as_tensor(free_root, **long)
         root_jnt = [m.body_jntadr[self.actor_root_body[i]] for i in free_root]
-        self._root_q = torch.as_tensor(m.jnt_qposadr[root_jnt], **long)
-        self._root_v = torch.as_tensor(m.jnt_dofadr[root_jnt], **long)
+        # q columns (position, quaternion) and q̇ columns (v, ω) of each free actor's root joint
+        self._root_q_cols = torch.as_tensor(m.jnt_qposadr[root_jnt], **long)[:, None] \
+            + torch.arange(7, **long)
+        self._root_v_cols = torch.as_tensor(m.jnt_dofadr[root_jnt], **long)[:, None] \
+            + torch.arange(6, **long)
         self._root_body = torch.as_tensor(self.actor_root_body, **long)
         # drive actuators: the sim.ctrl column of each DOF's position or velocity drive
         drive_col = np.full(self.num_dofs, -1)
@@ -182,28 +186,29 @@ class Envs:
     def _count(self, ids) -> int:
         return self.num_envs if isinstance(ids, slice) else len(ids)
 
-    def set_root_states(self, states: torch.Tensor, env_ids=None) -> None:
+    def set_root_states(self, states: torch.Tensor, env_ids=None, forward: bool = True) -> None:
         """Teleport actors: states [len(env_ids) or N, actors, 13] as in `root_states`.
 
         Rows of fixed-base actors are ignored: their base is welded to the world.
+        forward=False leaves the derived tensors stale, for a caller that writes more state
+        right after (the last write recomputes them once).
         """
         ids = self._env_ids("set_root_states", env_ids)
         states = self._check("set_root_states", states,
                              (self._count(ids), self.num_actors, 13))[:, self._free_actors]
         quat = torch.nn.functional.normalize(states[..., 3:7], dim=-1)
-        omega_body = quat_rotate_inverse(quat, states[..., 10:13])
-        q, qd = self.sim.q, self.sim.qd
-        rows = torch.arange(self.num_envs, device=self.device)[ids][:, None]
-        for k in range(3):
-            q[rows, self._root_q + k] = states[..., k]
-            qd[rows, self._root_v + k] = states[..., 7 + k]
-            qd[rows, self._root_v + 3 + k] = omega_body[..., k]
-        for k in range(4):
-            q[rows, self._root_q + 3 + k] = quat[..., k]
-        self.forward()
+        pose = torch.cat((states[..., :3], quat), dim=-1)
+        velocity = torch.cat((states[..., 7:10], quat_rotate_inverse(quat, states[..., 10:13])),
+                             dim=-1)                       # a free joint's ω is in its body frame
+        rows = torch.arange(self.num_envs, device=self.device)[ids][:, None, None]
+        self.sim.q[rows, self._root_q_cols] = pose
+        self.sim.qd[rows, self._root_v_cols] = velocity
+        if forward:
+            self.forward()
 
-    def set_dof_state(self, pos: torch.Tensor, vel: torch.Tensor, env_ids=None) -> None:
-        """Set DOF positions and velocities [len(env_ids) or N, dofs]."""
+    def set_dof_state(self, pos: torch.Tensor, vel: torch.Tensor, env_ids=None,
+                      forward: bool = True) -> None:
+        """Set DOF positions and velocities [len(env_ids) or N, dofs] (forward as above)."""
         ids = self._env_ids("set_dof_state", env_ids)
         shape = (self._count(ids), self.num_dofs)
         pos = self._check("set_dof_state (pos)", pos, shape)
@@ -211,7 +216,8 @@ class Envs:
         rows = torch.arange(self.num_envs, device=self.device)[ids][:, None]
         self.sim.q[rows, self._dof_q] = pos
         self.sim.qd[rows, self.dof_columns] = vel
-        self.forward()
+        if forward:
+            self.forward()
 
     def set_dof_efforts(self, efforts: torch.Tensor) -> None:
         """Generalized force on each DOF [N, dofs], applied every step until changed."""

@@ -107,7 +107,7 @@ class Ant(VecTask):
         noise_pos = torch.empty(n, self.num_actions, device=dev).uniform_(-0.2, 0.2)
         noise_vel = torch.empty(n, self.num_actions, device=dev).uniform_(-0.1, 0.1)
         pos = torch.clamp(self.initial_dof_pos + noise_pos, self.dof_lower, self.dof_upper)
-        self.envs.set_root_states(self.initial_root_states[env_ids], env_ids)
+        self.envs.set_root_states(self.initial_root_states[env_ids], env_ids, forward=False)
         self.envs.set_dof_state(pos, noise_vel, env_ids)
         self.actions[env_ids] = 0.0
         to_target = self.targets[env_ids] - self.initial_root_states[env_ids, 0, :3]

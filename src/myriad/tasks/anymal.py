@@ -163,7 +163,7 @@ class Anymal(VecTask):
         n, dev = len(env_ids), self.device
         pos = self.default_dof_pos * torch.empty(n, self.num_actions, device=dev).uniform_(0.5, 1.5)
         vel = torch.empty(n, self.num_actions, device=dev).uniform_(-0.1, 0.1)
-        self.envs.set_root_states(self.initial_root_states[env_ids], env_ids)
+        self.envs.set_root_states(self.initial_root_states[env_ids], env_ids, forward=False)
         self.envs.set_dof_state(pos, vel, env_ids)
         r = self.command_ranges
         for k, key in enumerate(("linear_x", "linear_y", "yaw")):
