@@ -40,6 +40,7 @@ class Envs:
         # --- index maps from actors / DOFs / bodies to the simulator's columns
         self.actor_names = [a.name for a in self.actors]
         body_actor = np.array([self.actor_names.index(n.split("/", 1)[0]) for n in m.body_names])
+        self._body_actor, self._actor_columns_cache = body_actor, {}
         self.actor_root_body = [int(np.flatnonzero(body_actor == i)[0])
                                 for i in range(len(self.actors))]
         self.actor_fixed = [bool(a.fix_base) for a in self.actors]
@@ -276,14 +277,19 @@ class Envs:
         _, cols = self._actor_columns(actor)
         return self.sim.mass_matrix[:, cols][:, :, cols]
 
+    def actor_bodies(self, actor: str) -> list[int]:
+        """Indices of the actor's bodies (into bodies, `rigid_body_states`, `sim.body_mass`)."""
+        return np.flatnonzero(self._body_actor == self.actor_index(actor)).tolist()
+
     def _actor_columns(self, actor: str):
+        """(bodies, q̇ columns) of an actor as index tensors, computed once per actor."""
         i = self.actor_index(actor)
-        m = self.model
-        prefix = self.actor_names[i] + "/"
-        bodies = [b for b, n in enumerate(m.body_names) if n.startswith(prefix)]
-        cols = [v for v in range(m.nv) if m.body_names[m.dof_body[v]].startswith(prefix)]
-        long = dict(dtype=torch.long, device=self.device)
-        return torch.as_tensor(bodies, **long), torch.as_tensor(cols, **long)
+        if i not in self._actor_columns_cache:
+            bodies = np.flatnonzero(self._body_actor == i)
+            cols = np.flatnonzero(np.isin(self.model.dof_body, bodies))
+            self._actor_columns_cache[i] = tuple(
+                torch.as_tensor(a, dtype=torch.long, device=self.device) for a in (bodies, cols))
+        return self._actor_columns_cache[i]
 
     def __repr__(self) -> str:
         return (f"Envs({self.num_envs} envs on {self.device}: actors {self.actor_names}, "

@@ -222,7 +222,7 @@ class Randomizer:
         def index(values):
             return torch.as_tensor(values, dtype=torch.long, device=dev)
 
-        bodies = [b for b, n in enumerate(m.body_names) if n.startswith(prefix)]
+        bodies = envs.actor_bodies(actor)
         geoms = [g for g in range(m.ngeom) if m.geom_body[g] in bodies]
         dofs = list(range(envs.actor_dof_slices[actor].start, envs.actor_dof_slices[actor].stop))
         dof_v = envs.dof_columns[dofs]
@@ -279,7 +279,7 @@ class Randomizer:
             raise RandomizationError(f"randomization.{where}: needs operation: scaling and "
                                      "setup_only: true (an object is scaled once, at start-up)")
         sim, m = self.task.envs.sim, self.task.envs.model
-        bodies = [b for b, n in enumerate(m.body_names) if n.startswith(actor + "/")]
+        bodies = self.task.envs.actor_bodies(actor)
         if len(bodies) != 1:
             raise RandomizationError(f"randomization.{where}: only single-body actors (objects) "
                                      f"can be scaled; {actor!r} has {len(bodies)} bodies")
