@@ -218,13 +218,20 @@ class Simulator:
         m = model
         self._m = _model_arrays(model, dev)
 
+        # memory of per-env arrays (first dimension N), which CPU threads split by env
+        self._per_env_ptrs = set()
+
+        def per_env(a):
+            self._per_env_ptrs.add(a.ptr)
+            return a
+
         def zeros(*shape, dtype=wp.float32):
-            return wp.zeros(shape, dtype=dtype, device=dev)
+            return per_env(wp.zeros(shape, dtype=dtype, device=dev))
 
         def tiled(values, dtype=wp.float32):
             values = np.asarray(values, dtype=np.float32)
-            return wp.array(np.ascontiguousarray(np.broadcast_to(values, (N,) + values.shape)),
-                            dtype=dtype, device=dev)
+            return per_env(wp.array(np.ascontiguousarray(
+                np.broadcast_to(values, (N,) + values.shape)), dtype=dtype, device=dev))
 
         gravity = m.gravity if params.gravity is None else np.asarray(params.gravity)
         p = EnvParams()
@@ -307,6 +314,9 @@ class Simulator:
         self._geom_x = zeros(N, m.ngeom, dtype=wp.transform)
         self._contacts = collision.ContactBuffers(N, params.contacts_per_env if len(pairs) else 0,
                                                   dev)
+        for buf in (self._contacts.count, self._contacts.geom, self._contacts.pos,
+                    self._contacts.normal, self._contacts.dist, self._contacts.key):
+            per_env(buf)
         self._geom_restitution = zeros(N, m.ngeom)
         # constraint rows: 3 per contact slot, 2 per limited joint, 2 per limited tendon
         limited = [j for j in range(m.njnt) if m.jnt_limited[j] and params.constraints]
@@ -456,8 +466,8 @@ class Simulator:
 
         Warp runs a CPU kernel on the calling thread and releases the GIL while it runs, so
         shards of envs advance in parallel; every kernel is per env, so the result is the same
-        bit for bit. A shard's launches see views of the per-env arrays (first dimension
-        num_envs) restricted to its envs; model-wide arrays are passed whole.
+        bit for bit. A shard's launches see views of the per-env arrays (those allocated per env
+        in __init__) restricted to its envs; model-wide arrays are passed whole.
         """
         self._shard_local = threading.local()
         self._shards, self._pool = [], None
@@ -469,11 +479,6 @@ class Simulator:
             return
         bounds = np.linspace(0, self.num_envs, threads + 1).round().astype(int)
         self._shards = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
-        # arrays that are not per env, even when their length happens to equal num_envs
-        self._shared_ids = {id(a) for a in (
-            self._pairs, self._geom_type, self._geom_body, self._geom_quat, self._geom_dataid,
-            self._limit_jnt, self._limit_tendon, self._sensor_site, self._sensor_site_body,
-            self._m.site_body, self._m.site_quat)}
         self._shard_params = {}
         for a, b in self._shards:
             p = EnvParams()
@@ -491,8 +496,9 @@ class Simulator:
             return a
         if a is self._p:
             return self._shard_params[shard]
+        # per-env memory (views such as reshapes included); model-wide arrays pass whole
         if isinstance(a, wp.array) and a.size and a.shape[0] == self.num_envs \
-                and id(a) not in self._shared_ids:
+                and a.ptr in self._per_env_ptrs:
             return a[shard[0]:shard[1]]
         return a
 
