@@ -120,3 +120,12 @@ def test_ctrl_c_keeps_a_loadable_checkpoint(tmp_path):
     assert "saving the current policy" in out
     state = torch.load(tmp_path / "intr" / "nn" / "last.pth", weights_only=False)
     assert "model" in state and state["epoch"] >= 2
+
+
+def test_play_names_an_unreadable_checkpoint(tmp_path, capsys):
+    bad = tmp_path / "broken.pth"
+    bad.write_text("not a checkpoint")
+    assert cli.main(["play", "task=Ant", f"checkpoint={bad}", "num_steps=1"]) == 2
+    assert f"checkpoint {bad}: not a readable rl_games checkpoint" in capsys.readouterr().err
+    assert cli.main(["train", *train_args(tmp_path, f"checkpoint={bad}")]) == 2
+    assert f"checkpoint {bad}: cannot resume from it" in capsys.readouterr().err

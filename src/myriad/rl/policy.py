@@ -15,7 +15,11 @@ def load_policy(checkpoint: str, train_cfg: dict, task):
         "actions_num": task.num_actions, "input_shape": (task.num_obs,), "num_seqs": 1,
         "value_size": 1, "normalize_value": config.get("normalize_value", False),
         "normalize_input": config.get("normalize_input", False)})
-    state = torch_ext.load_checkpoint(checkpoint)
+    try:
+        state = torch_ext.load_checkpoint(checkpoint)
+    except Exception as err:  # truncated or not a checkpoint: torch raises several kinds
+        raise ValueError(f"checkpoint {checkpoint}: not a readable rl_games checkpoint "
+                         f"({type(err).__name__}: {err})") from err
     try:
         network.load_state_dict(state["model"])
     except (RuntimeError, KeyError) as err:

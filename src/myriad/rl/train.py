@@ -166,7 +166,11 @@ def train(task, train_cfg: dict, run: dict, seed: int, checkpoint: str | None = 
     """Train until max_iterations or max_time_s; returns the summary. Ctrl-C saves and stops."""
     agent = build_agent(task, train_cfg, run, seed)
     if checkpoint:
-        agent.restore(checkpoint)
+        try:
+            agent.restore(checkpoint)
+        except Exception as err:  # truncated file, or a checkpoint of another task's network
+            raise ValueError(f"checkpoint {checkpoint}: cannot resume from it "
+                             f"({type(err).__name__}: {err})") from err
     print(f"training {run['describe']['task']} with {task.num_envs} envs on {task.device}; "
           f"run files in {agent.experiment_dir}", flush=True)
     try:
