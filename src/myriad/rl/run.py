@@ -77,9 +77,10 @@ def train(overrides: list[str]) -> int:
     name = task_cfg["name"]
     if cfg.checkpoint and not os.path.isfile(cfg.checkpoint):
         raise FileNotFoundError(f"checkpoint={cfg.checkpoint}: no such file")
-    if cfg.checkpoint and cfg.experiment is None:
-        experiment = os.path.basename(os.path.dirname(os.path.dirname(os.path.abspath(cfg.checkpoint))))
-    else:
+    folder = os.path.dirname(os.path.abspath(cfg.checkpoint)) if cfg.checkpoint else ""
+    if cfg.experiment is None and os.path.basename(folder) == "nn":
+        experiment = os.path.basename(os.path.dirname(folder))   # resume in runs/<experiment>/
+    else:           # a checkpoint from elsewhere starts a new run folder
         experiment = cfg.experiment or free_experiment_name(cfg.train_dir, name)
     max_time = math.inf if cfg.max_time_s is None else float(cfg.max_time_s)
     if not max_time > 0:
