@@ -5,9 +5,14 @@ import sys as _sys
 from importlib import resources as _resources
 
 # Videos are drawn by MuJoCo's offscreen renderer, whose OpenGL backend is fixed when MuJoCo is
-# imported: on a Linux machine without a display, use EGL (works on Mesa with no GPU).
-if _sys.platform.startswith("linux") and not _os.environ.get("DISPLAY"):
-    _os.environ.setdefault("MUJOCO_GL", "egl")
+# imported: on a Linux machine without a display, use EGL (works on Mesa with no GPU), else
+# OSMesa. With neither library MuJoCo's import itself would fail (PyOpenGL finds no EGL), so
+# rendering is switched off and only `myriad play` says what to install.
+if _sys.platform.startswith("linux") and not _os.environ.get("DISPLAY") \
+        and "MUJOCO_GL" not in _os.environ:
+    from ctypes.util import find_library as _find_library
+    _os.environ["MUJOCO_GL"] = ("egl" if _find_library("EGL") else
+                                "osmesa" if _find_library("OSMesa") else "disable")
 
 from .physics import Model, ModelError, SimParams, Simulator, from_mujoco, load, load_xml
 

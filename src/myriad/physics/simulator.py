@@ -88,8 +88,6 @@ class _View:
         view = sim._views[self.name]
         if not isinstance(value, torch.Tensor):
             value = torch.as_tensor(value, dtype=view.dtype, device=view.device)
-        if value.device != view.device:
-            raise ValueError(f"sim.{self.name}: value is on {value.device}, the simulator on {view.device}")
         try:
             fits = torch.broadcast_shapes(value.shape, view.shape) == view.shape
         except RuntimeError:
@@ -97,6 +95,8 @@ class _View:
         if not fits:
             raise ValueError(f"sim.{self.name}: cannot write a tensor of shape {tuple(value.shape)} "
                              f"into shape {tuple(view.shape)}")
+        if value.device != view.device:
+            raise ValueError(f"sim.{self.name}: value is on {value.device}, the simulator on {view.device}")
         view.copy_(value)
 
 
@@ -615,10 +615,8 @@ class Simulator:
     # ------------------------------------------------------------------ CUDA
     def _step_graph(self) -> None:
         if self._graph is None:
-            # compile outside the capture
-            for module in (kinematics, collision.narrowphase, dynamics, forces, constraints,
-                           solver_tgs, integrate, sensors):
-                wp.load_module(module, device=self.device)
+            # every kernel module is compiled and loaded before the capture starts
+            wp.load_module("myriad.physics", device=self.device, recursive=True)
             with wp.ScopedCapture(device=self.device, stream=self._stream) as capture:
                 self._step_kernels()
             self._graph = capture.graph
