@@ -17,3 +17,14 @@ def pytest_addoption(parser):
 @pytest.fixture(scope="session")
 def device(request):
     return request.config.getoption("--device")
+
+
+def pytest_collection_modifyitems(config, items):
+    """On a GPU (--device cuda:0) run only the tests that take the `device` fixture: the others
+    do not depend on the device and run in the CPU suite."""
+    if config.getoption("--device") == "cpu":
+        return
+    skip = pytest.mark.skip(reason="device-independent: covered by the CPU run")
+    for item in items:
+        if "device" not in getattr(item, "fixturenames", ()):
+            item.add_marker(skip)

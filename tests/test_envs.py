@@ -40,7 +40,7 @@ def test_changing_one_env_changes_no_other(ant, device):
 
 def test_per_env_gravity(ant, device):
     sim = myriad.Simulator(ant, num_envs=2, device=device, params=myriad.SimParams(constraints=False))
-    sim.gravity[1] = torch.tensor([0.0, 0.0, -3.721])  # Mars
+    sim.gravity[1] = torch.tensor([0.0, 0.0, -3.721], device=sim.torch_device)  # Mars
     for _ in range(30):
         sim.step()
     # free fall of the whole ant (no contacts yet), semi-implicit Euler over n substeps of h:
@@ -56,7 +56,7 @@ def test_writes_are_validated(ant, device):
         sim.q = torch.zeros(5)
     with pytest.raises(ValueError, match=r"sim\.body_mass"):
         sim.body_mass = torch.ones(3, ant.nbody + 1)
-    sim.q = torch.as_tensor(ant.qpos0)  # broadcasting one configuration to every env is fine
+    sim.q = torch.as_tensor(ant.qpos0, device=sim.torch_device)  # broadcasting one configuration to every env is fine
     sim.ctrl = 0.5
     assert torch.all(sim.ctrl == 0.5)
 

@@ -137,7 +137,7 @@ def test_body_wrenches_act_like_mujoco_xfrc_applied(model, device):
     datas = _set_random_states(model, sim, seed=5)
     rng = np.random.default_rng(6)
     wrench = rng.normal(size=(NUM_ENVS, model.nbody, 6)) * 10.0
-    sim.body_force = torch.as_tensor(wrench, dtype=torch.float32)
+    sim.body_force = torch.as_tensor(wrench, dtype=torch.float32, device=sim.torch_device)
     sim._applied_forces()
     applied = sim._qfrc_applied.numpy()
     for e, d in enumerate(datas):

@@ -169,7 +169,7 @@ def test_ingenuity_thrust_observation_and_reward(device):
     task = myriad.make("Ingenuity", num_envs=3, device=device)
     e = task.envs
     assert (task.num_obs, task.num_actions) == (13, 6)
-    assert e.sim.gravity[0, 2] == pytest.approx(-3.721)
+    assert e.sim.gravity[0, 2].item() == pytest.approx(-3.721)
     obs = task.reset()["obs"]
     root = e.root_states[:, 0]
     torch.testing.assert_close(obs[:, 0:3], (task.targets - root[:, :3]) / 3)

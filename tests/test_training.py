@@ -10,12 +10,13 @@ from myriad import cli
 from myriad.rl import run
 
 
-def train_args(tmp_path, *extra):
-    return ["task=Ant", "device=cpu", "num_envs=32", f"train_dir={tmp_path}", *extra]
+def train_args(tmp_path, *extra, device="cpu"):
+    return ["task=Ant", f"device={device}", "num_envs=32", f"train_dir={tmp_path}", *extra]
 
 
-def test_train_writes_checkpoint_summary_and_curve_then_resumes(tmp_path):
-    assert cli.main(["train", *train_args(tmp_path, "max_iterations=3", "experiment=smoke")]) == 0
+def test_train_writes_checkpoint_summary_and_curve_then_resumes(tmp_path, device):
+    args = train_args(tmp_path, "max_iterations=3", "experiment=smoke", device=device)
+    assert cli.main(["train", *args]) == 0
     folder = tmp_path / "smoke"
     summary = json.loads((folder / "summary.json").read_text())
     # 32 envs × horizon 16 × 3 epochs
@@ -30,21 +31,22 @@ def test_train_writes_checkpoint_summary_and_curve_then_resumes(tmp_path):
     assert os.listdir(folder / "summaries"), "TensorBoard event file"
 
     # the same experiment name is never overwritten: a second run gets its own folder
-    assert cli.main(["train", *train_args(tmp_path, "max_iterations=1")]) == 0
+    assert cli.main(["train", *train_args(tmp_path, "max_iterations=1", device=device)]) == 0
     assert (tmp_path / "Ant").is_dir()
-    assert cli.main(["train", *train_args(tmp_path, "max_iterations=1")]) == 0
+    assert cli.main(["train", *train_args(tmp_path, "max_iterations=1", device=device)]) == 0
     assert (tmp_path / "Ant_2").is_dir()
 
     # resume: the epoch count continues from the checkpoint's
     checkpoint = str(folder / "nn" / "last.pth")
     assert cli.main(["train", *train_args(tmp_path, "max_iterations=5",
-                                          f"checkpoint={checkpoint}")]) == 0
+                                          f"checkpoint={checkpoint}", device=device)]) == 0
     summary = json.loads((folder / "summary.json").read_text())
     assert summary["epochs"] == 5
 
 
-def test_max_time_stops_cleanly_with_a_checkpoint(tmp_path):
-    assert cli.main(["train", *train_args(tmp_path, "max_time_s=0.01", "experiment=timed")]) == 0
+def test_max_time_stops_cleanly_with_a_checkpoint(tmp_path, device):
+    args = train_args(tmp_path, "max_time_s=0.01", "experiment=timed", device=device)
+    assert cli.main(["train", *args]) == 0
     summary = json.loads((tmp_path / "timed" / "summary.json").read_text())
     assert summary["epochs"] == 1 and (tmp_path / "timed" / "nn" / "last.pth").is_file()
 
@@ -61,8 +63,9 @@ def test_bad_configs_fail_naming_the_problem(tmp_path, capsys):
     assert "no trained Ant run" in capsys.readouterr().err
 
 
-def test_play_writes_a_video(tmp_path):
-    assert cli.main(["train", *train_args(tmp_path, "max_iterations=1", "experiment=v")]) == 0
+def test_play_writes_a_video(tmp_path, device):
+    args = train_args(tmp_path, "max_iterations=1", "experiment=v", device=device)
+    assert cli.main(["train", *args]) == 0
     try:
         import mujoco
         renderer = mujoco.Renderer(mujoco.MjModel.from_xml_string("<mujoco/>"), 16, 16)
@@ -70,7 +73,8 @@ def test_play_writes_a_video(tmp_path):
     except Exception as err:  # no offscreen OpenGL on this machine (see docs/training.md)
         pytest.skip(f"MuJoCo's offscreen renderer is not available here: {err}")
     video = tmp_path / "ant.gif"
-    assert cli.main(["play", "task=Ant", f"train_dir={tmp_path}", "num_steps=5",
+    assert cli.main(["play", "task=Ant", f"device={device}", f"train_dir={tmp_path}",
+                     "num_steps=5",
                      f"video={video}", "video_size=[64,64]"]) == 0
     import imageio.v2 as imageio
     frames = imageio.mimread(video)
@@ -94,7 +98,7 @@ def test_cpu_profile_applies_only_without_num_envs():
     assert train_cfg["params"]["config"]["minibatch_size"] == 64, "512 samples: 8 of 64"
 
 
-def test_ctrl_c_keeps_a_loadable_checkpoint(tmp_path):
+def test_ctrl_c_keeps_a_loadable_checkpoint(tmp_path, device):
     """SIGINT in the middle of training: exit code 130 and nn/last.pth is whole and loadable."""
     import signal
     import subprocess
@@ -104,8 +108,8 @@ def test_ctrl_c_keeps_a_loadable_checkpoint(tmp_path):
     import torch
 
     proc = subprocess.Popen(
-        [sys.executable, "-m", "myriad.cli", "train", *train_args(tmp_path, "experiment=intr",
-                                                                   "max_iterations=100000")],
+        [sys.executable, "-m", "myriad.cli", "train",
+         *train_args(tmp_path, "experiment=intr", "max_iterations=100000", device=device)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     curve = tmp_path / "intr" / "progress.csv"
     deadline = time.monotonic() + 300
@@ -118,7 +122,7 @@ def test_ctrl_c_keeps_a_loadable_checkpoint(tmp_path):
     out, _ = proc.communicate(timeout=120)
     assert proc.returncode == 130, out
     assert "saving the current policy" in out
-    state = torch.load(tmp_path / "intr" / "nn" / "last.pth", weights_only=False)
+    state = torch.load(tmp_path / "intr" / "nn" / "last.pth", weights_only=False, map_location="cpu")
     assert "model" in state and state["epoch"] >= 2
 
 
