@@ -115,3 +115,85 @@ def test_model_contents_of_the_ant():
     np.testing.assert_allclose(model.qpos_to_mujoco(q), model.mj_model.qpos0, atol=1e-7)
     with pytest.raises(KeyError, match="no body named 'tail'"):
         model.body_index("tail")
+
+
+# ---------------------------------------------------------------- non-finite numbers
+# MuJoCo compiles most of these with a warning on stderr only; every env would be NaN after one
+# step. Each must be a ModelError naming the file, the element and the attribute.
+NONFINITE_MJCF = [
+    # (the model, message of the check on the file's text, message of the check on the MjModel)
+    ("""<worldbody><body name="torso" pos="0 nan 1"><freejoint/><geom size="0.1"/></body></worldbody>""",
+     r"line 1: body 'torso': pos=\"0 nan 1\" is not finite",
+     r"body 'torso': <body pos> = 0 nan 1 is not finite"),
+    ("""<worldbody><body pos="0 nan 1"><freejoint/><geom size="0.1"/></body></worldbody>""",
+     r"line 1: body \(unnamed\): pos=\"0 nan 1\" is not finite",
+     r"body #1 \(unnamed\): <body pos> = 0 nan 1 is not finite"),
+    ("""<worldbody><body><freejoint/><geom name="brick" type="box" size="0.1 inf 0.1"/></body></worldbody>""",
+     r"line 1: geom 'brick': size=\"0.1 inf 0.1\" is not finite",
+     r"geom 'brick': <geom size> \(or fromto\) = 0.1 inf 0.1 is not finite"),
+    ("""<worldbody><body name="arm">
+          <joint name="elbow" type="hinge" range="-1 nan"/><geom size="0.1"/></body></worldbody>""",
+     r"line 2: joint 'elbow': range=\"-1 nan\" is not finite",
+     r"joint 'elbow': <joint range> = -1 nan is not finite"),
+    ("""<option gravity="0 0 -inf"/><worldbody><body><freejoint/><geom size="0.1"/></body></worldbody>""",
+     r"line 1: option \(unnamed\): gravity=\"0 0 -inf\" is not finite",
+     r"<option gravity> = 0 0 -inf is not finite"),
+    # finite as a double, infinite in the float32 the engine computes in
+    ("""<worldbody><body name="far" pos="0 1e39 0"><freejoint/><geom size="0.1"/></body></worldbody>""",
+     r"line 1: body 'far': pos=\"0 1e39 0\" is not finite",
+     r"body 'far': <body pos> = 0 1e\+39 0 is not finite"),
+]
+
+
+@pytest.mark.parametrize("snippet, text_message, model_message", NONFINITE_MJCF)
+def test_non_finite_numbers_in_mjcf_are_errors(tmp_path, snippet, text_message, model_message):
+    import mujoco
+    xml = f"<mujoco>{snippet}</mujoco>"
+    path = _write(tmp_path, "nan.xml", xml)
+    with pytest.raises(ModelError, match=f"nan.xml: {text_message}"):
+        myriad.load(path)
+    with pytest.raises(ModelError, match=f"generated: {text_message}"):
+        myriad.load_xml(xml, "generated")
+    # the check of the compiled model alone (what a scene or an MjModel built in code goes through)
+    with pytest.raises(ModelError, match=f"compiled: {model_message}"):
+        myriad.from_mujoco(mujoco.MjModel.from_xml_string(xml), "compiled")
+
+
+def test_non_finite_number_that_mujoco_hides_is_an_error():
+    """MuJoCo reads mass="nan" as "not given" and computes the mass from the density: the
+    compiled model is finite, only the file's text shows it."""
+    xml = """<mujoco><worldbody><body name="b"><freejoint/>
+        <geom name="ball" size="0.1" mass="nan"/></body></worldbody></mujoco>"""
+    with pytest.raises(ModelError, match=r"<string>: line 2: geom 'ball': mass=\"nan\" is not finite"):
+        myriad.load_xml(xml)
+
+
+def test_non_finite_number_in_an_included_file(tmp_path):
+    _write(tmp_path, "part.xml", """<mujoco><worldbody>
+        <body name="b"><freejoint/><geom size="0.1" friction="nan"/></body></worldbody></mujoco>""")
+    path = _write(tmp_path, "main.xml", '<mujoco><include file="part.xml"/></mujoco>')
+    with pytest.raises(ModelError, match=r"part.xml: line 2: geom in body 'b': friction=\"nan\""):
+        myriad.load(path)
+
+
+def test_non_finite_number_in_urdf_names_the_joint(tmp_path):
+    import mujoco
+    path = _write(tmp_path, "arm_nan.urdf", """<robot name="arm">
+      <link name="base"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+      <link name="upper"><inertial><mass value="0.5"/>
+        <inertia ixx="0.005" iyy="0.005" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+      <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
+        <origin xyz="0 nan 0.1"/><axis xyz="0 1 0"/><limit lower="-1.5" upper="1.5" effort="10" velocity="3"/></joint>
+    </robot>""")
+    with pytest.raises(ModelError, match=r"arm_nan.urdf: line 6: origin in joint 'shoulder': "
+                                         r"xyz=\"0 nan 0.1\" is not finite"):
+        myriad.load(path)
+    # compiled, the joint origin is the pose of the child link's body
+    with pytest.raises(ModelError, match=r"arm: body 'upper': <body pos> = .*nan.* is not finite"):
+        myriad.from_mujoco(mujoco.MjModel.from_xml_path(path), "arm")
+
+
+def test_names_that_read_as_numbers_are_not_numbers():
+    model = myriad.load_xml("""<mujoco><worldbody><body name="inf"><joint name="nan" type="hinge"/>
+        <geom size="0.1"/></body></worldbody><actuator><motor joint="nan"/></actuator></mujoco>""")
+    assert model.body_names == ["inf"] and model.joint_names == ["nan"]

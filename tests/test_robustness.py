@@ -68,6 +68,65 @@ def test_non_finite_env_is_flagged_and_isolated(device):
     assert torch.isfinite(sim.q[1]).all() and sim.nonfinite.tolist() == [0, 0, 0]
 
 
+@pytest.mark.parametrize("name, index, value", [
+    ("ctrl", (1, 0), float("nan")),          # the ctrlrange clamp once turned it into -1
+    ("ctrl", (1, 7), float("-inf")),
+    ("joint_force", (1, 9), float("nan")),
+    ("joint_force", (1, 0), float("inf")),
+    ("body_force", (1, 3, 4), float("nan")),
+])
+def test_non_finite_input_flags_its_env_and_leaves_the_others_alone(name, index, value, device):
+    """A non-finite ctrl, joint_force or body_force is never clamped or dropped: its env is
+    flagged and its state becomes NaN; the other envs step bit for bit as without it."""
+    model = myriad.load(myriad.asset_path("ant.xml"))
+    sim = myriad.Simulator(model, num_envs=3, device=device)
+    ref = myriad.Simulator(model, num_envs=3, device=device)
+    torch.manual_seed(0)
+    ctrl = torch.rand(3, model.nu, device=sim.torch_device) * 2 - 1
+    for s in (sim, ref):
+        s.ctrl = ctrl
+        s.joint_force[:, 6:] = 0.5
+        s.body_force[:, 0, 2] = 3.0
+    getattr(sim, name)[index] = value
+    for _ in range(3):
+        sim.step()
+        ref.step()
+    assert sim.nonfinite.tolist() == [0, 1, 0]
+    assert torch.isnan(sim.q[1]).all() and torch.isnan(sim.qd[1]).all()
+    for e in (0, 2):
+        for out in ("q", "qd", "dof_actuator_force", "sensor_wrench", "net_contact_force"):
+            assert torch.equal(getattr(sim, out)[e], getattr(ref, out)[e]), (out, e)
+    assert int(ref.nonfinite.sum()) == 0
+    # the task layer resets the env, its input and the flag: it steps like the reference again
+    # (not bit for bit: the solver's warm start of the joint-friction rows still differs)
+    getattr(sim, name)[index] = getattr(ref, name)[index]
+    sim.q[1], sim.qd[1] = ref.q[1], ref.qd[1]
+    sim.nonfinite[1] = 0
+    for _ in range(2):
+        sim.step()
+        ref.step()
+    assert sim.nonfinite.tolist() == [0, 0, 0]
+    assert torch.allclose(sim.q[1], ref.q[1], rtol=0.0, atol=1e-5)
+    assert torch.equal(sim.q[0], ref.q[0]) and torch.equal(sim.q[2], ref.q[2])
+
+
+def test_non_finite_force_on_a_body_no_dof_moves_is_flagged(device):
+    """A static body's force never reaches a dof; its env is flagged all the same."""
+    model = myriad.load_xml("""<mujoco><worldbody>
+        <body name="post" pos="1 0 0.5"><geom type="box" size="0.1 0.1 0.5"/></body>
+        <body name="ball" pos="0 0 1"><freejoint/><geom size="0.1"/></body>
+        </worldbody></mujoco>""", "post")
+    sim = myriad.Simulator(model, num_envs=2, device=device)
+    ref = myriad.Simulator(model, num_envs=2, device=device)
+    sim.body_force[0, model.body_index("post"), 0] = float("inf")
+    for _ in range(2):
+        sim.step()
+        ref.step()
+    assert sim.nonfinite.tolist() == [1, 0]
+    assert torch.isnan(sim.q[0]).all()
+    assert torch.equal(sim.q[1], ref.q[1]) and torch.equal(sim.qd[1], ref.qd[1])
+
+
 @pytest.mark.parametrize("asset", ["ant.xml", "humanoid.xml"])
 def test_cpu_threads_give_bit_identical_results(asset, device):
     """Envs split into uneven shards, one CPU thread each, step exactly as one thread does."""

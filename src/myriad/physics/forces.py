@@ -11,6 +11,11 @@ An actuator whose predicted force (qacc = 0) exceeds its force range applies the
 explicitly instead; so does a joint whose summed actuator force exceeds its effort limit. Joint
 springs are explicit, as in MuJoCo. Fixed-tendon springs are soft constraint rows of the solver
 (implicit along the tendon only, see `constraints`).
+
+Non-finite input (NaN or ±inf in an env's `ctrl`, `joint_force` or `body_force`) is never clamped
+or dropped: the env is flagged in `nonfinite` and every one of its generalized forces becomes NaN,
+so its whole state is NaN after the substep, exactly like an env whose state went non-finite. The
+other envs are untouched (every kernel is per env).
 """
 
 import warp as wp
@@ -30,7 +35,9 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
                        ctrl: wp.array2d(dtype=float), joint_force: wp.array2d(dtype=float),
                        bias: wp.array2d(dtype=float),
                        qfrc_actuator: wp.array2d(dtype=float),
-                       qfrc: wp.array2d(dtype=float), implicit_diag: wp.array2d(dtype=float)):
+                       qfrc: wp.array2d(dtype=float), implicit_diag: wp.array2d(dtype=float),
+                       nonfinite: wp.array(dtype=wp.int32)):
+    """`joint_force` here is `qfrc_applied` (user joint forces plus projected body wrenches)."""
     e = wp.tid()
     for i in range(m.nv):
         d = p.dof_damping[e, i]
@@ -87,6 +94,21 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
     for i in range(m.nv):
         qfrc[e, i] = qfrc[e, i] + qfrc_actuator[e, i]
 
+    # non-finite input: the clamps above would have turned a NaN ctrl into a bound, so the check
+    # looks at the inputs themselves; the env is flagged and its forces poisoned, never patched
+    bad = int(0)
+    for a in range(m.nu):
+        if not wp.isfinite(ctrl[e, a]):
+            bad = 1
+    for i in range(m.nv):
+        if not wp.isfinite(joint_force[e, i]):
+            bad = 1
+    if bad != 0:
+        nonfinite[e] = 1
+        for i in range(m.nv):
+            qfrc_actuator[e, i] = wp.nan
+            qfrc[e, i] = wp.nan
+
 
 @wp.kernel
 def body_wrenches(m: ModelArrays, body_x: wp.array2d(dtype=wp.transform),
@@ -95,14 +117,20 @@ def body_wrenches(m: ModelArrays, body_x: wp.array2d(dtype=wp.transform),
                   body_force: wp.array2d(dtype=wp.spatial_vector),
                   # scratch: each body's wrench, then its subtree's, at the tree's reference point
                   wrench: wp.array2d(dtype=wp.spatial_vector),
-                  qfrc_applied: wp.array2d(dtype=float)):
+                  qfrc_applied: wp.array2d(dtype=float), nonfinite: wp.array(dtype=wp.int32)):
     """qfrc_applied = joint_force + Jᵀ·(force at the center of mass, torque) of every body.
 
     `body_force[e, b]` is (force, torque) in world axes, the force acting at the body's center of
     mass. A dof feels the wrenches of all bodies it carries: Σ over its subtree, projected on the
-    dof's motion vector (so no per-body Jacobian is ever formed).
+    dof's motion vector (so no per-body Jacobian is ever formed). A non-finite `body_force`
+    flags the env and makes all of its `qfrc_applied` NaN, even on a body that no dof carries
+    (a non-finite `joint_force` reaches `generalized_forces` through `qfrc_applied`).
     """
     e = wp.tid()
+    bad = int(0)
+    for b in range(m.nbody):
+        if not wp.isfinite(body_force[e, b]):
+            bad = 1
     for b in range(m.nbody):
         f = wp.spatial_top(body_force[e, b])
         torque = wp.spatial_bottom(body_force[e, b])
@@ -115,3 +143,7 @@ def body_wrenches(m: ModelArrays, body_x: wp.array2d(dtype=wp.transform),
             wrench[e, parent] = wrench[e, parent] + wrench[e, b]
     for i in range(m.nv):
         qfrc_applied[e, i] = joint_force[e, i] + wp.dot(cdof[e, i], wrench[e, m.dof_body[i]])
+    if bad != 0:
+        nonfinite[e] = 1
+        for i in range(m.nv):
+            qfrc_applied[e, i] = wp.nan

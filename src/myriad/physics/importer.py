@@ -3,11 +3,19 @@
 MuJoCo resolves defaults, `fromto`, inertias from geoms, meshes and URDF conversion; we only
 check that what it produced is something our engine simulates faithfully. Anything else raises
 `ModelError` naming the file and the element, so that a model never runs silently approximated.
+
+A non-finite number (NaN, infinity, or beyond float32's range) anywhere in the model is a
+`ModelError` too, naming the element and the attribute: MuJoCo compiles most of them with only a
+warning on stderr, and every env would be NaN after its first step. Two generic checks find
+them: one over every attribute of the file's text (MuJoCo reads NaN in some attributes as "not
+given", e.g. a geom's mass="nan" silently becomes the mass from its density), and one over every
+float field of the compiled `MjModel` (included files, models built in code or by a scene).
 """
 
 from __future__ import annotations
 
 import os
+import xml.parsers.expat
 
 import mujoco
 import numpy as np
@@ -25,6 +33,8 @@ def load(path: str | os.PathLike) -> Model:
         mj_model = mujoco.MjModel.from_xml_path(path)
     except Exception as err:  # MuJoCo raises ValueError with the element and line in the text
         raise ModelError(f"{path}: MuJoCo rejected the model: {err}") from err
+    with open(path, "rb") as f:
+        _check_finite_text(f.read(), path, os.path.dirname(path))
     return from_mujoco(mj_model, source=path)
 
 
@@ -34,6 +44,7 @@ def load_xml(xml: str, source: str = "<string>") -> Model:
         mj_model = mujoco.MjModel.from_xml_string(xml)
     except Exception as err:
         raise ModelError(f"{source}: MuJoCo rejected the model: {err}") from err
+    _check_finite_text(xml, source, None)
     return from_mujoco(mj_model, source=source)
 
 
@@ -56,6 +67,166 @@ def _f32(a) -> np.ndarray:
 
 def _i32(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.int32)
+
+
+_F32_MAX = float(np.finfo(np.float32).max)
+
+
+def _finite(a) -> np.ndarray:
+    """True where a value is finite once stored as float32 (what the engine computes in)."""
+    a = np.asarray(a, dtype=np.float64)
+    return np.isfinite(a) & (np.abs(a) <= _F32_MAX)
+
+
+_NOT_FINITE = "is not finite (NaN, infinity, or beyond float32's range)"
+# attributes that hold names, never numbers (a body may be called "inf")
+_NAME_ATTRIBUTES = {"name", "class", "childclass", "model", "file", "prefix"}
+
+
+def _nonfinite_number(value: str) -> bool:
+    """`value` is a list of numbers and one of them is not finite."""
+    try:
+        numbers = [float(t) for t in value.replace(",", " ").split()]
+    except ValueError:
+        return False  # text, not numbers
+    return bool(numbers) and not _finite(numbers).all()
+
+
+def _check_finite_text(text: str | bytes, source: str, base_dir: str | None) -> None:
+    """Raise `ModelError` at the first attribute written with a non-finite number.
+
+    Works on MJCF and URDF alike (the file's own element and attribute names, with the line);
+    follows MJCF `<include file=...>` relative to the model's folder.
+    """
+    hits, names, stack, includes = [], set(), [], []
+    parser = xml.parsers.expat.ParserCreate()
+
+    def start(tag, attrs):
+        label = attrs.get("name") or (attrs.get("class", "") if tag == "default" else "")
+        names.update(attrs[k] for k in ("name", "class", "childclass") if k in attrs)
+        for attr, value in attrs.items():
+            if attr not in _NAME_ATTRIBUTES and _nonfinite_number(value):
+                named = [f"{t} {n!r}" for t, n in stack if n]
+                owner = (f"{tag} {label!r}" if label else f"{tag} in {named[-1]}" if named
+                         else f"{tag} (unnamed)")
+                hits.append((value, f"{source}: line {parser.CurrentLineNumber}: {owner}: "
+                                    f"{attr}=\"{value}\" {_NOT_FINITE}"))
+        if tag == "include" and base_dir is not None and "file" in attrs:
+            includes.append(os.path.join(base_dir, attrs["file"]))
+        stack.append((tag, label))
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = lambda tag: stack.pop()
+    try:
+        parser.Parse(text, True)
+    except xml.parsers.expat.ExpatError:
+        return  # MuJoCo compiled it; whatever expat dislikes, the MjModel check still runs
+    for value, message in hits:
+        if value.strip() not in names:  # a reference to an element named like a number
+            raise ModelError(message)
+    for included in includes:
+        if os.path.isfile(included):
+            with open(included, "rb") as f:
+                _check_finite_text(f.read(), included, base_dir)
+
+
+# MjModel field -> the attribute it is compiled from, named in the message. These fields are
+# checked first and in this order, so that the value a user wrote is named rather than the
+# quantities MuJoCo derived from it (a NaN body pos also makes qpos0, dof_M0, ... NaN).
+_FIELD_ATTRIBUTE = {
+    "body_pos": "<body pos>", "body_quat": "<body quat> (or euler, axisangle, xyaxes, zaxis)",
+    "body_gravcomp": "<body gravcomp>",
+    "jnt_pos": "<joint pos>", "jnt_axis": "<joint axis>", "jnt_range": "<joint range>",
+    "jnt_stiffness": "<joint stiffness>", "jnt_actfrcrange": "<joint actuatorfrcrange>",
+    "jnt_margin": "<joint margin>", "jnt_solref": "<joint solreflimit>",
+    "jnt_solimp": "<joint solimplimit>",
+    "qpos0": "<joint ref>", "qpos_spring": "<joint springref>",
+    "dof_damping": "<joint damping>", "dof_armature": "<joint armature>",
+    "dof_frictionloss": "<joint frictionloss>", "dof_solref": "<joint solreffriction>",
+    "dof_solimp": "<joint solimpfriction>",
+    "geom_pos": "<geom pos> (or fromto)", "geom_quat": "<geom quat> (or euler, fromto, ...)",
+    "geom_size": "<geom size> (or fromto)", "geom_friction": "<geom friction>",
+    "geom_margin": "<geom margin>", "geom_gap": "<geom gap>", "geom_solref": "<geom solref>",
+    "geom_solimp": "<geom solimp>", "geom_solmix": "<geom solmix>", "geom_rgba": "<geom rgba>",
+    # after the geoms: MuJoCo computes a body's inertia from its geoms when it has no <inertial>
+    "body_ipos": "<inertial pos> (or the geoms it is computed from)",
+    "body_iquat": "<inertial quat> (or the geoms it is computed from)",
+    "body_mass": "<inertial mass> (or its geoms' size, mass, density)",
+    "body_inertia": "<inertial diaginertia> (or fullinertia, or its geoms)",
+    "site_pos": "<site pos>", "site_quat": "<site quat>", "site_size": "<site size>",
+    "actuator_gear": "<actuator gear>", "actuator_ctrlrange": "<actuator ctrlrange>",
+    "actuator_forcerange": "<actuator forcerange>",
+    "actuator_gainprm": "<actuator gainprm> (or kp, kv)",
+    "actuator_biasprm": "<actuator biasprm> (or kp, kv)",
+    "tendon_stiffness": "<tendon stiffness>", "tendon_damping": "<tendon damping>",
+    "tendon_range": "<tendon range>", "tendon_lengthspring": "<tendon springlength>",
+    "wrap_prm": "<tendon><joint coef>",
+    "mesh_vert": "<mesh vertex> (or its file, scale)", "hfield_data": "<hfield elevation> (or file)",
+    "hfield_size": "<hfield size>", "key_qpos": "<key qpos>", "key_qvel": "<key qvel>",
+}
+# field prefix -> (object type, MuJoCo's count of such elements, word in messages)
+_FIELD_KIND = {
+    "body": ("mjOBJ_BODY", "nbody", "body"), "jnt": ("mjOBJ_JOINT", "njnt", "joint"),
+    "geom": ("mjOBJ_GEOM", "ngeom", "geom"), "site": ("mjOBJ_SITE", "nsite", "site"),
+    "cam": ("mjOBJ_CAMERA", "ncam", "camera"), "light": ("mjOBJ_LIGHT", "nlight", "light"),
+    "mesh": ("mjOBJ_MESH", "nmesh", "mesh"), "hfield": ("mjOBJ_HFIELD", "nhfield", "hfield"),
+    "mat": ("mjOBJ_MATERIAL", "nmat", "material"), "pair": ("mjOBJ_PAIR", "npair", "pair"),
+    "eq": ("mjOBJ_EQUALITY", "neq", "equality constraint"),
+    "tendon": ("mjOBJ_TENDON", "ntendon", "tendon"),
+    "actuator": ("mjOBJ_ACTUATOR", "nu", "actuator"), "sensor": ("mjOBJ_SENSOR", "nsensor", "sensor"),
+    "key": ("mjOBJ_KEY", "nkey", "keyframe"), "flex": ("mjOBJ_FLEX", "nflex", "flex"),
+    "skin": ("mjOBJ_SKIN", "nskin", "skin"), "numeric": ("mjOBJ_NUMERIC", "nnumeric", "numeric"),
+}
+
+
+def _field_owner(m, field: str, row: int) -> str:
+    """The element that row `row` of MjModel field `field` belongs to, as `_label` writes it."""
+    o = mujoco.mjtObj
+    if field.startswith("dof_") and row < m.nv:   # a dof is named by its joint
+        return _label(m, o.mjOBJ_JOINT, int(m.dof_jntid[row]), "joint")
+    if field.startswith("qpos") and row < m.nq:
+        return _label(m, o.mjOBJ_JOINT, int(np.searchsorted(m.jnt_qposadr, row, "right") - 1),
+                      "joint")
+    if field.startswith("wrap_") and row < m.nwrap:
+        return _label(m, o.mjOBJ_TENDON,
+                      int(np.searchsorted(m.tendon_adr, row, "right") - 1), "tendon")
+    if field.startswith("mesh_vert") and row < m.nmeshvert:
+        return _label(m, o.mjOBJ_MESH, int(np.searchsorted(m.mesh_vertadr, row, "right") - 1),
+                      "mesh")
+    if field.startswith("hfield_data") and row < m.nhfielddata:
+        return _label(m, o.mjOBJ_HFIELD, int(np.searchsorted(m.hfield_adr, row, "right") - 1),
+                      "hfield")
+    kind = _FIELD_KIND.get(field.split("_")[0])
+    if kind is not None and getattr(m, kind[1]) == getattr(m, field).shape[0]:
+        return _label(m, getattr(o, kind[0]), row, kind[2])
+    return f"row {row}"
+
+
+def _check_finite(m, source: str) -> None:
+    """Raise `ModelError` naming the element and attribute of the first non-finite number in any
+    float field of the compiled model (and of its <option>)."""
+    fields = [f for f in dir(m) if not f.startswith("_")
+              and isinstance(getattr(m, f, None), np.ndarray) and getattr(m, f).dtype.kind == "f"]
+    fields.sort(key=lambda f: list(_FIELD_ATTRIBUTE).index(f) if f in _FIELD_ATTRIBUTE
+                else len(_FIELD_ATTRIBUTE))   # stable: the rest in alphabetical order
+    for field in fields:
+        a = getattr(m, field)
+        ok = _finite(a).reshape(len(a), -1).all(axis=1) if a.size else np.ones(0, bool)
+        if ok.all():
+            continue
+        row = int(np.flatnonzero(~ok)[0])
+        values = " ".join(f"{v:g}" for v in np.ravel(a[row]))
+        what = _FIELD_ATTRIBUTE.get(field, f"MjModel.{field}")
+        raise ModelError(f"{source}: {_field_owner(m, field, row)}: {what} = {values} "
+                         f"{_NOT_FINITE}")
+    for struct in ("opt", "stat"):
+        for name in dir(getattr(m, struct)):
+            value = getattr(getattr(m, struct), name)
+            if not name.startswith("_") and isinstance(value, (float, np.ndarray)) \
+                    and np.asarray(value).dtype.kind == "f" and not _finite(value).all():
+                values = " ".join(f"{v:g}" for v in np.ravel(value))
+                what = f"<option {name}>" if struct == "opt" else f"MjModel.stat.{name}"
+                raise ModelError(f"{source}: {what} = {values} {_NOT_FINITE}")
 
 
 def _check_supported(m, source: str) -> None:
@@ -168,6 +339,7 @@ def _mesh_hulls(m, source: str):
 
 def from_mujoco(m, source: str = "<MjModel>") -> Model:
     """Build a `Model` from a compiled `mujoco.MjModel`."""
+    _check_finite(m, source)
     _check_supported(m, source)
     o = mujoco.mjtObj
     nbody = m.nbody - 1  # without the world body

@@ -4,6 +4,9 @@ Hinge and slide coordinates add, free-joint positions add the world-frame displa
 quaternions (ball joints, free-joint rotations) are rotated by the body-frame rotation vector
 through the exponential map and renormalized, as MuJoCo's `mj_integratePos`. Without
 constraints dq = h·(qd + h·qacc): semi-implicit Euler.
+
+A non-finite quaternion or rotation stays NaN (normalizing would quietly make it a rotation), and
+an env whose state is no longer finite is flagged in `nonfinite`.
 """
 
 import warp as wp
@@ -31,7 +34,11 @@ def integrate(m: ModelArrays, dq: wp.array2d(dtype=float), q: wp.array2d(dtype=f
                 a = a + 3
                 d = d + 3
             rot = wp.quat(q[e, a], q[e, a + 1], q[e, a + 2], q[e, a + 3])
-            rot = quat_integrate(wp.normalize(rot), wp.vec3(dq[e, d], dq[e, d + 1], dq[e, d + 2]), 1.0)
+            w = wp.vec3(dq[e, d], dq[e, d + 1], dq[e, d + 2])
+            if wp.isfinite(rot) and wp.isfinite(w):
+                rot = quat_integrate(wp.normalize(rot), w, 1.0)
+            else:  # normalize and the exponential map would turn NaN into a valid rotation
+                rot = wp.quat(wp.nan, wp.nan, wp.nan, wp.nan)
             for k in range(4):
                 q[e, a + k] = rot[k]
         else:

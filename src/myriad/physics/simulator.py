@@ -101,14 +101,22 @@ class _View:
 
 
 def _resolve_device(device) -> wp.context.Device:
+    """The Warp device of 'cpu', 'cuda' (cuda:0) or 'cuda:N' (a str, torch or Warp device).
+
+    Any other name, or a GPU that is not there, raises a one-line ValueError."""
     name = str(device)
+    kind, colon, index = name.partition(":")
+    if not (name == "cpu" or kind == "cuda" and (
+            not colon or index.isascii() and index.isdigit())):
+        raise ValueError(f"device {name!r}: expected 'cpu', 'cuda' or 'cuda:N'")
     if name == "cuda":
         name = "cuda:0"
     try:
         return wp.get_device(name)
     except Exception:
         available = [str(d) for d in wp.get_devices()]
-        raise ValueError(f"device {name!r} is not available; Warp sees {available}") from None
+        raise ValueError(f"device {name!r} is not available (no such GPU); Warp sees "
+                         f"{available}") from None
 
 
 def _model_arrays(model: Model, device) -> ModelArrays:
@@ -174,7 +182,8 @@ class Simulator:
     geom_restitution = _View()  # [N, ngeom] restitution coefficient (pairs average)
     geom_size = _View()      # [N, ngeom, 3] MuJoCo's size parameters (primitives)
     geom_pos = _View()       # [N, ngeom, 3] position in the body frame
-    nonfinite = _View()      # [N] 1 once an env's state went non-finite; the task resets it
+    nonfinite = _View()      # [N] 1 once an env's state or input (ctrl, joint_force, body_force)
+    #                          went non-finite (its state is then NaN); the task resets it
     dof_damping = _View()    # [N, nv]
     dof_armature = _View()   # [N, nv]
     dof_frictionloss = _View()  # [N, nv] joint (dry) friction, force or torque
@@ -538,10 +547,10 @@ class Simulator:
     def _applied_forces(self) -> None:
         self._launch(forces.body_wrenches, self.num_envs, [
             self._m, self._body_x, self._body_com, self._cdof, self._joint_force, self._body_force,
-            self._wrench, self._qfrc_applied])
+            self._wrench, self._qfrc_applied, self._nonfinite])
         self._launch(forces.generalized_forces, self.num_envs, [
             self._m, self._p, self.h, self._q, self._qd, self._ctrl, self._qfrc_applied, self._bias,
-            self._qfrc_actuator, self._qfrc, self._implicit_diag])
+            self._qfrc_actuator, self._qfrc, self._implicit_diag, self._nonfinite])
 
     def _solve_unconstrained(self) -> None:
         self._launch(dynamics.solve_acceleration, self.num_envs, [
