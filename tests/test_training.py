@@ -1,10 +1,18 @@
 """`myriad train` / `myriad play` end to end on a tiny budget: a few PPO epochs on 32 envs, the
 run's files, resuming, config errors, and a video of the policy."""
 
+import csv
 import json
 import os
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
+import torch
+
+import myriad
 
 from myriad import cli
 from myriad.rl import run
@@ -98,32 +106,147 @@ def test_cpu_profile_applies_only_without_num_envs():
     assert train_cfg["params"]["config"]["minibatch_size"] == 64, "512 samples: 8 of 64"
 
 
-def test_ctrl_c_keeps_a_loadable_checkpoint(tmp_path, device):
-    """SIGINT in the middle of training: exit code 130 and nn/last.pth is whole and loadable."""
-    import signal
-    import subprocess
-    import sys
-    import time
-
-    import torch
-
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_a_stop_signal_saves_a_checkpoint_and_a_consistent_summary(tmp_path, device, signum):
+    """SIGINT (Ctrl-C) or SIGTERM (docker stop, Slurm) sent to a real training process: it
+    finishes the epoch, exits with 128 + the signal number, and nn/last.pth holds the epoch that
+    summary.json reports."""
     proc = subprocess.Popen(
         [sys.executable, "-m", "myriad.cli", "train",
-         *train_args(tmp_path, "experiment=intr", "max_iterations=100000", device=device)],
+         *train_args(tmp_path, "experiment=stop", "max_iterations=100000", device=device)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    curve = tmp_path / "intr" / "progress.csv"
+    curve = tmp_path / "stop" / "progress.csv"
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline and proc.poll() is None:
         if curve.is_file() and len(curve.read_text().splitlines()) >= 3:
             break
         time.sleep(0.2)
     assert proc.poll() is None, proc.stdout.read()
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(signum)
     out, _ = proc.communicate(timeout=120)
-    assert proc.returncode == 130, out
-    assert "saving the current policy" in out
-    state = torch.load(tmp_path / "intr" / "nn" / "last.pth", weights_only=False, map_location="cpu")
+    assert proc.returncode == 128 + signum, out
+    assert f"stopped by {signal.Signals(signum).name}" in out
+    summary = json.loads((tmp_path / "stop" / "summary.json").read_text())
+    state = torch.load(tmp_path / "stop" / "nn" / "last.pth", weights_only=False,
+                       map_location="cpu")
     assert "model" in state and state["epoch"] >= 2
+    assert summary["epochs"] == summary["checkpoint_epoch"] == state["epoch"]
+    assert summary["env_steps"] == state["frame"] == 32 * 16 * state["epoch"]
+
+
+def _curve(folder):
+    with open(folder / "progress.csv") as f:
+        return list(csv.DictReader(f))
+
+
+def test_resume_continues_counters_time_and_never_replaces_the_best_with_a_worse(tmp_path,
+                                                                                  device):
+    # 16-step episodes: every epoch finishes episodes, so rewards exist from the first epoch
+    common = ["task.env.episodeLength=16", "train.params.config.save_best_after=0"]
+    assert cli.main(["train", *train_args(tmp_path, "max_iterations=3", "experiment=r",
+                                          *common, device=device)]) == 0
+    folder = tmp_path / "r"
+    first = json.loads((folder / "summary.json").read_text())
+    best_file = folder / "nn" / "Ant.pth"
+    assert best_file.is_file() and first["best_mean_reward"] is not None
+    state = torch.load(folder / "nn" / "last.pth", weights_only=False, map_location="cpu")
+    kept = state["myriad"]
+    assert kept["wall_s"] > 0 and kept["best_mean_reward"] == first["best_mean_reward"]
+    assert {"torch", "numpy", "python"} <= set(kept["rng"]) and "optimizer" in state
+    assert "running_mean_std" in str(state["model"].keys()), "observation normalizer saved"
+
+    # as if the best policy so far had scored far above anything the resumed run will reach
+    kept["best_saved_reward"] = 1e9
+    torch.save(state, folder / "nn" / "last.pth")
+    best_before = best_file.read_bytes()
+    assert cli.main(["train", *train_args(tmp_path, "max_iterations=6", "resume=auto",
+                                          "experiment=r", *common, device=device)]) == 0
+    assert best_file.read_bytes() == best_before, "a worse policy replaced the best one"
+    summary = json.loads((folder / "summary.json").read_text())
+    assert summary["epochs"] == 6 and summary["env_steps"] == 32 * 16 * 6
+    assert summary["checkpoint_epoch"] == 6
+    assert summary["wall_s"] > first["wall_s"], "wall time continues, it does not restart at 0"
+    assert summary["best_mean_reward"] >= first["best_mean_reward"]
+    curve = _curve(folder)
+    assert [int(r["epoch"]) for r in curve] == [1, 2, 3, 4, 5, 6]
+    walls = [float(r["wall_s"]) for r in curve]
+    assert walls == sorted(walls), walls
+    # env-steps/s over the whole run stays a real rate (not env-steps over the resumed part)
+    rate = summary["env_steps"] / summary["wall_s"]      # wall_s is rounded to 10 ms
+    assert summary["env_steps_per_s"] == pytest.approx(rate, rel=0.05)
+
+
+def test_resume_auto_starts_fresh_when_there_is_nothing_to_resume(tmp_path, capsys):
+    assert cli.main(["train", *train_args(tmp_path, "max_iterations=1", "resume=auto",
+                                          "experiment=new")]) == 0
+    assert "nothing" not in capsys.readouterr().err
+    assert json.loads((tmp_path / "new" / "summary.json").read_text())["epochs"] == 1
+    assert cli.main(["train", *train_args(tmp_path, "resume=auto",
+                                          f"checkpoint={tmp_path}/new/nn/last.pth")]) == 2
+    assert "not both" in capsys.readouterr().err
+
+
+def test_nonfinite_actions_are_counted_warned_and_reported(tmp_path, device, monkeypatch):
+    from myriad.rl import train as training
+
+    step = training.MyriadVecEnv.step
+
+    def nan_in_env_0(self, actions):
+        actions = actions.clone()
+        actions[0, 0] = float("nan")
+        return step(self, actions)
+    monkeypatch.setattr(training.MyriadVecEnv, "step", nan_in_env_0)
+    with pytest.warns(RuntimeWarning, match="actions of the policy were NaN or infinite"):
+        assert cli.main(["train", *train_args(tmp_path, "max_iterations=2", "experiment=nan",
+                                              device=device)]) == 0
+    # one bad action per env-step of env 0: 16 per epoch
+    assert [int(r["nonfinite_actions"]) for r in _curve(tmp_path / "nan")] == [16, 16]
+    assert json.loads((tmp_path / "nan" / "summary.json").read_text())["nonfinite_actions"] == 32
+
+
+def test_nonfinite_action_flags_and_resets_only_its_env(device):
+    task = myriad.make("Ant", num_envs=3, device=device)
+    task.reset()
+    actions = torch.zeros(3, 8, device=device)
+    actions[1, 2] = float("inf")
+    _, reward, resets, _ = task.step(actions)
+    assert task.take_nonfinite_actions() == 1 and task.take_nonfinite_actions() == 0
+    assert resets.tolist() == [0, 1, 0] and torch.isfinite(reward).all()
+
+
+def test_a_diverged_policy_stops_training_without_overwriting_the_checkpoint(tmp_path,
+                                                                             monkeypatch,
+                                                                             capsys):
+    from myriad.rl import train as training
+
+    epoch = training.MyriadAgent.train_epoch
+
+    def diverge_at_epoch_3(self):
+        if self.epoch_num == 3:
+            with torch.no_grad():
+                next(self.model.parameters()).fill_(float("nan"))
+        return epoch(self)
+    monkeypatch.setattr(training.MyriadAgent, "train_epoch", diverge_at_epoch_3)
+    args = train_args(tmp_path, "max_iterations=5", "experiment=div")
+    assert cli.main(["train", *args]) == 2
+    assert "weights became NaN or infinite" in capsys.readouterr().err
+    assert not (tmp_path / "div" / "nn" / "last.pth").exists(), "a NaN policy was saved"
+
+
+def test_first_run_progress_names_what_compiles_and_the_final_line_has_numbers(tmp_path,
+                                                                                capsys):
+    from myriad.physics.kernels import load_kernels
+
+    lines = []
+    load_kernels("cpu", report=lines.append, notice_after_s=0.0)   # every module "slow"
+    assert any("compiling myriad.physics.dynamics for cpu" in line for line in lines)
+    assert any(line.strip().startswith("done in") for line in lines)
+    assert lines[-1].startswith("  physics kernels ready for cpu in")
+    assert cli.main(["train", *train_args(tmp_path, "max_iterations=1", "experiment=f")]) == 0
+    out = capsys.readouterr().out
+    assert "loading the physics kernels for cpu" in out
+    final = out.strip().splitlines()[-1]
+    assert "None" not in final and "no episode finished yet" in final, final
 
 
 def test_play_names_an_unreadable_checkpoint(tmp_path, capsys):

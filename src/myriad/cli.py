@@ -7,6 +7,7 @@
 
 train and play take Hydra overrides: any key of cfg/config.yaml, and task.* / train.* keys of
 the task's configs (e.g. task.env.episodeLength=500, train.params.config.learning_rate=1e-4).
+An unknown key fails, with or without Hydra's + or ++, naming the nearest valid keys.
 """
 
 from __future__ import annotations
@@ -113,11 +114,17 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv and argv[0] in ("train", "play"):
         return _hydra_command(argv[0], argv[1:])
-    parser = argparse.ArgumentParser(prog="myriad", description=__doc__)
+    # the raw formatter keeps the usage examples of the docstring one per line
+    parser = argparse.ArgumentParser(prog="myriad", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("train", help="train a task with PPO: myriad train task=Ant (Hydra overrides)")
     sub.add_parser("play", help="video of a trained policy: myriad play task=Ant checkpoint=...")
-    p = sub.add_parser("demo", help="simulate a batch of envs under random actions and report")
+    p = sub.add_parser("demo", help="simulate a batch of envs under random actions and report",
+                       description="Simulate a batch of envs under random actions and report "
+                       "the throughput and the state reached.\n\n  myriad demo --envs 64 "
+                       "--seconds 5\n  myriad demo --model robot.xml --device cuda:0",
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--model", help="MJCF or URDF file (default: Myriad's ant)")
     p.add_argument("--envs", type=int, help="number of envs (default 256 on CPU, 4096 on CUDA)")
     p.add_argument("--device", help="cpu or cuda:N (default: cuda:0 when present)")

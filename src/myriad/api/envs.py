@@ -13,10 +13,11 @@ State tensors are buffers on the simulation device, shaped per env, refreshed by
     dof_forces         [N, dofs]        effort + drive + joint-limit/friction force on each dof
 
 Writers take tensors on the simulation device, float32, of the exact shape they document (or a
-subset of envs with `env_ids`); anything else raises `ValueError` naming the writer, the expected
-and the given shape, dtype and device. State writes take effect at once: `forward()` is run for
-you, so the tensors above already show the new state (pass forward=False to all but the last of
-several writes in a row to run it once).
+subset of envs with `env_ids`: a bool mask [N], or a 1-D int32/int64 tensor of distinct ids in
+[0, N), checked with one read-back from the device); anything else raises `ValueError` naming
+the writer, the expected and the given shape, dtype and device. State writes take effect at
+once: `forward()` is run for you, so the tensors above already show the new state (pass
+forward=False to all but the last of several writes in a row to run it once).
 """
 
 from __future__ import annotations
@@ -170,19 +171,47 @@ class Envs:
         return value
 
     def _env_ids(self, writer: str, env_ids) -> torch.Tensor | slice:
-        """None -> all envs; a long tensor of env indices or a bool mask [N] -> index tensor."""
+        """None -> all envs; a bool mask [N], or a 1-D int32/int64 tensor of distinct env indices
+        in [0, N) -> index tensor. Anything else (an id out of range, negative ones included, an
+        id given twice, another dtype) raises ValueError naming the writer.
+
+        Cost: one read-back from the device per call, which waits for the work queued before it:
+        a mask's `nonzero()`, or for indices one small tensor holding their min, max and number
+        of repeats, reduced together on the device.
+        """
         if env_ids is None:
             return slice(None)
         if not isinstance(env_ids, torch.Tensor) or env_ids.device != self.device:
-            raise ValueError(f"{writer}: env_ids must be a torch tensor on {self.device}")
+            given = (f"a tensor on {env_ids.device}" if isinstance(env_ids, torch.Tensor)
+                     else type(env_ids).__name__)
+            raise ValueError(f"{writer}: env_ids must be a torch tensor on {self.device}, "
+                             f"not {given}")
         if env_ids.dtype == torch.bool:
             if env_ids.shape != (self.num_envs,):
                 raise ValueError(f"{writer}: a boolean env_ids mask must have shape "
                                  f"({self.num_envs},), not {tuple(env_ids.shape)}")
             return env_ids.nonzero().flatten()
         if env_ids.dtype not in (torch.int32, torch.int64) or env_ids.dim() != 1:
-            raise ValueError(f"{writer}: env_ids must be a 1-D integer tensor (or a bool mask)")
-        return env_ids.long()
+            raise ValueError(f"{writer}: env_ids must be a 1-D integer tensor (int32 or int64) "
+                             f"or a bool mask of shape ({self.num_envs},), not {env_ids.dtype} of "
+                             f"shape {tuple(env_ids.shape)}")
+        ids = env_ids.long()
+        if len(ids) == 0:
+            return ids
+        ordered = ids.sort().values
+        repeated = ordered[1:] == ordered[:-1]
+        low, high, repeats = torch.stack((ordered[0], ordered[-1], repeated.sum())).tolist()
+        if low < 0 or high >= self.num_envs:
+            bad = ordered[(ordered < 0) | (ordered >= self.num_envs)]
+            shown = bad[:8].tolist() + (["..."] if len(bad) > 8 else [])
+            raise ValueError(f"{writer}: env_ids {shown} out of range: ids must lie in "
+                             f"[0, {self.num_envs})")
+        if repeats:
+            twice = ordered[1:][repeated].unique()
+            shown = twice[:8].tolist() + (["..."] if len(twice) > 8 else [])
+            raise ValueError(f"{writer}: env_ids {shown} given more than once: each env may be "
+                             "written once per call")
+        return ids
 
     def _count(self, ids) -> int:
         return self.num_envs if isinstance(ids, slice) else len(ids)

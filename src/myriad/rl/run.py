@@ -3,6 +3,7 @@ and the playback of a trained policy into a video rendered by MuJoCo."""
 
 from __future__ import annotations
 
+import difflib
 import glob
 import json
 import math
@@ -13,24 +14,174 @@ from omegaconf import OmegaConf
 
 
 def compose(overrides: list[str]):
-    """config.yaml + task/<T>.yaml + train/<T>PPO.yaml with command-line overrides (Hydra)."""
+    """config.yaml + task/<T>.yaml + train/<T>PPO.yaml with command-line overrides (Hydra).
+
+    Every key is checked first (`check_overrides`): an unknown one fails naming the nearest valid
+    keys, whether it is written `key=`, `+key=` or `++key=`."""
     from hydra import compose as hydra_compose, initialize_config_module
 
     with initialize_config_module(config_module="myriad.cfg", version_base=None):
-        return hydra_compose(config_name="config", overrides=overrides)
+        def composed(items):
+            return hydra_compose(config_name="config", overrides=items)
+
+        return composed(check_overrides(overrides, composed))
 
 
-def resolve_device(device: str) -> str:
+# Keys of a task's `randomization` section that a command line may add although the task's YAML
+# leaves them out (it holds only `enabled: false`); what goes below them is checked by
+# myriad.randomization.Randomizer when the task is built.
+RANDOMIZATION_KEYS = ("enabled", "frequency", "observations", "actions", "sim_params",
+                      "actor_params", "random_forces")
+_OPEN_SECTION = "task.randomization"
+
+
+def check_overrides(overrides: list[str], composed) -> list[str]:
+    """The overrides, each key checked against the configs it would change.
+
+    Config-group choices (`task=`, `train=`) and `hydra.*` go to Hydra as they are; every other
+    key must exist in config.yaml, the chosen task/<T>.yaml or train/<T>PPO.yaml (as composed by
+    `composed(group choices)`), also when written `+key=` or `++key=`: this project adds no keys
+    from the command line. Unknown keys raise one ValueError listing, for each, the nearest
+    valid dotted keys and the valid keys at its level. Keys of a dict value
+    (`task.env.plane={restitution: 0.5}`) are checked alike. The returned overrides are what
+    Hydra accepts: `+` dropped (the key exists), `++` for the keys `RANDOMIZATION_KEYS` adds.
+    """
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.core.override_parser.types import OverrideType
+
+    parsed = OverridesParser.create().parse_overrides(list(overrides))
+    groups = _config_groups()
+
+    def is_group(o) -> bool:
+        return o.is_hydra_override() or o.key_or_group in groups or "/" in o.key_or_group
+
+    tree = OmegaConf.to_container(composed([o.input_line for o in parsed if is_group(o)]),
+                                  resolve=False)
+    checked, problems = [], []
+    for o in parsed:
+        if is_group(o):
+            checked.append(o.input_line)
+            continue
+        value = None if o.type == OverrideType.DEL else o.value()
+        found = [_find_key(tree, path) for path in _value_paths(o.key_or_group, value)]
+        errors = [f for f in found if f not in ("exists", "new")]
+        if errors:
+            problems += [f"{o.input_line}: {error}" for error in errors]
+            continue
+        line = o.input_line.strip()
+        if o.type != OverrideType.DEL:
+            line = line.lstrip("+")
+            if "new" in found:
+                line = "++" + line
+        checked.append(line)
+    if problems:
+        task = tree.get("task", {}).get("name")
+        train = next((str(o.value()) for o in parsed if o.key_or_group == "train"
+                      and o.type != OverrideType.DEL), f"{task}PPO")
+        where = f"config.yaml, task/{task}.yaml, train/{train}.yaml"
+        raise ValueError("unknown config key" + ("s" if len(problems) > 1 else "")
+                         + f" ({where}):\n  " + "\n  ".join(problems))
+    return checked
+
+
+def _config_groups() -> set[str]:
+    """The config groups of myriad.cfg (its folders: task, train)."""
+    from importlib import resources
+
+    return {p.name for p in resources.files("myriad.cfg").iterdir()
+            if p.is_dir() and not p.name.startswith(("_", "."))}
+
+
+def _value_paths(key: str, value) -> list[str]:
+    """`key`, or for a dict value the dotted key of each of its leaves."""
+    if not isinstance(value, dict) or not value:
+        return [key]
+    paths = []
+    for k, v in value.items():
+        paths += _value_paths(f"{key}.{k}", v)
+    return paths
+
+
+def _find_key(tree: dict, path: str) -> str:
+    """"exists", "new" (a key `RANDOMIZATION_KEYS` lets the command line add), or the message
+    naming the unknown key, the nearest valid keys and the valid keys at its level."""
+    parts = path.split(".")
+    node = tree
+    for i, part in enumerate(parts):
+        if ".".join(parts[:i]) == _OPEN_SECTION and part in RANDOMIZATION_KEYS:
+            for rest in parts[i:]:      # below: open, checked by the Randomizer
+                if not (isinstance(node, dict) and rest in node):
+                    return "new"
+                node = node[rest]
+            return "exists"
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        else:
+            return _unknown_key(tree, path, parts[:i], node)
+    return "exists"
+
+
+def _unknown_key(tree: dict, path: str, parent: list[str], node) -> str:
+    from ..tasks import _key_paths
+
+    paths = _key_paths(tree)
+    name = path.rsplit(".", 1)[-1]
+    nearest = [p for p in paths if p.rsplit(".", 1)[-1] == name]    # the same name elsewhere
+    close = difflib.get_close_matches(path, paths, n=5, cutoff=0.6)
+    if close:   # the nearest, and those about as near (a shared long prefix lifts every ratio)
+        best = difflib.SequenceMatcher(None, path, close[0]).ratio()
+        nearest += [p for p in close
+                    if difflib.SequenceMatcher(None, path, p).ratio() >= best - 0.1]
+    nearest = [p for p in dict.fromkeys(nearest) if not path.startswith(p + ".")][:5]
+    where = ".".join(parent) or "the top level"
+    message = f"no key {path}"
+    if nearest:
+        message += f" (did you mean {' or '.join(nearest)}?)"
+    if isinstance(node, dict):
+        valid = sorted(set(node) | (set(RANDOMIZATION_KEYS) if where == _OPEN_SECTION else set()))
+        return f"{message}; the keys of {where}: {', '.join(map(str, valid))}"
+    return f"{message}; {where} is {node!r}, which has no keys"
+
+
+def resolve_device(device) -> str:
+    """`device=` of the command line as a torch device name: auto (cuda:0 when a GPU is present,
+    else cpu), cpu, cuda (cuda:0) or cuda:N. Another name, or a GPU that is not there, fails in
+    one line."""
     import torch
 
-    if device == "auto":
+    name = str(device).strip()
+    if name == "auto":
         return "cuda:0" if torch.cuda.is_available() else "cpu"
-    return device
+    if name == "cpu":
+        return name
+    kind, colon, index = name.partition(":")
+    if kind != "cuda" or colon and not (index.isascii() and index.isdigit()):
+        raise ValueError(f"device={device}: expected auto, cpu, cuda or cuda:N")
+    gpu, count = int(index) if colon else 0, torch.cuda.device_count()
+    if gpu >= count:
+        available = ", ".join(["cpu"] + [f"cuda:{k}" for k in range(count)])
+        raise ValueError(f"device={device}: no such GPU ({count} CUDA device"
+                         f"{'' if count == 1 else 's'} visible); available: {available}")
+    return f"cuda:{gpu}"
 
 
 def task_and_train_configs(cfg) -> tuple[dict, dict, str]:
-    """Plain dicts of the task and train configs with the top-level options applied."""
+    """Plain dicts of the task and train configs with the top-level options applied.
+
+    Numbers are checked here, before anything is built, each failure naming its key and value
+    (`config_int`: integer keys refuse fractions such as 2.5 and accept 2.0). The checked
+    top-level values are written back into cfg as ints and floats."""
+    from ..tasks import config_float, config_int
+
     device = resolve_device(cfg.device)
+    for key, minimum in (("num_envs", 1), ("max_iterations", 1), ("seed", None),
+                         ("num_steps", 1)):
+        if cfg[key] is not None or key in ("seed", "num_steps"):
+            cfg[key] = config_int(cfg[key], key, minimum)
+    if cfg.max_time_s is not None:
+        cfg.max_time_s = config_float(cfg.max_time_s, "max_time_s")
     task_cfg = OmegaConf.to_container(cfg.task, resolve=True)
     train_cfg = OmegaConf.to_container(cfg.train, resolve=True)
     cpu_task, cpu_train = task_cfg.pop("cpu", {}), train_cfg.pop("cpu", {})
@@ -40,13 +191,18 @@ def task_and_train_configs(cfg) -> tuple[dict, dict, str]:
             task_cfg["env"].update(cpu_task)
             train_cfg["params"]["config"].update(cpu_train)
     if cfg.num_envs is not None:
-        if int(cfg.num_envs) < 1:
-            raise ValueError(f"num_envs={cfg.num_envs}: must be >= 1")
-        task_cfg["env"]["numEnvs"] = int(cfg.num_envs)
+        task_cfg["env"]["numEnvs"] = cfg.num_envs
+    env, ppo = task_cfg["env"], train_cfg["params"]["config"]
+    for section, prefix, keys in ((env, "task.env", ("numEnvs", "episodeLength",
+                                                     "controlFrequencyInv")),
+                                  (ppo, "train.params.config", ("horizon_length",
+                                                                "minibatch_size"))):
+        for key in keys:
+            if key in section:
+                section[key] = config_int(section[key], f"{prefix}.{key}", minimum=1)
     # PPO splits num_envs × horizon_length samples into equal minibatches: keep the minibatch
     # size a divisor, as close as possible below the configured one
-    ppo = train_cfg["params"]["config"]
-    batch = int(task_cfg["env"]["numEnvs"]) * ppo["horizon_length"]
+    batch = env["numEnvs"] * ppo["horizon_length"]
     count = max(1, math.ceil(batch / ppo["minibatch_size"]))
     while batch % count:
         count += 1
@@ -55,7 +211,7 @@ def task_and_train_configs(cfg) -> tuple[dict, dict, str]:
               f"minibatches of num_envs × horizon_length = {batch} samples")
         ppo["minibatch_size"] = batch // count
     if cfg.max_iterations is not None:
-        train_cfg["params"]["config"]["max_epochs"] = int(cfg.max_iterations)
+        ppo["max_epochs"] = cfg.max_iterations
     return task_cfg, train_cfg, device
 
 
@@ -68,26 +224,67 @@ def free_experiment_name(train_dir: str, name: str) -> str:
     return candidate
 
 
+def newest_run(train_dir: str, task: str) -> str | None:
+    """Folder of the newest run of `task` under train_dir that has a checkpoint, or None."""
+    runs = []
+    for path in glob.glob(os.path.join(train_dir, "*", "summary.json")):
+        try:
+            with open(path) as f:
+                same_task = json.load(f).get("task") == task
+        except (OSError, ValueError):     # a summary being written, or damaged: not a candidate
+            continue
+        folder = os.path.dirname(path)
+        if same_task and os.path.isfile(os.path.join(folder, "nn", "last.pth")):
+            runs.append((os.path.getmtime(os.path.join(folder, "nn", "last.pth")), folder))
+    return max(runs)[1] if runs else None
+
+
+def checkpoint_and_experiment(cfg, task: str) -> tuple[str | None, str]:
+    """The checkpoint to resume from (or None) and the run folder name, from `checkpoint=`,
+    `resume=auto` and `experiment=`."""
+    if cfg.resume not in (None, "auto"):
+        raise ValueError(f"resume={cfg.resume}: the only value is 'auto' (the newest checkpoint "
+                         "of experiment=..., or of the task's newest run); give a file with "
+                         "checkpoint=PATH")
+    if cfg.resume and cfg.checkpoint:
+        raise ValueError("give checkpoint=PATH or resume=auto, not both")
+    checkpoint = cfg.checkpoint
+    # Hydra reads experiment=nan or experiment=7 as numbers: a folder name is text
+    experiment = None if cfg.experiment is None else str(cfg.experiment)
+    if cfg.resume:
+        folder = (os.path.join(cfg.train_dir, experiment) if experiment
+                  else newest_run(cfg.train_dir, task))
+        last = os.path.join(folder, "nn", "last.pth") if folder else None
+        if last and os.path.isfile(last):
+            checkpoint = last
+        else:
+            print(f"resume=auto: no checkpoint of {experiment or task} under "
+                  f"{cfg.train_dir}/ yet: starting a new run", flush=True)
+    if checkpoint and not os.path.isfile(checkpoint):
+        raise FileNotFoundError(f"checkpoint={checkpoint}: no such file")
+    folder = os.path.dirname(os.path.abspath(checkpoint)) if checkpoint else ""
+    if experiment is None and os.path.basename(folder) == "nn":
+        return checkpoint, os.path.basename(os.path.dirname(folder))  # resume in its run folder
+    # a checkpoint from elsewhere starts a new run folder
+    return checkpoint, experiment or free_experiment_name(cfg.train_dir, task)
+
+
 def train(overrides: list[str]) -> int:
+    from ..physics.kernels import load_kernels
     from ..tasks import TASKS
-    from .train import train as run_training
+    from .train import TrainingStopped, train as run_training
 
     cfg = compose(overrides)
     task_cfg, train_cfg, device = task_and_train_configs(cfg)
     name = task_cfg["name"]
-    if cfg.checkpoint and not os.path.isfile(cfg.checkpoint):
-        raise FileNotFoundError(f"checkpoint={cfg.checkpoint}: no such file")
-    folder = os.path.dirname(os.path.abspath(cfg.checkpoint)) if cfg.checkpoint else ""
-    if cfg.experiment is None and os.path.basename(folder) == "nn":
-        experiment = os.path.basename(os.path.dirname(folder))   # resume in runs/<experiment>/
-    else:           # a checkpoint from elsewhere starts a new run folder
-        experiment = cfg.experiment or free_experiment_name(cfg.train_dir, name)
+    checkpoint, experiment = checkpoint_and_experiment(cfg, name)
     max_time = math.inf if cfg.max_time_s is None else float(cfg.max_time_s)
     if not max_time > 0:
         raise ValueError(f"max_time_s={cfg.max_time_s}: must be > 0")
+    print(f"loading the physics kernels for {device}", flush=True)
+    load_kernels(device, report=lambda line: print(line, flush=True))
     t0 = time.monotonic()
-    print(f"building {name}: {task_cfg['env']['numEnvs']} envs on {device} (a first run compiles "
-          "the physics kernels: about a minute on a laptop CPU)", flush=True)
+    print(f"building {name}: {task_cfg['env']['numEnvs']} envs on {device}", flush=True)
     task = TASKS[name](task_cfg, device=device)
     print(f"built in {time.monotonic() - t0:.1f} s", flush=True)
     run = {"train_dir": cfg.train_dir, "experiment": experiment, "max_time_s": max_time,
@@ -96,10 +293,23 @@ def train(overrides: list[str]) -> int:
                         "minibatch_size": train_cfg["params"]["config"]["minibatch_size"],
                         "machine": f"{os.cpu_count()} CPU cores" + (
                             "" if device == "cpu" else f", {_gpu_name(device)}")}}
-    summary = run_training(task, train_cfg, run, int(cfg.seed), cfg.checkpoint)
-    print(f"done: {summary['env_steps']:,} env-steps in {summary['wall_s']:.0f} s; mean reward "
-          f"{summary['mean_reward']}, best {summary['best_mean_reward']}; checkpoint "
-          f"{summary['checkpoint']}")
+    try:
+        summary = run_training(task, train_cfg, run, int(cfg.seed), checkpoint)
+    except TrainingStopped as stop:
+        with open(os.path.join(cfg.train_dir, experiment, "summary.json")) as f:
+            summary = json.load(f)
+        print(f"{stop}: nn/last.pth holds epoch {summary['checkpoint_epoch']} "
+              f"({summary['env_steps']:,} env-steps); resume with checkpoint="
+              f"{summary['checkpoint']} or resume=auto", flush=True)
+        return 128 + stop.signum
+    if summary["mean_reward"] is None:
+        rewards = "no episode finished yet (train longer to see a reward)"
+    else:
+        rewards = (f"mean reward {summary['mean_reward']:.1f}, best "
+                   f"{summary['best_mean_reward']:.1f}")
+    print(f"done: {summary['env_steps']:,} env-steps in {summary['wall_s']:.0f} s "
+          f"({summary['env_steps_per_s']:,} env-steps/s); {rewards}; checkpoint "
+          f"{summary['checkpoint']} (epoch {summary['checkpoint_epoch']})")
     return 0
 
 
@@ -110,16 +320,11 @@ def _gpu_name(device: str) -> str:
 
 
 def latest_checkpoint(train_dir: str, task: str) -> str:
-    runs = []
-    for path in glob.glob(os.path.join(train_dir, "*", "summary.json")):
-        with open(path) as f:
-            if json.load(f).get("task") == task and os.path.isfile(
-                    os.path.join(os.path.dirname(path), "nn", "last.pth")):
-                runs.append((os.path.getmtime(path), os.path.dirname(path)))
-    if not runs:
+    folder = newest_run(train_dir, task)
+    if folder is None:
         raise FileNotFoundError(f"no trained {task} run under {train_dir}/: train one with "
                                 f"`myriad train task={task}` or pass checkpoint=<file.pth>")
-    return os.path.join(max(runs)[1], "nn", "last.pth")
+    return os.path.join(folder, "nn", "last.pth")
 
 
 def play(overrides: list[str]) -> int:

@@ -2,20 +2,36 @@
 safe, and `train(cfg)` behind `myriad train`.
 
 Files of a run, under runs/<experiment>/:
-    nn/last.pth         the newest checkpoint (written atomically: a crash or Ctrl-C leaves the
-                        previous one whole); nn/<Task>.pth is the best mean reward so far
-    summary.json        env_steps, wall_s, mean_reward (last mean episode reward),
-                        best_mean_reward, and the time split (physics / policy / update)
+    nn/last.pth         the newest checkpoint (written atomically: a crash or a signal leaves the
+                        previous one whole); nn/<Task>.pth is the best mean reward so far, only
+                        ever replaced by a better one, across resumes too
+    summary.json        epochs, env_steps, wall_s, mean_reward (last mean episode reward),
+                        best_mean_reward, the time split (physics / policy / update), the count
+                        of non-finite actions, and the checkpoint with the epoch it holds
     progress.csv        one line per PPO epoch: the learning curve
     summaries/          TensorBoard scalars (rl_games' and ours)
+
+A checkpoint holds everything a run needs to continue as if never stopped: the networks, the
+optimizer, the observation/value normalizers, the epoch and env-step counters, the wall time, the
+best reward and the random generators' states (the envs themselves start fresh episodes).
+
+SIGINT (Ctrl-C) and SIGTERM (docker stop, Slurm, Kubernetes) finish the current epoch, save
+nn/last.pth and summary.json, and exit with 128 + the signal number; a second signal saves at
+once, mid-epoch.
 """
 
 from __future__ import annotations
 
 import csv
 import json
+import math
 import os
+import random
+import signal
 import time
+import warnings
+
+import numpy as np
 
 import torch
 from rl_games.algos_torch import a2c_continuous
@@ -60,65 +76,171 @@ class MyriadVecEnv(vecenv.IVecEnv):
         return info
 
 
+class TrainingStopped(Exception):
+    """A stop signal arrived; the run was saved at the end of an epoch."""
+
+    def __init__(self, signum: int):
+        super().__init__(f"stopped by {signal.Signals(signum).name}")
+        self.signum = signum
+
+
 class MyriadAgent(a2c_continuous.A2CAgent):
     """rl_games' continuous PPO agent plus: a wall-time limit, a progress line per epoch,
-    atomic checkpoints, `summary.json` and `progress.csv`."""
+    atomic and complete checkpoints, resume, stop signals, `summary.json` and `progress.csv`."""
 
     def __init__(self, base_name, params):
         self.run_cfg = params["config"].pop("myriad")
         super().__init__(base_name, params)
         self.started = time.monotonic()
         self.time_split = {"physics_s": 0.0, "policy_s": 0.0, "update_s": 0.0}
-        self.best_mean_reward = None
+        self.best_mean_reward = None        # best mean episode reward seen, any epoch
+        self.best_saved_reward = -math.inf  # reward of the policy in nn/<Task>.pth
+        self.restored_best = None
+        self.nonfinite_actions = 0          # env-steps whose action had a NaN or inf
+        self.checkpoint_epoch = None        # the epoch nn/last.pth holds
+        self.frames_not_counted = 0         # this epoch's env-steps, before rl_games adds them
+        self.stop_signal = None
         self.last_save = time.monotonic()
         self.curve_path = os.path.join(self.experiment_dir, "progress.csv")
         with open(self.curve_path, "a", newline="") as f:
             if f.tell() == 0:
                 csv.writer(f).writerow(["epoch", "env_steps", "wall_s", "mean_reward",
-                                        "env_steps_per_s", "physics_s", "policy_s", "update_s"])
+                                        "env_steps_per_s", "physics_s", "policy_s", "update_s",
+                                        "nonfinite_actions"])
 
-    # checkpoints: rl_games' names, written atomically
+    # ---------------------------------------------------------------- checkpoints
     def save(self, fn):
+        """Every rl_games save goes through here: the best-policy file is written only for a
+        better policy than the one it holds, and never for a policy with non-finite weights."""
+        best = os.path.join(self.nn_dir, self.config["name"])
+        if fn == best:
+            if not self.mean_rewards > self.best_saved_reward:
+                return
+            self.best_saved_reward = float(self.mean_rewards)
+        if not self.weights_finite():
+            return
         state = self.get_full_state_weights()
         atomic_write(fn + ".pth", lambda tmp: torch.save(state, tmp))
 
     def save_last(self):
+        if not self.weights_finite():
+            print(f"not saving epoch {self.epoch_num}: the policy's weights are non-finite; "
+                  f"nn/last.pth keeps epoch {self.checkpoint_epoch}", flush=True)
+            return
         self.save(os.path.join(self.nn_dir, "last"))
+        self.checkpoint_epoch = self.epoch_num
         self.last_save = time.monotonic()
 
+    def weights_finite(self) -> bool:
+        return all(bool(torch.isfinite(p).all()) for p in self.model.parameters())
+
+    def get_full_state_weights(self):
+        state = super().get_full_state_weights()
+        state["frame"] = self.frame + self.frames_not_counted
+        cuda = torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None
+        state["myriad"] = {
+            "wall_s": time.monotonic() - self.started, "time_split": dict(self.time_split),
+            "best_mean_reward": self.best_mean_reward,
+            "best_saved_reward": self.best_saved_reward,
+            "nonfinite_actions": self.nonfinite_actions,
+            "rng": {"torch": torch.get_rng_state(), "cuda": cuda,
+                    "numpy": np.random.get_state(), "python": random.getstate()}}
+        return state
+
+    def set_full_state_weights(self, weights, set_epoch=True):
+        super().set_full_state_weights(weights, set_epoch)
+        ours = weights.get("myriad")
+        if ours is None:        # a checkpoint from before resume kept these: best reward only
+            self.restored_best = weights.get("last_mean_rewards")
+            return
+        self.started = time.monotonic() - ours["wall_s"]
+        self.time_split = dict(ours["time_split"])
+        self.best_mean_reward = ours["best_mean_reward"]
+        self.best_saved_reward = ours["best_saved_reward"]
+        self.restored_best = self.best_saved_reward
+        self.nonfinite_actions = ours["nonfinite_actions"]
+        self.checkpoint_epoch = self.epoch_num
+        rng = ours["rng"]
+        torch.set_rng_state(rng["torch"])
+        if rng["cuda"] is not None and torch.cuda.is_available() \
+                and len(rng["cuda"]) == torch.cuda.device_count():
+            torch.cuda.set_rng_state_all(rng["cuda"])
+        np.random.set_state(rng["numpy"])
+        random.setstate(rng["python"])
+
+    def update_epoch(self):
+        # rl_games' train() forgets the best reward it restored; give it back before the first
+        # epoch so that its "new best" test compares with the resumed run's best
+        if self.restored_best is not None:
+            self.last_mean_rewards = self.restored_best
+            self.restored_best = None
+        return super().update_epoch()
+
+    # ---------------------------------------------------------------- one epoch
     def train_epoch(self):
-        out = super().train_epoch()
+        try:
+            out = super().train_epoch()
+        except Exception:
+            if not self.weights_finite():    # e.g. torch refusing to sample from a NaN std
+                self.raise_diverged()
+            raise
         step_time, play_time, update_time, total_time = out[:4]
         self.time_split["physics_s"] += step_time
         self.time_split["policy_s"] += play_time - step_time
         self.time_split["update_s"] += update_time
-        env_steps = self.frame + self.curr_frames          # rl_games adds curr_frames after us
+        # rl_games adds this epoch's env-steps to self.frame only after we return: checkpoints
+        # saved from here on must count them already
+        self.frames_not_counted = self.curr_frames
+        env_steps = self.frame + self.curr_frames
         wall = time.monotonic() - self.started
         mean = None
         if self.game_rewards.current_size > 0:
             mean = float(self.game_rewards.get_mean()[0])
             self.best_mean_reward = mean if self.best_mean_reward is None \
                 else max(self.best_mean_reward, mean)
+        bad_now = self.vec_env.env.take_nonfinite_actions()
+        if bad_now and not self.nonfinite_actions:
+            warnings.warn(f"epoch {self.epoch_num}: {bad_now} actions of the policy were NaN or "
+                          "infinite; their envs are reset. The count is in the progress line, "
+                          "progress.csv and TensorBoard (myriad/nonfinite_actions).",
+                          RuntimeWarning, stacklevel=2)
+        self.nonfinite_actions += bad_now
         rate = self.curr_frames / max(total_time, 1e-9)
         reward = "  (no episode finished yet)" if mean is None else \
             f"  reward {mean:9.1f}  best {self.best_mean_reward:9.1f}"
+        flags = f"  non-finite actions {bad_now}" if bad_now else ""
         print(f"epoch {self.epoch_num:5d}/{self.max_epochs}  {env_steps:>11,d} steps  "
-              f"{rate:9,.0f} steps/s  {wall:7.0f} s{reward}", flush=True)
+              f"{rate:9,.0f} steps/s  {wall:7.0f} s{reward}{flags}", flush=True)
         self.writer.add_scalar("myriad/env_steps_per_s", rate, env_steps)
+        self.writer.add_scalar("myriad/nonfinite_actions", bad_now, env_steps)
         with open(self.curve_path, "a", newline="") as f:
             csv.writer(f).writerow([self.epoch_num, env_steps, f"{wall:.2f}",
                                     "" if mean is None else f"{mean:.3f}", f"{rate:.0f}",
                                     f"{step_time:.4f}", f"{play_time - step_time:.4f}",
-                                    f"{update_time:.4f}"])
+                                    f"{update_time:.4f}", bad_now])
+        if not self.weights_finite():
+            self.write_summary(env_steps, wall, mean)
+            self.raise_diverged()
         out_of_time = wall >= self.run_cfg["max_time_s"]
         if out_of_time and self.max_epochs != self.epoch_num:
             print(f"max_time_s={self.run_cfg['max_time_s']} reached: stopping after this epoch")
             self.max_epochs = self.epoch_num       # rl_games' loop then saves and stops cleanly
-        if out_of_time or time.monotonic() - self.last_save > 60 or \
-                self.epoch_num >= self.max_epochs:
+        if self.stop_signal is not None or out_of_time or \
+                time.monotonic() - self.last_save > 60 or self.epoch_num >= self.max_epochs:
             self.save_last()
         self.write_summary(env_steps, wall, mean)
+        if self.stop_signal is not None:
+            raise TrainingStopped(self.stop_signal)
+        self.frames_not_counted = 0
         return out
+
+    def raise_diverged(self):
+        kept = ("no checkpoint was saved before" if self.checkpoint_epoch is None else
+                f"nn/last.pth keeps epoch {self.checkpoint_epoch}")
+        raise RuntimeError(
+            f"epoch {self.epoch_num}: the policy's weights became NaN or infinite (the PPO "
+            f"update diverged); {kept}. Lower train.params.config.learning_rate or check the "
+            "task's observations and rewards.")
 
     def write_summary(self, env_steps, wall, mean):
         atomic_json(os.path.join(self.experiment_dir, "summary.json"), {
@@ -127,7 +249,9 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             "best_mean_reward": self.best_mean_reward,
             "env_steps_per_s": round(env_steps / max(wall, 1e-9)),
             **{k: round(v, 2) for k, v in self.time_split.items()},
-            "checkpoint": os.path.join(self.nn_dir, "last.pth")})
+            "nonfinite_actions": self.nonfinite_actions,
+            "checkpoint": os.path.join(self.nn_dir, "last.pth"),
+            "checkpoint_epoch": self.checkpoint_epoch})
 
 
 def rl_games_params(train_cfg: dict, task, run: dict) -> dict:
@@ -163,7 +287,10 @@ def build_agent(task, train_cfg: dict, run: dict, seed: int):
 
 
 def train(task, train_cfg: dict, run: dict, seed: int, checkpoint: str | None = None) -> dict:
-    """Train until max_iterations or max_time_s; returns the summary. Ctrl-C saves and stops."""
+    """Train until max_iterations or max_time_s; returns the summary.
+
+    SIGINT and SIGTERM stop at the end of the current epoch with a saved checkpoint and raise
+    `TrainingStopped`; a second signal saves at once and raises KeyboardInterrupt."""
     agent = build_agent(task, train_cfg, run, seed)
     if checkpoint:
         try:
@@ -171,15 +298,30 @@ def train(task, train_cfg: dict, run: dict, seed: int, checkpoint: str | None = 
         except Exception as err:  # truncated file, or a checkpoint of another task's network
             raise ValueError(f"checkpoint {checkpoint}: cannot resume from it "
                              f"({type(err).__name__}: {err})") from err
+        print(f"resuming from {checkpoint}: epoch {agent.epoch_num}, {agent.frame:,} env-steps, "
+              f"best mean reward {agent.best_mean_reward}", flush=True)
     print(f"training {run['describe']['task']} with {task.num_envs} envs on {task.device}; "
           f"run files in {agent.experiment_dir}", flush=True)
+
+    def on_signal(signum, frame):
+        if agent.stop_signal is not None:      # the second one: no more waiting
+            raise KeyboardInterrupt
+        agent.stop_signal = signum
+        print(f"\n{signal.Signals(signum).name}: stopping at the end of this epoch (send it again "
+              "to stop at once)", flush=True)
+
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         agent.train()
     except KeyboardInterrupt:
         print("\ninterrupted: saving the current policy to nn/last.pth", flush=True)
         agent.save_last()
+        mean = float(agent.game_rewards.get_mean()[0]) if agent.game_rewards.current_size else None
+        agent.write_summary(agent.frame, time.monotonic() - agent.started, mean)
         raise
     finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
         agent.writer.flush()
     with open(os.path.join(agent.experiment_dir, "summary.json")) as f:
         return json.load(f)

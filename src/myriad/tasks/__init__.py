@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import difflib
+import math
+import numbers
 from importlib import resources
 
 from omegaconf import OmegaConf
@@ -13,6 +16,46 @@ from .humanoid import Humanoid
 from .ingenuity import Ingenuity
 
 TASKS = {"Ant": Ant, "Anymal": Anymal, "Humanoid": Humanoid, "Ingenuity": Ingenuity}
+
+
+def config_int(value, key: str, minimum: int | None = None) -> int:
+    """The config value `value` of `key` as an int, or a ValueError naming the key and the value.
+
+    The one parser of integer settings (`num_envs`, `env.numEnvs`, `env.episodeLength` ...):
+    accepts an int, a float or string with an integral value (2.0 and "2.0" are 2), and refuses
+    fractions (2.5), text ("abc"), booleans and None.
+    """
+    number = value
+    if isinstance(value, str):
+        try:
+            number = int(value.strip())
+        except ValueError:
+            try:
+                number = float(value.strip())
+            except ValueError:
+                raise ValueError(f"{key}={value!r}: expected an integer") from None
+    if isinstance(number, bool) or not isinstance(number, numbers.Real):
+        raise ValueError(f"{key}={value!r}: expected an integer, not {type(value).__name__}")
+    if not isinstance(number, numbers.Integral):
+        if not (math.isfinite(number) and float(number).is_integer()):
+            raise ValueError(f"{key}={value!r}: expected an integer, not a fraction")
+    result = int(number)
+    if minimum is not None and result < minimum:
+        raise ValueError(f"{key}={value}: must be >= {minimum}")
+    return result
+
+
+def config_float(value, key: str) -> float:
+    """The config value `value` of `key` as a float (inf allowed), or a ValueError naming both."""
+    number = value
+    if isinstance(value, str):
+        try:
+            number = float(value.strip())
+        except ValueError:
+            raise ValueError(f"{key}={value!r}: expected a number") from None
+    if isinstance(number, bool) or not isinstance(number, numbers.Real) or math.isnan(number):
+        raise ValueError(f"{key}={value!r}: expected a number")
+    return float(number)
 
 
 def task_config(name: str) -> dict:
@@ -37,12 +80,24 @@ def apply_overrides(cfg: dict, overrides: dict, where: str) -> dict:
             if not isinstance(node, dict) or part not in node:
                 parent = ".".join(path[:i]) or "(top)"
                 valid = sorted(node) if isinstance(node, dict) else []
+                close = difflib.get_close_matches(".".join(path), _key_paths(cfg), n=3)
+                hint = f"did you mean {', '.join(close)}? " if close else ""
                 raise KeyError(f"{where}: no config key {key!r} ({part!r} is not in {parent}); "
-                               f"valid keys there: {valid}")
+                               f"{hint}valid keys there: {valid}")
             if i == len(path) - 1:
                 node[part] = value
             node = node[part]
     return cfg
+
+
+def _key_paths(node, prefix: str = "") -> list[str]:
+    """Every dotted key path of a nested dict ("env", "env.plane", "env.plane.restitution" ...)."""
+    paths = []
+    if isinstance(node, dict):
+        for key, value in node.items():
+            path = f"{prefix}.{key}" if prefix else str(key)
+            paths += [path, *_key_paths(value, path)]
+    return paths
 
 
 def make(name: str, num_envs: int | None = None, device: str = "cpu", **overrides) -> VecTask:
@@ -51,12 +106,16 @@ def make(name: str, num_envs: int | None = None, device: str = "cpu", **override
     Keyword overrides are config keys of the task's `env` section, or dotted paths into the whole
     config (write those as `**{"sim.dt": 0.01}`).
     """
+    from ..physics.simulator import _resolve_device
+
     cfg = task_config(name)
     cfg.pop("cpu", None)
+    _resolve_device(device)     # "gpu" or a missing GPU fails in one line, before torch sees it
     if num_envs is not None:
-        overrides = {"numEnvs": num_envs, **overrides}
+        overrides = {"numEnvs": config_int(num_envs, "num_envs", minimum=1), **overrides}
     apply_overrides(cfg, overrides, f"task {name}")
     return TASKS[name](cfg, device=device)
 
 
-__all__ = ["TASKS", "VecTask", "make", "task_config", "apply_overrides"]
+__all__ = ["TASKS", "VecTask", "apply_overrides", "config_float", "config_int", "make",
+           "task_config"]

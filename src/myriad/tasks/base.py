@@ -10,6 +10,9 @@ One `step(actions)`:
      limit, apart from terminations
   5. returns `({"obs": clipped observations[, "states": ...]}, rewards, resets, extras)`
 
+A NaN or infinite action is never passed on: its env steps with a zero action, gets reward 0,
+is reset, and is counted in `nonfinite_action_count` (the trainer warns and reports the count).
+
 All buffers live on the simulation device. The original resets finished envs one step late
 (their state is written at the start of the next step); here the reset happens in the same step.
 """
@@ -52,15 +55,14 @@ class VecTask:
         self.cfg = cfg
         env = cfg["env"]
         self.device = torch.device(device)
-        self.num_envs = int(env["numEnvs"])
-        self.max_episode_length = int(env["episodeLength"])
-        self.control_freq_inv = int(env.get("controlFrequencyInv", 1))
-        self.clip_obs = float(env.get("clipObservations", math.inf))
-        self.clip_actions = float(env.get("clipActions", 1.0))
-        for key, value in (("numEnvs", self.num_envs), ("episodeLength", self.max_episode_length),
-                           ("controlFrequencyInv", self.control_freq_inv)):
-            if value < 1:
-                raise ValueError(f"env.{key}={value}: must be >= 1")
+        from . import config_float, config_int  # here: myriad.tasks imports this module
+
+        self.num_envs = config_int(env["numEnvs"], "env.numEnvs", minimum=1)
+        self.max_episode_length = config_int(env["episodeLength"], "env.episodeLength", minimum=1)
+        self.control_freq_inv = config_int(env.get("controlFrequencyInv", 1),
+                                           "env.controlFrequencyInv", minimum=1)
+        self.clip_obs = config_float(env.get("clipObservations", math.inf), "env.clipObservations")
+        self.clip_actions = config_float(env.get("clipActions", 1.0), "env.clipActions")
         self.sim_params = sim_params(cfg["sim"])
         self.dt = self.sim_params.dt * self.control_freq_inv     # one env step, seconds
 
@@ -77,6 +79,9 @@ class VecTask:
         self.timeout_buf = torch.zeros(N, dtype=torch.long, device=dev)
         self.progress_buf = torch.zeros(N, dtype=torch.long, device=dev)
         self.actions = torch.zeros(N, self.num_actions, device=dev)
+        # env-steps whose action held a NaN or inf, per env, since the last take (on the device:
+        # counting never syncs with the host)
+        self.nonfinite_action_count = torch.zeros(N, dtype=torch.long, device=dev)
         self.extras: dict = {}
         self.obs_dict: dict = {}
 
@@ -110,6 +115,11 @@ class VecTask:
             raise ValueError(f"step: actions must have shape {(self.num_envs, self.num_actions)}, "
                              f"not {tuple(actions.shape)}")
         actions = actions.to(self.device, torch.float32)
+        # an env given a NaN or infinite action is counted, steps with a zero action (clipping
+        # would silently turn inf into a full-scale command), gets reward 0 and is reset
+        bad_action = ~torch.isfinite(actions).all(dim=1)
+        self.nonfinite_action_count += bad_action.long()
+        actions = torch.where(bad_action[:, None], 0.0, actions)
         dr = self.randomizer
         if dr is not None:
             actions = dr.perturb_actions(actions)
@@ -126,8 +136,8 @@ class VecTask:
         timeout = self.progress_buf >= self.max_episode_length
         self.timeout_buf[:] = (timeout & (self.reset_buf == 0)).long()
         # a non-finite env (blown-up physics) ends its episode; its reward must stay finite
-        broken = self.envs.sim.nonfinite != 0
-        self.rew_buf[:] = torch.where(torch.isfinite(self.rew_buf), self.rew_buf, 0.0)
+        broken = (self.envs.sim.nonfinite != 0) | bad_action
+        self.rew_buf[:] = torch.where(torch.isfinite(self.rew_buf) & ~bad_action, self.rew_buf, 0.0)
         self.reset_buf[:] = (self.reset_buf.bool() | timeout | broken).long()
         self.extras["time_outs"] = self.timeout_buf.clone()
         done = self.reset_buf.nonzero().flatten()
@@ -153,6 +163,12 @@ class VecTask:
         if self.num_states > 0:
             self.obs_dict["states"] = torch.clamp(self.states_buf, -self.clip_obs, self.clip_obs)
         return self.obs_dict
+
+    def take_nonfinite_actions(self) -> int:
+        """Env-steps with a NaN or infinite action since the last call (reads the device once)."""
+        count = int(self.nonfinite_action_count.sum())
+        self.nonfinite_action_count.zero_()
+        return count
 
     def get_number_of_agents(self) -> int:
         return 1
