@@ -84,7 +84,7 @@ def main() -> None:
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--scene", choices=["boxes", "ant"], help="only this scene")
     args = parser.parse_args()
-    wp.config.quiet = True
+    wp.config.log_level = wp.LOG_WARNING
     scenes = {"boxes": ("64 boxes", lambda: myriad.load_xml(boxes_xml(), "64 boxes")),
               "ant": ("ant, random actions", lambda: myriad.load(myriad.asset_path("ant.xml")))}
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores; warp {wp.__version__}, "

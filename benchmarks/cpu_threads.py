@@ -30,7 +30,7 @@ def main() -> None:
     ap.add_argument("--envs", type=int, default=1024)
     ap.add_argument("--steps", type=int, default=100)
     args = ap.parse_args()
-    wp.config.quiet = True
+    wp.config.log_level = wp.LOG_WARNING
     n = args.envs
     params = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=4, velocity_iterations=0)
     for asset in ("ant.xml", "humanoid.xml"):

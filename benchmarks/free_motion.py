@@ -87,7 +87,7 @@ def memory_per_env(model, device: str) -> float:
 def compile_time(device: str) -> float:
     """Seconds to build a simulator and take a first step with an empty kernel cache."""
     with tempfile.TemporaryDirectory() as cache:
-        code = ("import time, warp as wp; wp.config.quiet = True; "
+        code = ("import time, warp as wp; wp.config.log_level = wp.LOG_WARNING; "
                 f"wp.config.kernel_cache_dir = {cache!r}; t = time.perf_counter(); import myriad; "
                 "m = myriad.load(myriad.asset_path('ant.xml')); "
                 f"s = myriad.Simulator(m, num_envs=1, device={device!r}); s.step(); "
@@ -104,7 +104,7 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=2.0, help="minimum timing per point")
     parser.add_argument("--compile-time", action="store_true")
     args = parser.parse_args()
-    wp.config.quiet = True
+    wp.config.log_level = wp.LOG_WARNING
 
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, {platform.processor() or 'cpu'}; "
           f"warp {wp.__version__}, mujoco {mujoco.__version__}, torch {torch.__version__}; "

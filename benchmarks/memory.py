@@ -44,7 +44,7 @@ def memory_per_env(model, params, device="cpu") -> int:
 
 
 def main() -> None:
-    wp.config.quiet = True
+    wp.config.log_level = wp.LOG_WARNING
     params = myriad.SimParams(contacts_per_env=64)
     rows = [("ant", myriad.load(myriad.asset_path("ant.xml"))),
             ("humanoid", myriad.load(myriad.asset_path("humanoid.xml"))),

@@ -66,7 +66,7 @@ def stack_error(solver: str, position_iterations: int, velocity_iterations: int)
 
 
 def main() -> None:
-    wp.config.quiet = True
+    wp.config.log_level = wp.LOG_WARNING
     print(f"machine: {platform.machine()}, warp {wp.__version__}; dt 1/60, 2 substeps")
     print("| sweeps (position + velocity) | solver | cantilever tip sag in one step (mm) | "
           "stack penetration (mm) | stack drift in 10 s (mm) |")

@@ -133,7 +133,7 @@ def main() -> None:
     ap.add_argument("--memory-envs", type=int, default=16384)
     ap.add_argument("--seconds", type=float, default=3.0, help="timed seconds per row")
     args = ap.parse_args()
-    wp.config.quiet = True
+    wp.config.log_level = wp.LOG_WARNING
     wp.init()
     only = set(args.only or ["physics", "task", "memory"])
     where = torch.cuda.get_device_name(args.device) if args.device.startswith("cuda") else "CPU"

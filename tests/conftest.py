@@ -7,7 +7,7 @@ import warp as wp
 import myriad  # noqa: F401  (before any test imports MuJoCo: picks its headless GL backend)
 
 sys.path.insert(0, os.path.dirname(__file__))  # tests/models.py
-wp.config.quiet = True
+wp.config.log_level = wp.LOG_WARNING
 
 
 def pytest_addoption(parser):

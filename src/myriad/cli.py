@@ -1,7 +1,7 @@
 """`myriad` command line.
 
     myriad train task=Ant [num_envs=N device=cpu|cuda:0 seed=S max_iterations=I max_time_s=T
-                           experiment=NAME checkpoint=PATH ...]   train with rl_games PPO
+                           experiment=NAME checkpoint=PATH resume=auto ...]   train (PPO)
     myriad play task=Ant [checkpoint=PATH num_steps=1000 video=out.mp4]   video of a policy
     myriad demo [--model FILE ...]                                 simulate under random actions
 
@@ -87,7 +87,7 @@ def _hydra_command(command: str, overrides: list[str]) -> int:
 
     import warp as wp
 
-    wp.config.quiet = True      # no per-module load lines between the progress lines
+    wp.config.log_level = wp.LOG_WARNING      # no per-module load lines among the progress
     warnings.filterwarnings("ignore", category=FutureWarning, module="torch.jit")
     from .rl import run
 
