@@ -21,6 +21,7 @@ other envs are untouched (every kernel is per env).
 import warp as wp
 
 from . import model as M
+from .spatial import row_finite
 from .structs import EnvParams, ModelArrays
 
 HINGE = wp.constant(M.JOINT_HINGE)
@@ -96,14 +97,7 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
 
     # non-finite input: the clamps above would have turned a NaN ctrl into a bound, so the check
     # looks at the inputs themselves; the env is flagged and its forces poisoned, never patched
-    bad = int(0)
-    for a in range(m.nu):
-        if not wp.isfinite(ctrl[e, a]):
-            bad = 1
-    for i in range(m.nv):
-        if not wp.isfinite(joint_force[e, i]):
-            bad = 1
-    if bad != 0:
+    if not (row_finite(ctrl, e, m.nu) and row_finite(joint_force, e, m.nv)):
         nonfinite[e] = 1
         for i in range(m.nv):
             qfrc_actuator[e, i] = wp.nan

@@ -12,7 +12,7 @@ an env whose state is no longer finite is flagged in `nonfinite`.
 import warp as wp
 
 from . import model as M
-from .spatial import quat_integrate
+from .spatial import quat_integrate, row_finite
 from .structs import ModelArrays
 
 FREE = wp.constant(M.JOINT_FREE)
@@ -44,12 +44,5 @@ def integrate(m: ModelArrays, dq: wp.array2d(dtype=float), q: wp.array2d(dtype=f
         else:
             q[e, a] = q[e, a] + dq[e, d]
     # flag an env whose state is no longer finite; it stays flagged until its owner resets it
-    bad = int(0)
-    for i in range(q.shape[1]):
-        if not wp.isfinite(q[e, i]):
-            bad = 1
-    for i in range(m.nv):
-        if not wp.isfinite(qd[e, i]):
-            bad = 1
-    if bad != 0:
+    if not (row_finite(q, e, q.shape[1]) and row_finite(qd, e, m.nv)):
         nonfinite[e] = 1

@@ -62,3 +62,12 @@ def quat_integrate(q: wp.quat, omega_local: wp.vec3, h: float):
     if angle > 0.0:
         q = q * wp.quat_from_axis_angle(wp.normalize(omega_local), angle)
     return wp.normalize(q)
+
+
+@wp.func
+def row_finite(a: wp.array2d(dtype=float), e: int, n: int):
+    """True when the first n entries of row e of `a` are all finite."""
+    for i in range(n):
+        if not wp.isfinite(a[e, i]):
+            return False
+    return True
