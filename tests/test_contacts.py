@@ -158,6 +158,26 @@ def test_joint_friction_holds_below_and_slips_above_its_frictionloss(device):
     assert sim.qd[1, 0].item() == pytest.approx((3.0 - 2.0) * 1.0, rel=1e-3)  # 1 m/s² for 1 s
 
 
+def test_max_joint_velocity_caps_a_driven_joint_and_a_struck_one(device):
+    """PhysX's maximum joint velocity: a hinge spun up by a steady torque levels off at its cap
+    (env 0), and one kicked well past it by a single large impulse is brought back within the
+    same step (env 1)."""
+    model = myriad.load_xml("""<mujoco><option gravity="0 0 0"/><worldbody>
+      <body name="wheel"><joint name="spin" type="hinge" axis="0 0 1"/>
+        <geom type="cylinder" size="0.2 0.05" mass="2"/></body></worldbody>
+      <actuator><motor joint="spin"/></actuator></mujoco>""", "wheel")
+    sim = myriad.Simulator(model, num_envs=2, device=device, params=ISAAC)
+    sim.dof_max_velocity = 5.0
+    sim.ctrl = torch.tensor([[0.5], [0.0]], device=sim.torch_device)   # 0.5 N·m on I = 0.04
+    for _ in range(120):                 # unconstrained, 12.5 rad/s² would reach 25 rad/s
+        sim.step()
+    assert sim.qd[0, 0].item() == pytest.approx(5.0, abs=1e-3)
+    sim.qd[1, 0] = 0.0
+    sim.joint_force = torch.tensor([[0.0], [60.0]], device=sim.torch_device)   # +25 rad/s in h
+    sim.step()
+    assert abs(sim.qd[1, 0].item()) <= 5.0 + 1e-3
+
+
 @pytest.mark.parametrize("geom, rest_height", [
     ('type="cylinder" size="0.1 0.15"', 0.15),                 # standing on a cap
     ('type="ellipsoid" size="0.1 0.12 0.08"', 0.08),

@@ -6,6 +6,12 @@ unconstrained solve (so implicit damping and drives are part of it), and 1/(J M�
 at fixed slots: contact slot k owns rows 3k (normal), 3k+1 and 3k+2 (friction), then each
 limited joint owns two rows (lower, upper), then each limited tendon. Unused slots are marked inactive and skipped.
 
+Rows are tree-sparse: each row records in `row_span` the dofs it can touch, as two [lo, hi)
+ranges (the dof trees of its one or two bodies, or of its dofs; the second range empty when
+there is one tree). J and M⁻¹Jᵀ are zero outside them (the mass matrix is block-diagonal over
+dof trees), so building, sweeping and reading a row costs its trees' size, not nv; storage
+outside the spans is never read.
+
 Each row's starting impulse (warm start) is the final impulse of the same constraint in the last
 substep: the same contact (pair and feature, e.g. the same box corner) or the same limit. A
 resting contact then starts converged instead of being rebuilt from zero by a few sweeps.
@@ -13,7 +19,7 @@ resting contact then starts converged instead of being rebuilt from zero by a fe
 
 import warp as wp
 
-from .dynamics import solve_in_place
+from .dynamics import solve_span
 from .spatial import velocity_at
 from .structs import EnvParams, ModelArrays
 
@@ -45,16 +51,66 @@ def _add_point_jacobian(m: ModelArrays, e: int, body: int, point: wp.vec3, direc
 
 
 @wp.func
-def _finish_row(m: ModelArrays, e: int, r: int, jac: wp.array3d(dtype=float),
+def _spans(a: wp.vec2i, b: wp.vec2i):
+    """Two dof ranges as one row span (lo1, hi1, lo2, hi2): the second is empty when it is the
+    first or when either is empty."""
+    if a[0] == a[1] or (a[0] == b[0] and a[1] == b[1]):
+        return wp.vec4i(b[0], b[1], 0, 0)
+    if b[0] == b[1]:
+        return wp.vec4i(a[0], a[1], 0, 0)
+    return wp.vec4i(a[0], a[1], b[0], b[1])
+
+
+@wp.func
+def _zero_row(a: wp.array3d(dtype=float), e: int, r: int, sp: wp.vec4i):
+    for i in range(sp[0], sp[1]):
+        a[e, r, i] = 0.0
+    for i in range(sp[2], sp[3]):
+        a[e, r, i] = 0.0
+
+
+@wp.func
+def _row_dot(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
+             sp: wp.vec4i):
+    """a[e, r] · v[e] over the row's span."""
+    s = float(0.0)
+    for i in range(sp[0], sp[1]):
+        s = s + a[e, r, i] * v[e, i]
+    for i in range(sp[2], sp[3]):
+        s = s + a[e, r, i] * v[e, i]
+    return s
+
+
+@wp.func
+def _row_norm(jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float), e: int, r: int,
+              sp: wp.vec4i):
+    """J_r M⁻¹ J_rᵀ over the row's span."""
+    s = float(0.0)
+    for i in range(sp[0], sp[1]):
+        s = s + jac[e, r, i] * minv_jt[e, r, i]
+    for i in range(sp[2], sp[3]):
+        s = s + jac[e, r, i] * minv_jt[e, r, i]
+    return s
+
+
+@wp.func
+def _solve_row(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
+               x: wp.array3d(dtype=float), r: int, sp: wp.vec4i):
+    solve_span(m, e, factor, x, r, sp[0], sp[1])
+    solve_span(m, e, factor, x, r, sp[2], sp[3])
+
+
+@wp.func
+def _finish_row(m: ModelArrays, e: int, r: int, sp: wp.vec4i, jac: wp.array3d(dtype=float),
                 factor: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
                 row_inv_mass: wp.array2d(dtype=float), row_type: wp.array2d(dtype=wp.int32),
                 kind: int):
-    for i in range(m.nv):
+    for i in range(sp[0], sp[1]):
         minv_jt[e, r, i] = jac[e, r, i]
-    solve_in_place(m, e, factor, minv_jt, r)
-    w = float(0.0)
-    for i in range(m.nv):
-        w = w + jac[e, r, i] * minv_jt[e, r, i]
+    for i in range(sp[2], sp[3]):
+        minv_jt[e, r, i] = jac[e, r, i]
+    _solve_row(m, e, factor, minv_jt, r, sp)
+    w = _row_norm(jac, minv_jt, e, r, sp)
     if w > 1.0e-12:
         row_inv_mass[e, r] = 1.0 / w
         row_type[e, r] = kind
@@ -64,11 +120,15 @@ def _finish_row(m: ModelArrays, e: int, r: int, jac: wp.array3d(dtype=float),
 
 
 @wp.func
-def _row_dot(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float), nv: int):
-    s = float(0.0)
-    for i in range(nv):
-        s = s + a[e, r, i] * v[e, i]
-    return s
+def _tendon_span(m: ModelArrays, t: int):
+    """The dof trees of a fixed tendon's joints, as one range (the trees between them included)."""
+    lo = m.nv
+    hi = int(0)
+    for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
+        tree = m.dof_tree_span[m.jnt_dofadr[m.wrap_jnt[w]]]
+        lo = wp.min(lo, tree[0])
+        hi = wp.max(hi, tree[1])
+    return wp.vec4i(lo, wp.max(lo, hi), 0, 0)
 
 
 @wp.kernel
@@ -94,10 +154,10 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
                row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
                row_bounce: wp.array2d(dtype=float), row_dir: wp.array2d(dtype=wp.vec3),
                row_k: wp.array2d(dtype=float), row_d: wp.array2d(dtype=float),
+               row_span: wp.array2d(dtype=wp.vec4i),
                jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
                lam_init: wp.array2d(dtype=float)):
     e = wp.tid()
-    nv = m.nv
     ncontact = wp.min(contact_count[e], contact_capacity)
     # slots past the contact count are skipped by the solver: only the used ones are built
     for k in range(ncontact):
@@ -112,6 +172,14 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
             t1 = wp.cross(n, wp.vec3(0.0, 1.0, 0.0))
         t1 = wp.normalize(t1)
         t2 = wp.cross(n, t1)
+        none = wp.vec2i(0, 0)
+        sp1 = none
+        sp2 = none
+        if b1 >= 0:
+            sp1 = m.body_tree_span[b1]
+        if b2 >= 0:
+            sp2 = m.body_tree_span[b2]
+        sp = _spans(sp1, sp2)
         mu = 0.5 * (geom_friction[e, pair[0]] + geom_friction[e, pair[1]])
         restitution = 0.5 * (geom_restitution[e, pair[0]] + geom_restitution[e, pair[1]])
         for d in range(3):
@@ -124,12 +192,12 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
             elif d == 2:
                 direction = t2
                 kind = FRICTION2
-            for i in range(nv):
-                jac[e, r, i] = 0.0
+            row_span[e, r] = sp
+            _zero_row(jac, e, r, sp)
             # relative velocity of body 2's point with respect to body 1's, along direction
             _add_point_jacobian(m, e, b2, p, direction, 1.0, body_x, cdof, jac, r)
             _add_point_jacobian(m, e, b1, p, direction, -1.0, body_x, cdof, jac, r)
-            _finish_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, kind)
+            _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, kind)
             row_mu[e, r] = mu
             row_dir[e, r] = direction
             row_err[e, r] = 0.0
@@ -137,7 +205,7 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
             if d == 0:
                 row_err[e, r] = contact_dist[e, k] - rest_offset
                 # approach speed before the solve (unconstrained velocity qd + h·qacc)
-                approach = _row_dot(jac, e, r, qd, nv) + h * _row_dot(jac, e, r, qacc, nv)
+                approach = _row_dot(jac, e, r, qd, sp) + h * _row_dot(jac, e, r, qacc, sp)
                 if approach < -bounce_threshold:
                     row_bounce[e, r] = -restitution * approach
         # friction needs its normal row: without it, drop the contact
@@ -168,10 +236,11 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
             _limit_row(m, e, r, side, x, joint_range[e, j], reach, h, jac, factor, minv_jt,
                        row_inv_mass, row_type, row_err, row_mu, row_bounce, lam, lam_init)
             if row_type[e, r] != INACTIVE:
-                for i in range(nv):
-                    jac[e, r, i] = 0.0
+                sp = _spans(m.dof_tree_span[dof], wp.vec2i(0, 0))
+                row_span[e, r] = sp
+                _zero_row(jac, e, r, sp)
                 jac[e, r, dof] = 1.0 - 2.0 * float(side)
-                _finish_limit_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, lam,
+                _finish_limit_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, lam,
                                   lam_init)
     # hard tendon limits (limit stiffness 0): J = coef on each tendon joint
     base = base + 2 * limit_jnt.shape[0]
@@ -193,12 +262,13 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
                 row_type[e, r] = INACTIVE  # a limit spring (forces stage) instead
                 lam_init[e, r] = 0.0
             if row_type[e, r] != INACTIVE:
-                for i in range(nv):
-                    jac[e, r, i] = 0.0
+                sp = _tendon_span(m, t)
+                row_span[e, r] = sp
+                _zero_row(jac, e, r, sp)
                 for w in range(beg, beg + m.tendon_num[t]):
                     dof = m.jnt_dofadr[m.wrap_jnt[w]]
                     jac[e, r, dof] = jac[e, r, dof] + (1.0 - 2.0 * float(side)) * m.wrap_coef[w]
-                _finish_limit_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, lam,
+                _finish_limit_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, lam,
                                   lam_init)
     # tendon spring-dampers (PhysX semantics): one soft row per tendon measuring L (J = coef) and
     # pushing each joint with recip/N; the limit spring (limit stiffness > 0) joins outside
@@ -226,17 +296,16 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
                 stiff = stiff + k_lim
         damp = params.tendon_damping[e, t] / count
         if stiff > 0.0 or damp > 0.0:
-            for i in range(nv):
-                jac[e, r, i] = 0.0
-                minv_jt[e, r, i] = 0.0
+            sp = _tendon_span(m, t)
+            row_span[e, r] = sp
+            _zero_row(jac, e, r, sp)
+            _zero_row(minv_jt, e, r, sp)
             for wi in range(beg, beg + m.tendon_num[t]):
                 dof = m.jnt_dofadr[m.wrap_jnt[wi]]
                 jac[e, r, dof] = jac[e, r, dof] + m.wrap_coef[wi]
                 minv_jt[e, r, dof] = minv_jt[e, r, dof] + m.wrap_recip[wi]
-            solve_in_place(m, e, factor, minv_jt, r)
-            w_eff = float(0.0)
-            for i in range(nv):
-                w_eff = w_eff + jac[e, r, i] * minv_jt[e, r, i]
+            _solve_row(m, e, factor, minv_jt, r, sp)
+            w_eff = _row_norm(jac, minv_jt, e, r, sp)
             if w_eff > 1.0e-12:
                 row_type[e, r] = SOFT
                 row_inv_mass[e, r] = 1.0 / w_eff
@@ -255,12 +324,14 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
         cap = dof_max_velocity[e, dof]
         row_type[e, r] = INACTIVE
         lam_init[e, r] = 0.0
-        # always: impulses from other rows can push a dof past its cap within the solve
+        # always: impulses from other rows can push a dof past its cap within the solve (and a
+        # row built only near the cap let a humanoid under random torques blow up: measured)
         if cap > 0.0:
-            for i in range(nv):
-                jac[e, r, i] = 0.0
+            sp = _spans(m.dof_tree_span[dof], wp.vec2i(0, 0))
+            row_span[e, r] = sp
+            _zero_row(jac, e, r, sp)
             jac[e, r, dof] = 1.0
-            _finish_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, DOF)
+            _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, DOF)
             row_mu[e, r] = bound
             row_k[e, r] = cap
             if row_type[e, r] != INACTIVE:
@@ -288,11 +359,11 @@ def _limit_row(m: ModelArrays, e: int, r: int, side: int, x: float, lim: wp.vec2
 
 
 @wp.func
-def _finish_limit_row(m: ModelArrays, e: int, r: int, jac: wp.array3d(dtype=float),
+def _finish_limit_row(m: ModelArrays, e: int, r: int, sp: wp.vec4i, jac: wp.array3d(dtype=float),
                       factor: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
                       row_inv_mass: wp.array2d(dtype=float), row_type: wp.array2d(dtype=wp.int32),
                       lam: wp.array2d(dtype=float), lam_init: wp.array2d(dtype=float)):
     warm = lam[e, r]  # the same limit's impulse in the last substep (0 if it was inactive)
-    _finish_row(m, e, r, jac, factor, minv_jt, row_inv_mass, row_type, NORMAL)
+    _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, NORMAL)
     if row_type[e, r] != INACTIVE:
         lam_init[e, r] = warm

@@ -143,23 +143,30 @@ def factor_matrix(m: ModelArrays, e: int, qm: wp.array3d(dtype=float),
 
 
 @wp.func
-def solve_in_place(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
-                   x: wp.array3d(dtype=float), r: int):
-    """x[e, r, :] <- (Lᵀ D L)⁻¹ x[e, r, :], walking only the ancestor chains."""
-    nv = m.nv
-    for kk in range(nv):
-        k = nv - 1 - kk
+def solve_span(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
+               x: wp.array3d(dtype=float), r: int, lo: int, hi: int):
+    """x[e, r, lo:hi] <- (Lᵀ D L)⁻¹ x[e, r, lo:hi] for [lo, hi) a whole number of dof trees
+    (the factor never couples two trees), walking only the ancestor chains."""
+    for kk in range(lo, hi):
+        k = hi - 1 - (kk - lo)
         j = m.dof_parent[k]
         while j >= 0:
             x[e, r, j] = x[e, r, j] - factor[e, k, j] * x[e, r, k]
             j = m.dof_parent[j]
-    for k in range(nv):
+    for k in range(lo, hi):
         x[e, r, k] = x[e, r, k] / factor[e, k, k]
-    for k in range(nv):
+    for k in range(lo, hi):
         j = m.dof_parent[k]
         while j >= 0:
             x[e, r, k] = x[e, r, k] - factor[e, k, j] * x[e, r, j]
             j = m.dof_parent[j]
+
+
+@wp.func
+def solve_in_place(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
+                   x: wp.array3d(dtype=float), r: int):
+    """x[e, r, :] <- (Lᵀ D L)⁻¹ x[e, r, :]."""
+    solve_span(m, e, factor, x, r, 0, m.nv)
 
 
 @wp.kernel

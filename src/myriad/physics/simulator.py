@@ -119,6 +119,27 @@ def _resolve_device(device) -> wp.context.Device:
                          f"{available}") from None
 
 
+def tree_spans(model: Model) -> tuple[np.ndarray, np.ndarray]:
+    """[lo, hi) of the dof tree of each dof [nv, 2] and of each body's moving dofs [nbody, 2].
+
+    A dof tree is a top dof (no parent dof) with all its descendants: in MuJoCo's depth-first
+    order its dofs are contiguous, and dofs of different trees never couple in the mass matrix.
+    """
+    top = np.arange(model.nv)
+    for i in range(model.nv):                      # parents come first in MuJoCo's order
+        if model.dof_parent[i] >= 0:
+            top[i] = top[model.dof_parent[i]]
+    dof_span = np.zeros((model.nv, 2), np.int32)
+    for t in np.unique(top):
+        members = np.flatnonzero(top == t)
+        assert members[-1] - members[0] + 1 == len(members), "a dof tree is not contiguous"
+        dof_span[members] = (members[0], members[-1] + 1)
+    body_span = np.zeros((model.nbody, 2), np.int32)
+    moved = model.body_last_dof >= 0
+    body_span[moved] = dof_span[model.body_last_dof[moved]]
+    return dof_span, body_span
+
+
 def _model_arrays(model: Model, device) -> ModelArrays:
     def arr(a, dtype):
         return wp.array(np.ascontiguousarray(a), dtype=dtype, device=device)
@@ -147,6 +168,9 @@ def _model_arrays(model: Model, device) -> ModelArrays:
     s.qpos0 = arr(model.qpos0, f32)
     s.dof_body = arr(model.dof_body, i32)
     s.dof_parent = arr(model.dof_parent, i32)
+    dof_span, body_span = tree_spans(model)
+    s.dof_tree_span = arr(dof_span, wp.vec2i)
+    s.body_tree_span = arr(body_span, wp.vec2i)
     s.site_body = arr(model.site_body, i32)
     s.site_pos = arr(model.site_pos.reshape(-1, 3), wp.vec3)
     s.site_quat = arr(model.site_quat.reshape(-1, 4), wp.quat)
@@ -314,6 +338,10 @@ class Simulator:
         self._meshes.vert = wp.array(m.mesh_vert.reshape(-1, 3), dtype=wp.vec3, device=dev)
         self._meshes.vertadr = wp.array(m.mesh_vertadr, dtype=wp.int32, device=dev)
         self._meshes.vertnum = wp.array(m.mesh_vertnum, dtype=wp.int32, device=dev)
+        verts = m.mesh_vert.reshape(-1, 3)
+        rbound = [float(np.linalg.norm(verts[a:a + k], axis=1).max(initial=0.0))
+                  for a, k in zip(m.mesh_vertadr, m.mesh_vertnum)]
+        self._meshes.rbound = wp.array(np.asarray(rbound, np.float32), dtype=float, device=dev)
         self._hfields = collision.HFields()
         self._hfields.size = wp.array(m.hfield_size.reshape(-1, 4), dtype=wp.vec4, device=dev)
         self._hfields.nrow = wp.array(m.hfield_nrow, dtype=wp.int32, device=dev)
@@ -347,6 +375,7 @@ class Simulator:
         self._row_dir = zeros(N, R, dtype=wp.vec3)
         self._row_k = zeros(N, R)
         self._row_d = zeros(N, R)
+        self._row_span = zeros(N, R, dtype=wp.vec4i)   # the dof ranges a row touches
         self._jac_rows = zeros(N, R, m.nv)
         self._minv_jt = zeros(N, R, m.nv)
         self._lam = zeros(N, R)
@@ -569,14 +598,15 @@ class Simulator:
             self._dof_frictionloss, self._dof_max_velocity, self._body_x, self._cdof,
             self._q, self._qd, self._qacc, self._factor, self._row_type, self._row_err,
             self._row_inv_mass, self._row_mu, self._row_bounce, self._row_dir, self._row_k,
-            self._row_d, self._jac_rows, self._minv_jt, self._lam_init])
+            self._row_d, self._row_span, self._jac_rows, self._minv_jt, self._lam_init])
 
     def _solve_constraints(self) -> None:
         p = self.params
         self._launch(solver_tgs.solve, self.num_envs, [
             self._m, self.nrow, self._contacts.capacity, self._contacts.count, self.h,
-            p.position_iterations, p.velocity_iterations, int(p.solver == "tgs"), p.max_depenetration_velocity, self._row_type, self._row_err,
-            self._row_inv_mass, self._row_mu, self._row_bounce, self._row_k, self._row_d,
+            p.position_iterations, p.velocity_iterations, int(p.solver == "tgs"),
+            p.max_depenetration_velocity, self._row_type, self._row_err, self._row_inv_mass,
+            self._row_mu, self._row_bounce, self._row_k, self._row_d, self._row_span,
             self._jac_rows, self._minv_jt, self._lam_init, self._qacc, self._qd, self._qd_before,
             self._dq, self._lam])
 
@@ -611,7 +641,8 @@ class Simulator:
         c = self._contacts
         self._launch(solver_tgs.constraint_forces, self.num_envs, [
             self._m, self.nrow, self.h, self._geom_body, c.capacity, c.count, c.geom,
-            self._row_dir, self._lam, self._row_type, self._jac_rows, self._contact_force,
+            self._row_dir, self._lam, self._row_type, self._row_span, self._jac_rows,
+            self._contact_force,
             self._net_contact_force, self._dof_constraint_force])
         if self.sensor_sites:  # site poses are current: the final kinematics computed them
             self._launch(sensors.force_sensors, self.num_envs, [

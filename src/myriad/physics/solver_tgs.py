@@ -37,8 +37,11 @@ WARM = wp.constant(0.9)
 
 @wp.func
 def _apply(e: int, r: int, dl: float, minv_jt: wp.array3d(dtype=float), v: wp.array2d(dtype=float),
-           nv: int):
-    for i in range(nv):
+           sp: wp.vec4i):
+    """v += M⁻¹J_rᵀ·dl over the row's span (the response is zero outside it)."""
+    for i in range(sp[0], sp[1]):
+        v[e, i] = v[e, i] + minv_jt[e, r, i] * dl
+    for i in range(sp[2], sp[3]):
         v[e, i] = v[e, i] + minv_jt[e, r, i] * dl
 
 
@@ -58,23 +61,24 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, first: int, 
            row_err: wp.array2d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
            row_mu: wp.array2d(dtype=float), row_bounce: wp.array2d(dtype=float),
            row_k: wp.array2d(dtype=float), row_d: wp.array2d(dtype=float),
+           row_span: wp.array2d(dtype=wp.vec4i),
            jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
            v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float), lam: wp.array2d(dtype=float)):
-    nv = m.nv
     # normal rows first, then friction rows, whose bounds then hold this sweep's normal impulses
     count = nrow - skip
     for rr in range(2 * count):
         r = _row(rr % count, used, skip)
         t = row_type[e, r]
+        sp = row_span[e, r]
         if rr < count and t != NORMAL:
             continue
         if rr >= count and t == NORMAL:
             continue
         if t == NORMAL:
-            jv = _row_dot(jac, e, r, v, nv)
+            jv = _row_dot(jac, e, r, v, sp)
             err = row_err[e, r]
             if tgs != 0:
-                err = err + _row_dot(jac, e, r, dq, nv)
+                err = err + _row_dot(jac, e, r, dq, sp)
             target = float(0.0)
             if err >= 0.0:
                 target = -err / h          # may close the gap, no more
@@ -87,7 +91,7 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, first: int, 
             old = lam[e, r]
             new = wp.max(old + (target - jv) * row_inv_mass[e, r], 0.0)
             lam[e, r] = new
-            _apply(e, r, new - old, minv_jt, v, nv)
+            _apply(e, r, new - old, minv_jt, v, sp)
         elif t == SOFT:
             # implicit spring-damper over the whole substep, once (first sweep), like the other
             # forces: impulse = -(h·k·err + a·J·v) / (1 + a·w), a = h·(h·k + d). Applied per TGS
@@ -97,34 +101,35 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, first: int, 
                 k = row_k[e, r]
                 a = h * (h * k + row_d[e, r])
                 w = 1.0 / row_inv_mass[e, r]
-                dl = -(h * k * row_err[e, r] + a * _row_dot(jac, e, r, v, nv)) / (1.0 + a * w)
+                dl = -(h * k * row_err[e, r] + a * _row_dot(jac, e, r, v, sp)) / (1.0 + a * w)
                 lam[e, r] = lam[e, r] + dl
-                _apply(e, r, dl, minv_jt, v, nv)
+                _apply(e, r, dl, minv_jt, v, sp)
         elif t == DOF:
+            # J = e_dof (the dof rows come last, one per dof): J·v is the dof's own speed
+            dof = r - (nrow - m.nv)
             # joint friction: stop the dof, with at most frictionloss·h of impulse per substep
             old = lam[e, r]
-            new = wp.clamp(old - _row_dot(jac, e, r, v, nv) * row_inv_mass[e, r], -row_mu[e, r],
-                           row_mu[e, r])
+            new = wp.clamp(old - v[e, dof] * row_inv_mass[e, r], -row_mu[e, r], row_mu[e, r])
             lam[e, r] = new
-            _apply(e, r, new - old, minv_jt, v, nv)
+            _apply(e, r, new - old, minv_jt, v, sp)
             # maximum joint speed: a joint-space impulse brings it back inside
-            jv = _row_dot(jac, e, r, v, nv)
+            jv = v[e, dof]
             cap = row_k[e, r]
             if wp.abs(jv) > cap:
-                _apply(e, r, (wp.clamp(jv, -cap, cap) - jv) * row_inv_mass[e, r], minv_jt, v, nv)
+                _apply(e, r, (wp.clamp(jv, -cap, cap) - jv) * row_inv_mass[e, r], minv_jt, v, sp)
         elif t == FRICTION:
             # static friction holds the contact point where it was at the start of the substep:
             # in TGS position sweeps the target undoes the slip accumulated so far, -J_t·dq / hs
             target1 = float(0.0)
             target2 = float(0.0)
             if tgs != 0 and biased != 0:
-                target1 = -1.0 * _row_dot(jac, e, r, dq, nv) / hs
-                target2 = -1.0 * _row_dot(jac, e, r + 1, dq, nv) / hs
+                target1 = -1.0 * _row_dot(jac, e, r, dq, sp) / hs
+                target2 = -1.0 * _row_dot(jac, e, r + 1, dq, sp) / hs
             # both rows from the same velocity, then projection onto the friction disk
             old1 = lam[e, r]
             old2 = lam[e, r + 1]
-            l1 = old1 + (target1 - _row_dot(jac, e, r, v, nv)) * row_inv_mass[e, r]
-            l2 = old2 + (target2 - _row_dot(jac, e, r + 1, v, nv)) * row_inv_mass[e, r + 1]
+            l1 = old1 + (target1 - _row_dot(jac, e, r, v, sp)) * row_inv_mass[e, r]
+            l2 = old2 + (target2 - _row_dot(jac, e, r + 1, v, sp)) * row_inv_mass[e, r + 1]
             limit = row_mu[e, r] * lam[e, r - 1]
             norm = wp.sqrt(l1 * l1 + l2 * l2)
             if norm > limit:
@@ -135,8 +140,8 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, first: int, 
                 l2 = l2 * scale
             lam[e, r] = l1
             lam[e, r + 1] = l2
-            _apply(e, r, l1 - old1, minv_jt, v, nv)
-            _apply(e, r + 1, l2 - old2, minv_jt, v, nv)
+            _apply(e, r, l1 - old1, minv_jt, v, sp)
+            _apply(e, r + 1, l2 - old2, minv_jt, v, sp)
 
 
 @wp.kernel
@@ -146,7 +151,8 @@ def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.ar
           row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
           row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
           row_bounce: wp.array2d(dtype=float), row_k: wp.array2d(dtype=float),
-          row_d: wp.array2d(dtype=float), jac: wp.array3d(dtype=float),
+          row_d: wp.array2d(dtype=float), row_span: wp.array2d(dtype=wp.vec4i),
+          jac: wp.array3d(dtype=float),
           minv_jt: wp.array3d(dtype=float), lam_init: wp.array2d(dtype=float),
           qacc: wp.array2d(dtype=float),
           qd: wp.array2d(dtype=float), qd_before: wp.array2d(dtype=float),
@@ -168,13 +174,13 @@ def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.ar
             lam[e, r] = lam_init[e, r]
             if row_type[e, r] == NORMAL:
                 lam[e, r] = WARM * lam_init[e, r]
-            _apply(e, r, lam[e, r], minv_jt, qd, nv)
+            _apply(e, r, lam[e, r], minv_jt, qd, row_span[e, r])
     hs = h
     if tgs != 0:
         hs = h / float(position_iterations)
     for it in range(position_iterations):
         _sweep(m, e, nrow, used, skip, int(it == 0), 1, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
-               row_mu, row_bounce, row_k, row_d, jac, minv_jt, qd, dq, lam)
+               row_mu, row_bounce, row_k, row_d, row_span, jac, minv_jt, qd, dq, lam)
         if tgs != 0:
             for i in range(nv):
                 dq[e, i] = dq[e, i] + hs * qd[e, i]
@@ -183,7 +189,7 @@ def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.ar
             dq[e, i] = h * qd[e, i]
     for it in range(velocity_iterations):
         _sweep(m, e, nrow, used, skip, 0, 0, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
-               row_mu, row_bounce, row_k, row_d, jac, minv_jt, qd, dq, lam)
+               row_mu, row_bounce, row_k, row_d, row_span, jac, minv_jt, qd, dq, lam)
 
 
 @wp.kernel
@@ -191,8 +197,8 @@ def constraint_forces(m: ModelArrays, nrow: int, h: float, geom_body: wp.array(d
                       contact_capacity: int, contact_count: wp.array(dtype=wp.int32),
                       contact_geom: wp.array2d(dtype=wp.vec2i),
                       row_dir: wp.array2d(dtype=wp.vec3), lam: wp.array2d(dtype=float),
-                      row_type: wp.array2d(dtype=wp.int32), jac: wp.array3d(dtype=float),
-                      contact_force: wp.array2d(dtype=wp.vec3),
+                      row_type: wp.array2d(dtype=wp.int32), row_span: wp.array2d(dtype=wp.vec4i),
+                      jac: wp.array3d(dtype=float), contact_force: wp.array2d(dtype=wp.vec3),
                       net_contact_force: wp.array2d(dtype=wp.vec3),
                       dof_constraint_force: wp.array2d(dtype=float)):
     """Forces of the last substep: per contact (on geom 2, world), net per body, per dof."""
@@ -217,9 +223,13 @@ def constraint_forces(m: ModelArrays, nrow: int, h: float, geom_body: wp.array(d
     used = 3 * ncontact
     skip = 3 * contact_capacity - used
     for i in range(m.nv):
-        s = float(0.0)
-        for rr in range(nrow - skip):
-            r = _row(rr, used, skip)
-            if row_type[e, r] >= 0:
-                s = s + jac[e, r, i] * lam[e, r]
-        dof_constraint_force[e, i] = s / h
+        dof_constraint_force[e, i] = 0.0
+    for rr in range(nrow - skip):
+        r = _row(rr, used, skip)
+        if row_type[e, r] >= 0:
+            sp = row_span[e, r]
+            force = lam[e, r] / h
+            for i in range(sp[0], sp[1]):
+                dof_constraint_force[e, i] = dof_constraint_force[e, i] + jac[e, r, i] * force
+            for i in range(sp[2], sp[3]):
+                dof_constraint_force[e, i] = dof_constraint_force[e, i] + jac[e, r, i] * force

@@ -38,6 +38,10 @@ class ModelArrays:
 
     dof_body: wp.array(dtype=wp.int32)
     dof_parent: wp.array(dtype=wp.int32)
+    # [lo, hi) of the dofs in the same dof tree (a dof, its ancestors and descendants): the
+    # mass matrix is block-diagonal over these trees, so a row's response stays inside them
+    dof_tree_span: wp.array(dtype=wp.vec2i)
+    body_tree_span: wp.array(dtype=wp.vec2i)   # of the dofs that move a body; (0, 0) if none
 
     site_body: wp.array(dtype=wp.int32)
     site_pos: wp.array(dtype=wp.vec3)

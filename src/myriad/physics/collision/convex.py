@@ -30,6 +30,24 @@ class Meshes:
     vert: wp.array(dtype=wp.vec3)      # all mesh vertices, mesh frame
     vertadr: wp.array(dtype=wp.int32)
     vertnum: wp.array(dtype=wp.int32)
+    rbound: wp.array(dtype=float)      # per mesh: largest vertex distance from the mesh origin
+
+
+@wp.func
+def bounding_radius(t: int, s: wp.vec3, dataid: int, meshes: Meshes):
+    """Radius of a sphere about the geom's origin that holds the whole shape (not for planes
+    and height fields, which are unbounded or hold their own broadphase)."""
+    if t == SPHERE:
+        return s[0]
+    if t == CAPSULE:
+        return s[0] + s[1]
+    if t == ELLIPSOID:
+        return wp.max(s[0], wp.max(s[1], s[2]))
+    if t == CYLINDER:
+        return wp.sqrt(s[0] * s[0] + s[1] * s[1])
+    if t == BOX:
+        return wp.length(s)
+    return meshes.rbound[dataid]
 
 
 @wp.func

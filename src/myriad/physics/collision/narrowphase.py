@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import warp as wp
 
-from .convex import (BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, Meshes, box_corner,
-                     convex_contact, support)
+from .convex import (BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, Meshes, bounding_radius,
+                     box_corner, convex_contact, support)
 from .heightfield import HFields, ellipsoid_probe, probe_point, surface
 
 PLANE = wp.constant(0)
@@ -513,6 +513,13 @@ def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.in
     s2 = geom_size[e, g2]
     c1 = wp.transform_get_translation(x1)
     c2 = wp.transform_get_translation(x2)
+    # broadphase: shapes whose bounding spheres are farther apart than the contact offset
+    # cannot touch (pairs are ordered by type: planes and height fields come first)
+    if t1 != PLANE and t1 != HFIELD:
+        reach = (bounding_radius(t1, s1, geom_dataid[g1], meshes)
+                 + bounding_radius(t2, s2, geom_dataid[g2], meshes) + margin)
+        if wp.length_sq(c2 - c1) > reach * reach:
+            return
 
     if t1 == PLANE:
         n = wp.quat_rotate(wp.transform_get_rotation(x1), wp.vec3(0.0, 0.0, 1.0))

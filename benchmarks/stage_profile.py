@@ -1,0 +1,81 @@
+"""Time per stage of one `Simulator.step`, for the ant, the humanoid and a hand-and-cube model.
+
+    python benchmarks/stage_profile.py [--envs 1024] [--steps 20] [--device cpu] [--threads 1]
+
+Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on), random controls held for the
+whole run after a 30-step settle. Each stage of `Simulator._step_kernels` is timed on its own
+(the device is synchronized after each, so on CUDA this runs without the step's CUDA graph and
+the sum exceeds a graph-captured step); the table gives ms per step and the share of the total.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import time
+
+import torch
+import warp as wp
+
+import myriad
+
+STAGES = ["_kinematics", "_collision", "_dynamics", "_applied_forces", "_solve_unconstrained",
+          "_constraint_rows", "_solve_constraints", "_integrate", "_constraint_outputs"]
+
+
+def profile(model, n: int, steps: int, device: str, threads: int | None) -> dict:
+    params = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=4, velocity_iterations=0)
+    sim = myriad.Simulator(model, num_envs=n, device=device, params=params, cpu_threads=threads)
+    gen = torch.Generator(device=sim.torch_device).manual_seed(0)
+    if model.nu:
+        sim.ctrl = torch.rand(n, model.nu, generator=gen, device=sim.torch_device) * 2 - 1
+    for _ in range(30):
+        sim.step()
+    spent = collections.Counter()
+    originals = {name: getattr(sim, name) for name in STAGES}
+
+    def timed(name):
+        def run():
+            wp.synchronize_device(sim.device)
+            t0 = time.perf_counter()
+            originals[name]()
+            wp.synchronize_device(sim.device)
+            spent[name] += time.perf_counter() - t0
+        return run
+    for name in STAGES:
+        setattr(sim, name, timed(name))
+    for _ in range(steps):
+        if sim.device.is_cuda:
+            sim._run_on_device(sim._step_kernels)
+        else:
+            sim._run_sharded(sim._step_kernels)
+    return {name: spent[name] / steps * 1e3 for name in STAGES}
+
+
+def main() -> None:
+    from memory import hand_and_cube_xml      # benchmarks/memory.py: the 30-DoF stand-in
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--envs", type=int, default=1024)
+    ap.add_argument("--steps", type=int, default=20)
+    ap.add_argument("--device", default="cpu")
+    ap.add_argument("--threads", type=int, default=1, help="CPU threads (default 1)")
+    args = ap.parse_args()
+    wp.config.log_level = wp.LOG_WARNING
+    models = [("ant", myriad.load(myriad.asset_path("ant.xml"))),
+              ("humanoid", myriad.load(myriad.asset_path("humanoid.xml"))),
+              ("hand-and-cube", myriad.load_xml(hand_and_cube_xml(), "hand-and-cube"))]
+    rows = {name: profile(model, args.envs, args.steps, args.device, args.threads)
+            for name, model in models}
+    print(f"ms per step ({args.envs} envs, {args.device}, {args.threads} thread(s)); share of "
+          "the step in brackets\n")
+    print("| stage | " + " | ".join(rows) + " |")
+    print("|---|" + "---|" * len(rows))
+    for stage in STAGES:
+        cells = [f"{r[stage]:.2f} ({100 * r[stage] / sum(r.values()):.0f} %)" for r in rows.values()]
+        print(f"| {stage.strip('_').replace('_', ' ')} | " + " | ".join(cells) + " |")
+    print("| **total** | " + " | ".join(f"{sum(r.values()):.2f}" for r in rows.values()) + " |")
+
+
+if __name__ == "__main__":
+    main()
