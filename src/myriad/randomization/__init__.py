@@ -157,18 +157,21 @@ class _Param:
             self.inertia_view[rows, self.cols] = self.inertia_original[env_ids] * ratio
 
 
+# the keys of a task's `randomization` section
+SECTION_KEYS = ("enabled", "frequency", "observations", "actions", "sim_params", "actor_params",
+                "random_forces")
+
+
 class Randomizer:
     """Parses and validates the `randomization` section against a built task and applies it."""
 
     def __init__(self, cfg: dict, task):
         self.cfg, self.task = cfg, task
         envs, sim, dev = task.envs, task.envs.sim, task.device
-        known = {"enabled", "frequency", "observations", "actions", "sim_params", "actor_params",
-                 "random_forces"}
-        unknown = sorted(set(cfg) - known)
+        unknown = sorted(set(cfg) - set(SECTION_KEYS))
         if unknown:
             raise RandomizationError(f"randomization: unknown keys {unknown}; valid: "
-                                     f"{sorted(known)}")
+                                     f"{sorted(SECTION_KEYS)}")
         self.frequency = int(cfg.get("frequency", 1))
         if self.frequency < 1:
             raise RandomizationError(f"randomization.frequency={self.frequency}: must be >= 1")

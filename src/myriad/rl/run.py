@@ -27,11 +27,10 @@ def compose(overrides: list[str]):
         return composed(check_overrides(overrides, composed))
 
 
-# Keys of a task's `randomization` section that a command line may add although the task's YAML
-# leaves them out (it holds only `enabled: false`); what goes below them is checked by
-# myriad.randomization.Randomizer when the task is built.
-RANDOMIZATION_KEYS = ("enabled", "frequency", "observations", "actions", "sim_params",
-                      "actor_params", "random_forces")
+# Keys of a task's `randomization` section may be added from the command line although the
+# task's YAML leaves them out (it holds only `enabled: false`); what goes below them is checked
+# by myriad.randomization.Randomizer when the task is built.
+from ..randomization import SECTION_KEYS as RANDOMIZATION_KEYS  # noqa: E402
 _OPEN_SECTION = "task.randomization"
 
 
