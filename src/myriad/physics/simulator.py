@@ -100,17 +100,22 @@ class _View:
         view.copy_(value)
 
 
-def _resolve_device(device) -> wp.context.Device:
-    """The Warp device of 'cpu', 'cuda' (cuda:0) or 'cuda:N' (a str, torch or Warp device).
-
-    Any other name, or a GPU that is not there, raises a one-line ValueError."""
-    name = str(device)
+def device_name(device) -> str:
+    """'cpu' or 'cuda:N' for 'cpu', 'cuda' (cuda:0) or 'cuda:N' (a str, torch or Warp device);
+    any other name raises a one-line ValueError. Whether that GPU exists is not checked here."""
+    name = str(device).strip()
     kind, colon, index = name.partition(":")
-    if not (name == "cpu" or kind == "cuda" and (
-            not colon or index.isascii() and index.isdigit())):
+    if name == "cpu":
+        return name
+    if kind != "cuda" or colon and not (index.isascii() and index.isdigit()):
         raise ValueError(f"device {name!r}: expected 'cpu', 'cuda' or 'cuda:N'")
-    if name == "cuda":
-        name = "cuda:0"
+    return f"cuda:{int(index) if colon else 0}"
+
+
+def _resolve_device(device) -> wp.context.Device:
+    """The Warp device of `device` (see `device_name`); a GPU that is not there raises a
+    one-line ValueError."""
+    name = device_name(device)
     try:
         return wp.get_device(name)
     except Exception:

@@ -150,20 +150,23 @@ def resolve_device(device) -> str:
     one line."""
     import torch
 
+    from ..physics.simulator import device_name
+
     name = str(device).strip()
     if name == "auto":
         return "cuda:0" if torch.cuda.is_available() else "cpu"
+    try:
+        name = device_name(name)
+    except ValueError:
+        raise ValueError(f"device={device}: expected auto, cpu, cuda or cuda:N") from None
     if name == "cpu":
         return name
-    kind, colon, index = name.partition(":")
-    if kind != "cuda" or colon and not (index.isascii() and index.isdigit()):
-        raise ValueError(f"device={device}: expected auto, cpu, cuda or cuda:N")
-    gpu, count = int(index) if colon else 0, torch.cuda.device_count()
+    gpu, count = int(name[5:]), torch.cuda.device_count()
     if gpu >= count:
         available = ", ".join(["cpu"] + [f"cuda:{k}" for k in range(count)])
         raise ValueError(f"device={device}: no such GPU ({count} CUDA device"
                          f"{'' if count == 1 else 's'} visible); available: {available}")
-    return f"cuda:{gpu}"
+    return name
 
 
 def task_and_train_configs(cfg) -> tuple[dict, dict, str]:
