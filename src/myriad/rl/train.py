@@ -109,30 +109,30 @@ class MyriadAgent(a2c_continuous.A2CAgent):
                                         "nonfinite_actions"])
 
     # ---------------------------------------------------------------- checkpoints
-    def save(self, fn):
+    def save(self, fn) -> bool:
         """Every rl_games save goes through here: the best-policy file is written only for a
-        better policy than the one it holds, and never for a policy with non-finite weights."""
-        best = os.path.join(self.nn_dir, self.config["name"])
-        if fn == best:
-            if not self.mean_rewards > self.best_saved_reward:
-                return
+        better policy than the one it holds, and never a policy with non-finite weights.
+        Returns whether the file was written."""
+        best = fn == os.path.join(self.nn_dir, self.config["name"])
+        if best and not self.mean_rewards > self.best_saved_reward or not self.weights_finite():
+            return False
+        if best:
             self.best_saved_reward = float(self.mean_rewards)
-        if not self.weights_finite():
-            return
         state = self.get_full_state_weights()
         atomic_write(fn + ".pth", lambda tmp: torch.save(state, tmp))
+        return True
 
     def save_last(self):
-        if not self.weights_finite():
+        if not self.save(os.path.join(self.nn_dir, "last")):
             print(f"not saving epoch {self.epoch_num}: the policy's weights are non-finite; "
                   f"nn/last.pth keeps epoch {self.checkpoint_epoch}", flush=True)
             return
-        self.save(os.path.join(self.nn_dir, "last"))
         self.checkpoint_epoch = self.epoch_num
         self.last_save = time.monotonic()
 
     def weights_finite(self) -> bool:
-        return all(bool(torch.isfinite(p).all()) for p in self.model.parameters())
+        """One reduction on the device, one read back."""
+        return bool(torch.stack([torch.isfinite(p).all() for p in self.model.parameters()]).all())
 
     def get_full_state_weights(self):
         state = super().get_full_state_weights()
