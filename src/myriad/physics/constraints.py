@@ -315,7 +315,12 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
                 row_err[e, r] = 0.0
                 if stiff > 0.0:
                     row_err[e, r] = -force / stiff
-    # one row per dof, J = e_dof: dry friction (bounded impulse) and the maximum joint speed
+    # one row per dof, J = e_dof: dry friction (bounded impulse) and the maximum joint speed.
+    # Its response M⁻¹e_dof (a column of M⁻¹) is what costs; a dof without dry friction needs it
+    # only once the dof exceeds its cap, so it is left unbuilt here (row_inv_mass 0) and the
+    # solver builds it then (`build_dof_row`). Present always: impulses from other rows can push
+    # a dof past its cap within the solve (and a row only near the cap let a humanoid under
+    # random torques blow up: measured).
     base = base + m.ntendon
     for dof in range(dof_rows):
         r = base + dof
@@ -324,18 +329,29 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
         cap = dof_max_velocity[e, dof]
         row_type[e, r] = INACTIVE
         lam_init[e, r] = 0.0
-        # always: impulses from other rows can push a dof past its cap within the solve (and a
-        # row built only near the cap let a humanoid under random torques blow up: measured)
         if cap > 0.0:
-            sp = _spans(m.dof_tree_span[dof], wp.vec2i(0, 0))
-            row_span[e, r] = sp
-            _zero_row(jac, e, r, sp)
-            jac[e, r, dof] = 1.0
-            _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, DOF)
+            row_type[e, r] = DOF
+            row_inv_mass[e, r] = 0.0
             row_mu[e, r] = bound
             row_k[e, r] = cap
-            if row_type[e, r] != INACTIVE:
-                lam_init[e, r] = wp.clamp(warm, -bound, bound)
+            if bound > 0.0:
+                build_dof_row(m, e, r, dof, jac, factor, minv_jt, row_inv_mass, row_type,
+                              row_span)
+                if row_type[e, r] != INACTIVE:
+                    lam_init[e, r] = wp.clamp(warm, -bound, bound)
+
+
+@wp.func
+def build_dof_row(m: ModelArrays, e: int, r: int, dof: int, jac: wp.array3d(dtype=float),
+                  factor: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
+                  row_inv_mass: wp.array2d(dtype=float), row_type: wp.array2d(dtype=wp.int32),
+                  row_span: wp.array2d(dtype=wp.vec4i)):
+    """Row r as dof `dof`'s row: J = e_dof over its dof tree, its response and 1/(J M⁻¹ Jᵀ)."""
+    sp = _spans(m.dof_tree_span[dof], wp.vec2i(0, 0))
+    row_span[e, r] = sp
+    _zero_row(jac, e, r, sp)
+    jac[e, r, dof] = 1.0
+    _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, DOF)
 
 
 @wp.func

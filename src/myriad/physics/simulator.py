@@ -612,7 +612,7 @@ class Simulator:
             p.position_iterations, p.velocity_iterations, int(p.solver == "tgs"),
             p.max_depenetration_velocity, self._row_type, self._row_err, self._row_inv_mass,
             self._row_mu, self._row_bounce, self._row_k, self._row_d, self._row_span,
-            self._jac_rows, self._minv_jt, self._lam_init, self._qacc, self._qd, self._qd_before,
+            self._factor, self._jac_rows, self._minv_jt, self._lam_init, self._qacc, self._qd, self._qd_before,
             self._dq, self._lam])
 
     def _integrate(self) -> None:

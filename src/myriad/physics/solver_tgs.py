@@ -25,7 +25,7 @@ targets a separation speed of e times its approach speed.
 
 import warp as wp
 
-from .constraints import DOF, FRICTION, NORMAL, SOFT, _row_dot
+from .constraints import DOF, FRICTION, NORMAL, SOFT, _row_dot, build_dof_row
 from .structs import ModelArrays
 
 # fraction of the last substep's impulse a contact or limit row starts from: below 1 so that
@@ -39,6 +39,8 @@ WARM = wp.constant(0.9)
 def _apply(e: int, r: int, dl: float, minv_jt: wp.array3d(dtype=float), v: wp.array2d(dtype=float),
            sp: wp.vec4i):
     """v += M⁻¹J_rᵀ·dl over the row's span (the response is zero outside it)."""
+    if dl == 0.0:
+        return
     for i in range(sp[0], sp[1]):
         v[e, i] = v[e, i] + minv_jt[e, r, i] * dl
     for i in range(sp[2], sp[3]):
@@ -61,7 +63,7 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, first: int, 
            row_err: wp.array2d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
            row_mu: wp.array2d(dtype=float), row_bounce: wp.array2d(dtype=float),
            row_k: wp.array2d(dtype=float), row_d: wp.array2d(dtype=float),
-           row_span: wp.array2d(dtype=wp.vec4i),
+           row_span: wp.array2d(dtype=wp.vec4i), factor: wp.array3d(dtype=float),
            jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
            v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float), lam: wp.array2d(dtype=float)):
     # normal rows first, then friction rows, whose bounds then hold this sweep's normal impulses
@@ -107,16 +109,24 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, first: int, 
         elif t == DOF:
             # J = e_dof (the dof rows come last, one per dof): J·v is the dof's own speed
             dof = r - (nrow - m.nv)
-            # joint friction: stop the dof, with at most frictionloss·h of impulse per substep
-            old = lam[e, r]
-            new = wp.clamp(old - v[e, dof] * row_inv_mass[e, r], -row_mu[e, r], row_mu[e, r])
-            lam[e, r] = new
-            _apply(e, r, new - old, minv_jt, v, sp)
+            bound = row_mu[e, r]
+            if bound > 0.0:
+                # joint friction: stop the dof, with at most frictionloss·h of impulse per substep
+                old = lam[e, r]
+                new = wp.clamp(old - v[e, dof] * row_inv_mass[e, r], -bound, bound)
+                lam[e, r] = new
+                _apply(e, r, new - old, minv_jt, v, sp)
             # maximum joint speed: a joint-space impulse brings it back inside
             jv = v[e, dof]
             cap = row_k[e, r]
             if wp.abs(jv) > cap:
-                _apply(e, r, (wp.clamp(jv, -cap, cap) - jv) * row_inv_mass[e, r], minv_jt, v, sp)
+                if row_inv_mass[e, r] == 0.0:   # first time past the cap in this substep
+                    build_dof_row(m, e, r, dof, jac, factor, minv_jt, row_inv_mass, row_type,
+                                  row_span)
+                    sp = row_span[e, r]
+                if row_type[e, r] == DOF:
+                    _apply(e, r, (wp.clamp(jv, -cap, cap) - jv) * row_inv_mass[e, r], minv_jt,
+                           v, sp)
         elif t == FRICTION:
             # static friction holds the contact point where it was at the start of the substep:
             # in TGS position sweeps the target undoes the slip accumulated so far, -J_t·dq / hs
@@ -152,7 +162,7 @@ def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.ar
           row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
           row_bounce: wp.array2d(dtype=float), row_k: wp.array2d(dtype=float),
           row_d: wp.array2d(dtype=float), row_span: wp.array2d(dtype=wp.vec4i),
-          jac: wp.array3d(dtype=float),
+          factor: wp.array3d(dtype=float), jac: wp.array3d(dtype=float),
           minv_jt: wp.array3d(dtype=float), lam_init: wp.array2d(dtype=float),
           qacc: wp.array2d(dtype=float),
           qd: wp.array2d(dtype=float), qd_before: wp.array2d(dtype=float),
@@ -180,7 +190,7 @@ def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.ar
         hs = h / float(position_iterations)
     for it in range(position_iterations):
         _sweep(m, e, nrow, used, skip, int(it == 0), 1, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
-               row_mu, row_bounce, row_k, row_d, row_span, jac, minv_jt, qd, dq, lam)
+               row_mu, row_bounce, row_k, row_d, row_span, factor, jac, minv_jt, qd, dq, lam)
         if tgs != 0:
             for i in range(nv):
                 dq[e, i] = dq[e, i] + hs * qd[e, i]
@@ -189,7 +199,7 @@ def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.ar
             dq[e, i] = h * qd[e, i]
     for it in range(velocity_iterations):
         _sweep(m, e, nrow, used, skip, 0, 0, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
-               row_mu, row_bounce, row_k, row_d, row_span, jac, minv_jt, qd, dq, lam)
+               row_mu, row_bounce, row_k, row_d, row_span, factor, jac, minv_jt, qd, dq, lam)
 
 
 @wp.kernel
@@ -226,7 +236,7 @@ def constraint_forces(m: ModelArrays, nrow: int, h: float, geom_body: wp.array(d
         dof_constraint_force[e, i] = 0.0
     for rr in range(nrow - skip):
         r = _row(rr, used, skip)
-        if row_type[e, r] >= 0:
+        if row_type[e, r] >= 0 and lam[e, r] != 0.0:   # (an unbuilt dof row has no impulse)
             sp = row_span[e, r]
             force = lam[e, r] / h
             for i in range(sp[0], sp[1]):
