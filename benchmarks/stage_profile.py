@@ -1,6 +1,7 @@
 """Time per stage of one `Simulator.step`, for the ant, the humanoid and a hand-and-cube model.
 
     python benchmarks/stage_profile.py [--envs 1024] [--steps 20] [--device cpu] [--threads 1]
+        [--models ant,humanoid,hand-and-cube]
 
 Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on), random controls held for the
 whole run after a 30-step settle. Each stage of `Simulator._step_kernels` is timed on its own
@@ -60,13 +61,18 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=20)
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--threads", type=int, default=1, help="CPU threads (default 1)")
+    ap.add_argument("--models", default="ant,humanoid,hand-and-cube",
+                    help="comma-separated subset of ant, humanoid, hand-and-cube")
     args = ap.parse_args()
     wp.config.log_level = wp.LOG_WARNING
-    models = [("ant", myriad.load(myriad.asset_path("ant.xml"))),
-              ("humanoid", myriad.load(myriad.asset_path("humanoid.xml"))),
-              ("hand-and-cube", myriad.load_xml(hand_and_cube_xml(), "hand-and-cube"))]
-    rows = {name: profile(model, args.envs, args.steps, args.device, args.threads)
-            for name, model in models}
+    models = {"ant": lambda: myriad.load(myriad.asset_path("ant.xml")),
+              "humanoid": lambda: myriad.load(myriad.asset_path("humanoid.xml")),
+              "hand-and-cube": lambda: myriad.load_xml(hand_and_cube_xml(), "hand-and-cube")}
+    chosen = args.models.split(",")
+    if unknown := set(chosen) - set(models):
+        ap.error(f"--models: unknown {sorted(unknown)}; choose from {list(models)}")
+    rows = {name: profile(models[name](), args.envs, args.steps, args.device, args.threads)
+            for name in chosen}
     print(f"ms per step ({args.envs} envs, {args.device}, {args.threads} thread(s)); share of "
           "the step in brackets\n")
     print("| stage | " + " | ".join(rows) + " |")

@@ -1,7 +1,10 @@
 """The physics engine: model import, batched state, and the step pipeline."""
 
+from .kernels import configure_modules
 from .importer import from_mujoco, load, load_xml
 from .model import Model, ModelError
 from .simulator import SimParams, Simulator
 
 __all__ = ["Model", "ModelError", "SimParams", "Simulator", "from_mujoco", "load", "load_xml"]
+
+configure_modules()
