@@ -19,7 +19,7 @@ resting contact then starts converged instead of being rebuilt from zero by a fe
 
 import warp as wp
 
-from .dynamics import solve_span
+from .dynamics import solve_span, solve_span3
 from .spatial import velocity_at
 from .structs import EnvParams, ModelArrays
 
@@ -36,17 +36,22 @@ LIMIT_MARGIN = wp.constant(0.1)
 
 
 @wp.func
-def _add_point_jacobian(m: ModelArrays, e: int, body: int, point: wp.vec3, direction: wp.vec3,
-                        sign: float, body_x: wp.array2d(dtype=wp.transform),
-                        cdof: wp.array2d(dtype=wp.spatial_vector), jac: wp.array3d(dtype=float),
-                        r: int):
-    """J[r] += sign · directionᵀ · (velocity of `point` fixed to `body`, per dof)."""
+def _add_contact_jacobian(m: ModelArrays, e: int, body: int, point: wp.vec3, n: wp.vec3,
+                          t1: wp.vec3, t2: wp.vec3, sign: float,
+                          body_x: wp.array2d(dtype=wp.transform),
+                          cdof: wp.array2d(dtype=wp.spatial_vector), jac: wp.array3d(dtype=float),
+                          r: int):
+    """J[r + d] += sign · (n, t1, t2)[d]ᵀ · (velocity of `point` fixed to `body`, per dof), for
+    the three rows r, r+1, r+2 of a contact: one walk of the body's ancestor dofs."""
     if body < 0:
         return
     ref = wp.transform_get_translation(body_x[e, m.body_root[body]])
     j = m.body_last_dof[body]
     while j >= 0:
-        jac[e, r, j] = jac[e, r, j] + sign * wp.dot(direction, velocity_at(cdof[e, j], point - ref))
+        u = sign * velocity_at(cdof[e, j], point - ref)
+        jac[e, r, j] = jac[e, r, j] + wp.dot(n, u)
+        jac[e, r + 1, j] = jac[e, r + 1, j] + wp.dot(t1, u)
+        jac[e, r + 2, j] = jac[e, r + 2, j] + wp.dot(t2, u)
         j = m.dof_parent[j]
 
 
@@ -101,22 +106,38 @@ def _solve_row(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
 
 
 @wp.func
-def _finish_row(m: ModelArrays, e: int, r: int, sp: wp.vec4i, jac: wp.array3d(dtype=float),
-                factor: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
-                row_inv_mass: wp.array2d(dtype=float), row_type: wp.array2d(dtype=wp.int32),
-                kind: int):
-    for i in range(sp[0], sp[1]):
-        minv_jt[e, r, i] = jac[e, r, i]
-    for i in range(sp[2], sp[3]):
-        minv_jt[e, r, i] = jac[e, r, i]
-    _solve_row(m, e, factor, minv_jt, r, sp)
+def _set_inv_mass(jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float), e: int, r: int,
+                  sp: wp.vec4i, row_inv_mass: wp.array2d(dtype=float),
+                  row_type: wp.array2d(dtype=wp.int32), kind: int):
+    """1/(J M⁻¹ Jᵀ) of row r, which becomes `kind`; a row that moves nothing (e.g. between two
+    static shapes) is dropped."""
     w = _row_norm(jac, minv_jt, e, r, sp)
     if w > 1.0e-12:
         row_inv_mass[e, r] = 1.0 / w
         row_type[e, r] = kind
-    else:  # the constraint moves nothing (e.g. two static shapes): drop it
+    else:
         row_inv_mass[e, r] = 0.0
         row_type[e, r] = INACTIVE
+
+
+@wp.func
+def _copy_row(src: wp.array3d(dtype=float), dst: wp.array3d(dtype=float), e: int, r: int,
+              sp: wp.vec4i):
+    for i in range(sp[0], sp[1]):
+        dst[e, r, i] = src[e, r, i]
+    for i in range(sp[2], sp[3]):
+        dst[e, r, i] = src[e, r, i]
+
+
+@wp.func
+def _finish_row(m: ModelArrays, e: int, r: int, sp: wp.vec4i, jac: wp.array3d(dtype=float),
+                factor: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
+                row_inv_mass: wp.array2d(dtype=float), row_type: wp.array2d(dtype=wp.int32),
+                kind: int):
+    """Response M⁻¹J_rᵀ and 1/(J M⁻¹ Jᵀ) of row r from its J."""
+    _copy_row(jac, minv_jt, e, r, sp)
+    _solve_row(m, e, factor, minv_jt, r, sp)
+    _set_inv_mass(jac, minv_jt, e, r, sp, row_inv_mass, row_type, kind)
 
 
 @wp.func
@@ -182,32 +203,33 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
         sp = _spans(sp1, sp2)
         mu = 0.5 * (geom_friction[e, pair[0]] + geom_friction[e, pair[1]])
         restitution = 0.5 * (geom_restitution[e, pair[0]] + geom_restitution[e, pair[1]])
+        # the three rows together: normal (3k), then the two friction rows; J is the velocity
+        # of body 2's point relative to body 1's, along each direction
+        r0 = 3 * k
         for d in range(3):
-            r = 3 * k + d
-            direction = n
-            kind = NORMAL
-            if d == 1:
-                direction = t1
-                kind = FRICTION
-            elif d == 2:
-                direction = t2
-                kind = FRICTION2
-            row_span[e, r] = sp
-            _zero_row(jac, e, r, sp)
-            # relative velocity of body 2's point with respect to body 1's, along direction
-            _add_point_jacobian(m, e, b2, p, direction, 1.0, body_x, cdof, jac, r)
-            _add_point_jacobian(m, e, b1, p, direction, -1.0, body_x, cdof, jac, r)
-            _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, kind)
-            row_mu[e, r] = mu
-            row_dir[e, r] = direction
-            row_err[e, r] = 0.0
-            row_bounce[e, r] = 0.0
-            if d == 0:
-                row_err[e, r] = contact_dist[e, k] - rest_offset
-                # approach speed before the solve (unconstrained velocity qd + h·qacc)
-                approach = _row_dot(jac, e, r, qd, sp) + h * _row_dot(jac, e, r, qacc, sp)
-                if approach < -bounce_threshold:
-                    row_bounce[e, r] = -restitution * approach
+            row_span[e, r0 + d] = sp
+            _zero_row(jac, e, r0 + d, sp)
+        _add_contact_jacobian(m, e, b2, p, n, t1, t2, 1.0, body_x, cdof, jac, r0)
+        _add_contact_jacobian(m, e, b1, p, n, t1, t2, -1.0, body_x, cdof, jac, r0)
+        for d in range(3):
+            _copy_row(jac, minv_jt, e, r0 + d, sp)
+        solve_span3(m, e, factor, minv_jt, r0, sp[0], sp[1])
+        solve_span3(m, e, factor, minv_jt, r0, sp[2], sp[3])
+        _set_inv_mass(jac, minv_jt, e, r0, sp, row_inv_mass, row_type, NORMAL)
+        _set_inv_mass(jac, minv_jt, e, r0 + 1, sp, row_inv_mass, row_type, FRICTION)
+        _set_inv_mass(jac, minv_jt, e, r0 + 2, sp, row_inv_mass, row_type, FRICTION2)
+        row_dir[e, r0] = n
+        row_dir[e, r0 + 1] = t1
+        row_dir[e, r0 + 2] = t2
+        for d in range(3):
+            row_mu[e, r0 + d] = mu
+            row_err[e, r0 + d] = 0.0
+            row_bounce[e, r0 + d] = 0.0
+        row_err[e, r0] = contact_dist[e, k] - rest_offset
+        # approach speed before the solve (unconstrained velocity qd + h·qacc)
+        approach = _row_dot(jac, e, r0, qd, sp) + h * _row_dot(jac, e, r0, qacc, sp)
+        if approach < -bounce_threshold:
+            row_bounce[e, r0] = -restitution * approach
         # friction needs its normal row: without it, drop the contact
         if row_type[e, 3 * k] == INACTIVE:
             row_type[e, 3 * k + 1] = INACTIVE

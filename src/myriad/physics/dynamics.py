@@ -149,10 +149,12 @@ def solve_span(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
     (the factor never couples two trees), walking only the ancestor chains."""
     for kk in range(lo, hi):
         k = hi - 1 - (kk - lo)
-        j = m.dof_parent[k]
-        while j >= 0:
-            x[e, r, j] = x[e, r, j] - factor[e, k, j] * x[e, r, k]
-            j = m.dof_parent[j]
+        xk = x[e, r, k]
+        if xk != 0.0:      # a row's J is often zero off its bodies' ancestor chains
+            j = m.dof_parent[k]
+            while j >= 0:
+                x[e, r, j] = x[e, r, j] - factor[e, k, j] * xk
+                j = m.dof_parent[j]
     for k in range(lo, hi):
         x[e, r, k] = x[e, r, k] / factor[e, k, k]
     for k in range(lo, hi):
@@ -160,6 +162,38 @@ def solve_span(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
         while j >= 0:
             x[e, r, k] = x[e, r, k] - factor[e, k, j] * x[e, r, j]
             j = m.dof_parent[j]
+
+
+@wp.func
+def solve_span3(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
+                x: wp.array3d(dtype=float), r: int, lo: int, hi: int):
+    """`solve_span` of rows r, r+1, r+2 together (a contact's normal and friction rows): one
+    walk of the ancestor chains and one read of the factor serve all three."""
+    for kk in range(lo, hi):
+        k = hi - 1 - (kk - lo)
+        xk = wp.vec3(x[e, r, k], x[e, r + 1, k], x[e, r + 2, k])
+        if xk[0] != 0.0 or xk[1] != 0.0 or xk[2] != 0.0:
+            j = m.dof_parent[k]
+            while j >= 0:
+                f = factor[e, k, j]
+                x[e, r, j] = x[e, r, j] - f * xk[0]
+                x[e, r + 1, j] = x[e, r + 1, j] - f * xk[1]
+                x[e, r + 2, j] = x[e, r + 2, j] - f * xk[2]
+                j = m.dof_parent[j]
+    for k in range(lo, hi):
+        d = factor[e, k, k]
+        x[e, r, k] = x[e, r, k] / d
+        x[e, r + 1, k] = x[e, r + 1, k] / d
+        x[e, r + 2, k] = x[e, r + 2, k] / d
+    for k in range(lo, hi):
+        xk = wp.vec3(x[e, r, k], x[e, r + 1, k], x[e, r + 2, k])
+        j = m.dof_parent[k]
+        while j >= 0:
+            xk = xk - factor[e, k, j] * wp.vec3(x[e, r, j], x[e, r + 1, j], x[e, r + 2, j])
+            j = m.dof_parent[j]
+        x[e, r, k] = xk[0]
+        x[e, r + 1, k] = xk[1]
+        x[e, r + 2, k] = xk[2]
 
 
 @wp.func
