@@ -608,8 +608,8 @@ class Simulator:
     def _solve_constraints(self) -> None:
         p = self.params
         self._launch(solver_tgs.solve, self.num_envs, [
-            self._m, self.nrow, self._contacts.capacity, self._contacts.count, self.h,
-            p.position_iterations, p.velocity_iterations, int(p.solver == "tgs"),
+            self._m, self.nrow, self._contacts.capacity, self._contacts.count, self._limit_jnt,
+            self.h, p.position_iterations, p.velocity_iterations, int(p.solver == "tgs"),
             p.max_depenetration_velocity, self._row_type, self._row_err, self._row_inv_mass,
             self._row_mu, self._row_bounce, self._row_k, self._row_d, self._row_span,
             self._factor, self._jac_rows, self._minv_jt, self._lam_init, self._qacc, self._qd, self._qd_before,

@@ -57,8 +57,9 @@ def _row(i: int, used: int, skip: int):
 
 
 @wp.func
-def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, first: int, biased: int,
-           tgs: int, hs: float, h: float,
+def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, limit_base: int,
+           limit_jnt: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int, hs: float,
+           h: float,
            max_depenetration: float, row_type: wp.array2d(dtype=wp.int32),
            row_err: wp.array2d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
            row_mu: wp.array2d(dtype=float), row_bounce: wp.array2d(dtype=float),
@@ -77,10 +78,19 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, first: int, 
         if rr >= count and t == NORMAL:
             continue
         if t == NORMAL:
-            jv = _row_dot(jac, e, r, v, sp)
             err = row_err[e, r]
-            if tgs != 0:
-                err = err + _row_dot(jac, e, r, dq, sp)
+            li = r - limit_base
+            if li >= 0 and li < 2 * limit_jnt.shape[0]:
+                # a joint limit row: J = ±e_dof, so J·v is the dof's own speed
+                dof = m.jnt_dofadr[limit_jnt[li / 2]]
+                sign = 1.0 - 2.0 * float(li % 2)
+                jv = sign * v[e, dof]
+                if tgs != 0:
+                    err = err + sign * dq[e, dof]
+            else:
+                jv = _row_dot(jac, e, r, v, sp)
+                if tgs != 0:
+                    err = err + _row_dot(jac, e, r, dq, sp)
             target = float(0.0)
             if err >= 0.0:
                 target = -err / h          # may close the gap, no more
@@ -156,7 +166,7 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, first: int, 
 
 @wp.kernel
 def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.array(dtype=wp.int32),
-          h: float, position_iterations: int,
+          limit_jnt: wp.array(dtype=wp.int32), h: float, position_iterations: int,
           velocity_iterations: int, tgs: int, max_depenetration: float,
           row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
           row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
@@ -189,7 +199,7 @@ def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.ar
     if tgs != 0:
         hs = h / float(position_iterations)
     for it in range(position_iterations):
-        _sweep(m, e, nrow, used, skip, int(it == 0), 1, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
+        _sweep(m, e, nrow, used, skip, 3 * contact_capacity, limit_jnt, int(it == 0), 1, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
                row_mu, row_bounce, row_k, row_d, row_span, factor, jac, minv_jt, qd, dq, lam)
         if tgs != 0:
             for i in range(nv):
@@ -198,7 +208,7 @@ def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.ar
         for i in range(nv):
             dq[e, i] = h * qd[e, i]
     for it in range(velocity_iterations):
-        _sweep(m, e, nrow, used, skip, 0, 0, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
+        _sweep(m, e, nrow, used, skip, 3 * contact_capacity, limit_jnt, 0, 0, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
                row_mu, row_bounce, row_k, row_d, row_span, factor, jac, minv_jt, qd, dq, lam)
 
 
