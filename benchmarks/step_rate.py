@@ -5,6 +5,8 @@
 
 Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on); fresh random controls every
 step; MuJoCo steps the same compiled model twice per env step at 1/120 s with its own solver.
+The two engines run in alternating half-second slices (6 each), so that the ratio holds on a
+machine whose speed drifts.
 Scenes: the ant and the humanoid at 1024 envs (issue 11's targets), 64 free boxes in one env
 (16 envs, 512 contact slots). Prints a Markdown row per scene.
 """
@@ -22,36 +24,55 @@ import myriad
 from contacts import boxes_xml
 
 
-def myriad_rate(model, envs: int, slots: int, seconds: float = 3.0) -> float:
-    params = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=4,
-                              velocity_iterations=0, contacts_per_env=slots)
-    sim = myriad.Simulator(model, num_envs=envs, params=params, cpu_threads=1)
-    gen = torch.Generator().manual_seed(0)
-    for _ in range(20):                  # settle onto the floor, compile on a first run
-        sim.step()
-    steps, start = 0, time.perf_counter()
-    while time.perf_counter() - start < seconds:
-        if model.nu:
-            sim.ctrl = torch.rand(envs, model.nu, generator=gen) * 2 - 1
-        sim.step()
-        steps += 1
-    rate = steps * envs / (time.perf_counter() - start)
-    assert torch.isfinite(sim.q).all()
-    return rate
+class MyriadRun:
+    def __init__(self, model, envs: int, slots: int):
+        params = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=4,
+                                  velocity_iterations=0, contacts_per_env=slots)
+        self.sim = myriad.Simulator(model, num_envs=envs, params=params, cpu_threads=1)
+        self.gen = torch.Generator().manual_seed(0)
+        self.envs, self.nu = envs, model.nu
+        for _ in range(20):                  # settle onto the floor, compile on a first run
+            self.sim.step()
+
+    def run(self, seconds: float) -> tuple[int, float]:
+        """(env-steps, seconds) of stepping for about `seconds`."""
+        steps, start = 0, time.perf_counter()
+        while time.perf_counter() - start < seconds:
+            if self.nu:
+                self.sim.ctrl = torch.rand(self.envs, self.nu, generator=self.gen) * 2 - 1
+            self.sim.step()
+            steps += self.envs
+        assert torch.isfinite(self.sim.q).all()
+        return steps, time.perf_counter() - start
 
 
-def mujoco_rate(model, seconds: float = 3.0) -> float:
-    mj = model.mj_model
-    mj.opt.timestep = 1 / 120
-    d = mujoco.MjData(mj)
-    rng = np.random.default_rng(0)
-    steps, start = 0, time.perf_counter()
-    while time.perf_counter() - start < seconds:
-        if mj.nu:
-            d.ctrl[:] = rng.uniform(-1, 1, mj.nu)
-        mujoco.mj_step(mj, d, nstep=2)
-        steps += 1
-    return steps / (time.perf_counter() - start)
+class MujocoRun:
+    def __init__(self, model):
+        self.mj = model.mj_model
+        self.mj.opt.timestep = 1 / 120
+        self.d = mujoco.MjData(self.mj)
+        self.rng = np.random.default_rng(0)
+
+    def run(self, seconds: float) -> tuple[int, float]:
+        steps, start = 0, time.perf_counter()
+        while time.perf_counter() - start < seconds:
+            if self.mj.nu:
+                self.d.ctrl[:] = self.rng.uniform(-1, 1, self.mj.nu)
+            mujoco.mj_step(self.mj, self.d, nstep=2)
+            steps += 1
+        return steps, time.perf_counter() - start
+
+
+def rates(runs, rounds: int = 6, seconds: float = 0.5) -> list[float]:
+    """Env-steps/s of each run, measured in alternating slices so that a machine whose speed
+    drifts (shared cores) slows all runs alike and their ratio stays meaningful."""
+    totals = [[0, 0.0] for _ in runs]
+    for _ in range(rounds):
+        for total, run in zip(totals, runs):
+            steps, spent = run.run(seconds)
+            total[0] += steps
+            total[1] += spent
+    return [steps / spent for steps, spent in totals]
 
 
 def main() -> None:
@@ -64,7 +85,7 @@ def main() -> None:
     print("| scene | envs | Myriad env-steps/s (1 thread) | MuJoCo C env-steps/s (1 thread) | ratio |")
     print("|---|---|---|---|---|")
     for name, model, envs, slots in scenes:
-        ours, theirs = myriad_rate(model, envs, slots), mujoco_rate(model)
+        ours, theirs = rates([MyriadRun(model, envs, slots), MujocoRun(model)])
         print(f"| {name} | {envs} | {ours:,.0f} | {theirs:,.0f} | {ours / theirs:.2f} |", flush=True)
 
 
