@@ -181,6 +181,7 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
     e = wp.tid()
     ncontact = wp.min(contact_count[e], contact_capacity)
     # slots past the contact count are skipped by the solver: only the used ones are built
+    hint = int(0)
     for k in range(ncontact):
         pair = contact_geom[e, k]
         b1 = geom_body[pair[0]]
@@ -235,10 +236,17 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
             row_type[e, 3 * k + 1] = INACTIVE
             row_type[e, 3 * k + 2] = INACTIVE
         # warm start from the same contact (same pair and feature) of the last substep
+        # (contacts mostly come in the same order as in the last substep, so the search starts
+        # after the last match and wraps around; in the rare case of two contacts of one pair
+        # sharing a key, e.g. two box corners in one face quadrant, either impulse is a guess)
         same = int(-1)
-        for j in range(prev_count[e]):
-            if same < 0 and prev_key[e, j] == contact_key[e, k]:
+        npre = prev_count[e]
+        for jj in range(npre):
+            j = (hint + jj) % npre
+            if prev_key[e, j] == contact_key[e, k]:
                 same = j
+                hint = j + 1
+                break
         for d in range(3):
             lam_init[e, 3 * k + d] = 0.0
             if same >= 0 and row_type[e, 3 * k + d] != INACTIVE:
