@@ -138,19 +138,20 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, limit_base: 
                     _apply(e, r, (wp.clamp(jv, -cap, cap) - jv) * row_inv_mass[e, r], minv_jt,
                            v, sp)
         elif t == FRICTION:
-            # static friction holds the contact point where it was at the start of the substep:
-            # in TGS position sweeps the target undoes the slip accumulated so far, -J_t·dq / hs
-            target1 = float(0.0)
-            target2 = float(0.0)
-            if tgs != 0 and biased != 0:
-                target1 = -1.0 * _row_dot(jac, e, r, dq, sp) / hs
-                target2 = -1.0 * _row_dot(jac, e, r + 1, dq, sp) / hs
-            # both rows from the same velocity, then projection onto the friction disk
             old1 = lam[e, r]
             old2 = lam[e, r + 1]
-            l1 = old1 + (target1 - _row_dot(jac, e, r, v, sp)) * row_inv_mass[e, r]
-            l2 = old2 + (target2 - _row_dot(jac, e, r + 1, v, sp)) * row_inv_mass[e, r + 1]
             limit = row_mu[e, r] * lam[e, r - 1]
+            if limit == 0.0 and old1 == 0.0 and old2 == 0.0:
+                continue   # no normal impulse, no friction: the projection below gives zero
+            # static friction holds the contact point where it was at the start of the substep:
+            # in TGS position sweeps the target undoes the slip accumulated so far, -J_t·dq / hs
+            target_t = wp.vec2(0.0, 0.0)
+            if tgs != 0 and biased != 0:
+                target_t = -1.0 * _row_dot2(jac, e, r, dq, sp) / hs
+            # both rows from the same velocity, then projection onto the friction disk
+            jv_t = _row_dot2(jac, e, r, v, sp)
+            l1 = old1 + (target_t[0] - jv_t[0]) * row_inv_mass[e, r]
+            l2 = old2 + (target_t[1] - jv_t[1]) * row_inv_mass[e, r + 1]
             norm = wp.sqrt(l1 * l1 + l2 * l2)
             if norm > limit:
                 scale = float(0.0)
@@ -160,8 +161,34 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, limit_base: 
                 l2 = l2 * scale
             lam[e, r] = l1
             lam[e, r + 1] = l2
-            _apply(e, r, l1 - old1, minv_jt, v, sp)
-            _apply(e, r + 1, l2 - old2, minv_jt, v, sp)
+            _apply2(e, r, l1 - old1, l2 - old2, minv_jt, v, sp)
+
+
+@wp.func
+def _row_dot2(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
+              sp: wp.vec4i):
+    """(a[e, r] · v[e], a[e, r + 1] · v[e]) over the rows' span, in one pass."""
+    s1 = float(0.0)
+    s2 = float(0.0)
+    for i in range(sp[0], sp[1]):
+        s1 = s1 + a[e, r, i] * v[e, i]
+        s2 = s2 + a[e, r + 1, i] * v[e, i]
+    for i in range(sp[2], sp[3]):
+        s1 = s1 + a[e, r, i] * v[e, i]
+        s2 = s2 + a[e, r + 1, i] * v[e, i]
+    return wp.vec2(s1, s2)
+
+
+@wp.func
+def _apply2(e: int, r: int, dl1: float, dl2: float, minv_jt: wp.array3d(dtype=float),
+            v: wp.array2d(dtype=float), sp: wp.vec4i):
+    """v += M⁻¹J_rᵀ·dl1 + M⁻¹J_{r+1}ᵀ·dl2 over the rows' span, in one pass."""
+    if dl1 == 0.0 and dl2 == 0.0:
+        return
+    for i in range(sp[0], sp[1]):
+        v[e, i] = v[e, i] + minv_jt[e, r, i] * dl1 + minv_jt[e, r + 1, i] * dl2
+    for i in range(sp[2], sp[3]):
+        v[e, i] = v[e, i] + minv_jt[e, r, i] * dl1 + minv_jt[e, r + 1, i] * dl2
 
 
 @wp.kernel
