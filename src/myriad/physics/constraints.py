@@ -212,29 +212,21 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
             _zero_row(jac, e, r0 + d, sp)
         _add_contact_jacobian(m, e, b2, p, n, t1, t2, 1.0, body_x, cdof, jac, r0)
         _add_contact_jacobian(m, e, b1, p, n, t1, t2, -1.0, body_x, cdof, jac, r0)
-        for d in range(3):
-            _copy_row(jac, minv_jt, e, r0 + d, sp)
-        solve_span3(m, e, factor, minv_jt, r0, sp[0], sp[1])
-        solve_span3(m, e, factor, minv_jt, r0, sp[2], sp[3])
-        _set_inv_mass(jac, minv_jt, e, r0, sp, row_inv_mass, row_type, NORMAL)
-        _set_inv_mass(jac, minv_jt, e, r0 + 1, sp, row_inv_mass, row_type, FRICTION)
-        _set_inv_mass(jac, minv_jt, e, r0 + 2, sp, row_inv_mass, row_type, FRICTION2)
         row_dir[e, r0] = n
         row_dir[e, r0 + 1] = t1
         row_dir[e, r0 + 2] = t2
         for d in range(3):
+            row_type[e, r0 + d] = NORMAL + d      # NORMAL, FRICTION, FRICTION2
+            row_inv_mass[e, r0 + d] = 0.0         # response not built yet
             row_mu[e, r0 + d] = mu
             row_err[e, r0 + d] = 0.0
             row_bounce[e, r0 + d] = 0.0
+            lam_init[e, r0 + d] = 0.0
         row_err[e, r0] = contact_dist[e, k] - rest_offset
         # approach speed before the solve (unconstrained velocity qd + h·qacc)
         approach = _row_dot(jac, e, r0, qd, sp) + h * _row_dot(jac, e, r0, qacc, sp)
         if approach < -bounce_threshold:
             row_bounce[e, r0] = -restitution * approach
-        # friction needs its normal row: without it, drop the contact
-        if row_type[e, 3 * k] == INACTIVE:
-            row_type[e, 3 * k + 1] = INACTIVE
-            row_type[e, 3 * k + 2] = INACTIVE
         # warm start from the same contact (same pair and feature) of the last substep
         # (contacts mostly come in the same order as in the last substep, so the search starts
         # after the last match and wraps around; in the rare case of two contacts of one pair
@@ -247,10 +239,14 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
                 same = j
                 hint = j + 1
                 break
-        for d in range(3):
-            lam_init[e, 3 * k + d] = 0.0
-            if same >= 0 and row_type[e, 3 * k + d] != INACTIVE:
-                lam_init[e, 3 * k + d] = lam[e, 3 * same + d]
+        # the response is built now if the contact starts with an impulse, else by the solver
+        # once the contact first pushes (most contacts in the contact offset never do)
+        if same >= 0:
+            if lam[e, 3 * same] != 0.0 or lam[e, 3 * same + 1] != 0.0 or lam[e, 3 * same + 2] != 0.0:
+                build_contact_rows(m, e, r0, sp, jac, factor, minv_jt, row_inv_mass, row_type)
+                for d in range(3):
+                    if row_type[e, r0 + d] != INACTIVE:
+                        lam_init[e, r0 + d] = lam[e, 3 * same + d]
     for k in range(ncontact):
         prev_key[e, k] = contact_key[e, k]
     prev_count[e] = ncontact
@@ -265,13 +261,14 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
             r = base + 2 * li + side
             _limit_row(m, e, r, side, x, joint_range[e, j], reach, h, jac, factor, minv_jt,
                        row_inv_mass, row_type, row_err, row_mu, row_bounce, lam, lam_init)
-            if row_type[e, r] != INACTIVE:
-                sp = _spans(m.dof_tree_span[dof], wp.vec2i(0, 0))
-                row_span[e, r] = sp
-                _zero_row(jac, e, r, sp)
-                jac[e, r, dof] = 1.0 - 2.0 * float(side)
-                _finish_limit_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, lam,
-                                  lam_init)
+            row_inv_mass[e, r] = 0.0     # response not built yet
+            # built now if the limit starts with an impulse, else by the solver once it pushes
+            warm = lam[e, r]   # the same limit's impulse in the last substep (0 if inactive)
+            if row_type[e, r] != INACTIVE and warm != 0.0:
+                build_limit_row(m, e, r, dof, side, jac, factor, minv_jt, row_inv_mass,
+                                row_type, row_span)
+                if row_type[e, r] != INACTIVE:
+                    lam_init[e, r] = warm
     # hard tendon limits (limit stiffness 0): J = coef on each tendon joint
     base = base + 2 * limit_jnt.shape[0]
     for lt in range(limit_tendon.shape[0]):
@@ -298,8 +295,10 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
                 for w in range(beg, beg + m.tendon_num[t]):
                     dof = m.jnt_dofadr[m.wrap_jnt[w]]
                     jac[e, r, dof] = jac[e, r, dof] + (1.0 - 2.0 * float(side)) * m.wrap_coef[w]
-                _finish_limit_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, lam,
-                                  lam_init)
+                warm = lam[e, r]
+                _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, NORMAL)
+                if row_type[e, r] != INACTIVE:
+                    lam_init[e, r] = warm
     # tendon spring-dampers (PhysX semantics): one soft row per tendon measuring L (J = coef) and
     # pushing each joint with recip/N; the limit spring (limit stiffness > 0) joins outside
     # [lower, upper]
@@ -372,6 +371,38 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
 
 
 @wp.func
+def build_contact_rows(m: ModelArrays, e: int, r0: int, sp: wp.vec4i,
+                       jac: wp.array3d(dtype=float), factor: wp.array3d(dtype=float),
+                       minv_jt: wp.array3d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
+                       row_type: wp.array2d(dtype=wp.int32)):
+    """Responses M⁻¹Jᵀ and 1/(J M⁻¹ Jᵀ) of a contact's three rows r0 (normal), r0+1, r0+2
+    (friction) from their J, in one walk of the factor; friction goes with its normal row."""
+    for d in range(3):
+        _copy_row(jac, minv_jt, e, r0 + d, sp)
+    solve_span3(m, e, factor, minv_jt, r0, sp[0], sp[1])
+    solve_span3(m, e, factor, minv_jt, r0, sp[2], sp[3])
+    _set_inv_mass(jac, minv_jt, e, r0, sp, row_inv_mass, row_type, NORMAL)
+    _set_inv_mass(jac, minv_jt, e, r0 + 1, sp, row_inv_mass, row_type, FRICTION)
+    _set_inv_mass(jac, minv_jt, e, r0 + 2, sp, row_inv_mass, row_type, FRICTION2)
+    if row_type[e, r0] == INACTIVE:
+        row_type[e, r0 + 1] = INACTIVE
+        row_type[e, r0 + 2] = INACTIVE
+
+
+@wp.func
+def build_limit_row(m: ModelArrays, e: int, r: int, dof: int, side: int,
+                    jac: wp.array3d(dtype=float), factor: wp.array3d(dtype=float),
+                    minv_jt: wp.array3d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
+                    row_type: wp.array2d(dtype=wp.int32), row_span: wp.array2d(dtype=wp.vec4i)):
+    """Row r as the lower (side 0) or upper (side 1) limit of dof `dof`: J = ±e_dof."""
+    sp = _spans(m.dof_tree_span[dof], wp.vec2i(0, 0))
+    row_span[e, r] = sp
+    _zero_row(jac, e, r, sp)
+    jac[e, r, dof] = 1.0 - 2.0 * float(side)
+    _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, NORMAL)
+
+
+@wp.func
 def build_dof_row(m: ModelArrays, e: int, r: int, dof: int, jac: wp.array3d(dtype=float),
                   factor: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
                   row_inv_mass: wp.array2d(dtype=float), row_type: wp.array2d(dtype=wp.int32),
@@ -402,14 +433,3 @@ def _limit_row(m: ModelArrays, e: int, r: int, side: int, x: float, lim: wp.vec2
         row_err[e, r] = err
         row_mu[e, r] = 0.0
         row_bounce[e, r] = 0.0
-
-
-@wp.func
-def _finish_limit_row(m: ModelArrays, e: int, r: int, sp: wp.vec4i, jac: wp.array3d(dtype=float),
-                      factor: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
-                      row_inv_mass: wp.array2d(dtype=float), row_type: wp.array2d(dtype=wp.int32),
-                      lam: wp.array2d(dtype=float), lam_init: wp.array2d(dtype=float)):
-    warm = lam[e, r]  # the same limit's impulse in the last substep (0 if it was inactive)
-    _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, NORMAL)
-    if row_type[e, r] != INACTIVE:
-        lam_init[e, r] = warm

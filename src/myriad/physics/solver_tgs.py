@@ -25,7 +25,8 @@ targets a separation speed of e times its approach speed.
 
 import warp as wp
 
-from .constraints import DOF, FRICTION, NORMAL, SOFT, _row_dot, build_dof_row
+from .constraints import (DOF, FRICTION, NORMAL, SOFT, _row_dot, build_contact_rows,
+                          build_dof_row, build_limit_row)
 from .structs import ModelArrays
 
 # fraction of the last substep's impulse a contact or limit row starts from: below 1 so that
@@ -80,6 +81,7 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, limit_base: 
         if t == NORMAL:
             err = row_err[e, r]
             li = r - limit_base
+            dof = int(-1)
             if li >= 0 and li < 2 * limit_jnt.shape[0]:
                 # a joint limit row: J = ±e_dof, so J·v is the dof's own speed
                 dof = m.jnt_dofadr[limit_jnt[li / 2]]
@@ -100,6 +102,19 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, limit_base: 
                 target = wp.min(-err / hs, max_depenetration)
             if row_bounce[e, r] > 0.0:  # restitution replaces the bias for a fast approach
                 target = wp.max(target, row_bounce[e, r])
+            if row_inv_mass[e, r] == 0.0:
+                # response not built yet (`constraints`): the row has had no impulse, and gets
+                # none while it does not push
+                if target - jv <= 0.0:
+                    continue
+                if dof >= 0:
+                    build_limit_row(m, e, r, dof, li % 2, jac, factor, minv_jt, row_inv_mass,
+                                    row_type, row_span)
+                else:
+                    build_contact_rows(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type)
+                if row_type[e, r] != NORMAL:
+                    continue
+                sp = row_span[e, r]
             old = lam[e, r]
             new = wp.max(old + (target - jv) * row_inv_mass[e, r], 0.0)
             lam[e, r] = new
