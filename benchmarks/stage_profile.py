@@ -3,8 +3,8 @@
     python benchmarks/stage_profile.py [--envs 1024] [--steps 20] [--device cpu] [--threads 1]
         [--models ant,humanoid,hand-and-cube]
 
-Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on), random controls held for the
-whole run after a 30-step settle. Each stage of `Simulator._step_kernels` is timed on its own
+Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on), fresh random controls before every
+step (as `step_rate.py`), after a 30-step settle. Each stage of `Simulator._step_kernels` is timed on its own
 (the device is synchronized after each, so on CUDA this runs without the step's CUDA graph and
 the sum exceeds a graph-captured step); the table gives ms per step and the share of the total.
 """
@@ -28,9 +28,12 @@ def profile(model, n: int, steps: int, device: str, threads: int | None) -> dict
     params = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=4, velocity_iterations=0)
     sim = myriad.Simulator(model, num_envs=n, device=device, params=params, cpu_threads=threads)
     gen = torch.Generator(device=sim.torch_device).manual_seed(0)
-    if model.nu:
-        sim.ctrl = torch.rand(n, model.nu, generator=gen, device=sim.torch_device) * 2 - 1
+
+    def new_controls():
+        if model.nu:
+            sim.ctrl = torch.rand(n, model.nu, generator=gen, device=sim.torch_device) * 2 - 1
     for _ in range(30):
+        new_controls()
         sim.step()
     spent = collections.Counter()
     originals = {name: getattr(sim, name) for name in STAGES}
@@ -46,6 +49,7 @@ def profile(model, n: int, steps: int, device: str, threads: int | None) -> dict
     for name in STAGES:
         setattr(sim, name, timed(name))
     for _ in range(steps):
+        new_controls()
         if sim.device.is_cuda:
             sim._run_on_device(sim._step_kernels)
         else:

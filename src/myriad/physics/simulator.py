@@ -489,7 +489,10 @@ class Simulator:
             self._geom_body, self._geom_pos, self._geom_quat, self._body_x, self._geom_x])
         self._shard_of(c.count).zero_()
         if len(self._pairs):
-            self._launch(collision.narrowphase, (n, len(self._pairs)), [
+            # a GPU runs a thread per (env, pair); a CPU thread per env walks its pairs
+            kernel, dim = ((collision.narrowphase, (n, len(self._pairs))) if self.device.is_cuda
+                           else (collision.narrowphase_per_env, n))
+            self._launch(kernel, dim, [
                 self._pairs, self._geom_type, self._geom_size, self._geom_dataid, self._meshes,
                 self._hfields, self._geom_x,
                 self.params.contact_offset, c.capacity, c.count, c.geom, c.key, c.pos, c.normal,
