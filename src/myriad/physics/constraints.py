@@ -30,6 +30,28 @@ FRICTION2 = wp.constant(2)   # second friction row (handled with the first)
 SOFT = wp.constant(3)        # implicit spring-damper along J (fixed tendons): force, not constraint
 DOF = wp.constant(4)         # a dof's dry friction (|impulse| <= frictionloss·h) and speed cap
 
+@wp.struct
+class RowLayout:
+    """Where each family of rows starts among an env's rows, fixed when the simulator is built.
+    Families are contiguous and in this order; `end` is the number of rows."""
+    joint_limits: int    # contacts come first: 3 rows per contact slot (normal, 2 friction)
+    tendon_limits: int   # joint limits: 2 rows per limited joint (lower, upper)
+    springs: int         # tendon limits: 2 rows per limited tendon with hard limits
+    dofs: int            # tendon spring-dampers: 1 row per tendon
+    end: int             # dof rows: 1 per dof (dry friction, speed cap), none without constraints
+
+
+def row_layout(contact_slots: int, limited_joints: int, limited_tendons: int, tendons: int,
+               dof_rows: int) -> RowLayout:
+    layout = RowLayout()
+    layout.joint_limits = 3 * contact_slots
+    layout.tendon_limits = layout.joint_limits + 2 * limited_joints
+    layout.springs = layout.tendon_limits + 2 * limited_tendons
+    layout.dofs = layout.springs + tendons
+    layout.end = layout.dofs + dof_rows
+    return layout
+
+
 # a limit row is active when the joint is within this distance (rad or m) of its limit, plus
 # the distance it can travel in two substeps
 LIMIT_MARGIN = wp.constant(0.1)
@@ -153,7 +175,7 @@ def _tendon_span(m: ModelArrays, t: int):
 
 
 @wp.kernel
-def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: float,
+def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float, bounce_threshold: float,
                geom_body: wp.array(dtype=wp.int32), geom_friction: wp.array2d(dtype=float),
                geom_restitution: wp.array2d(dtype=float),
                contact_capacity: int, contact_count: wp.array(dtype=wp.int32),
@@ -165,7 +187,7 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
                lam: wp.array2d(dtype=float),
                limit_jnt: wp.array(dtype=wp.int32), joint_range: wp.array2d(dtype=wp.vec2),
                limit_tendon: wp.array(dtype=wp.int32), params: EnvParams,
-               dof_rows: int, dof_frictionloss: wp.array2d(dtype=float),
+               dof_frictionloss: wp.array2d(dtype=float),
                dof_max_velocity: wp.array2d(dtype=float),
                body_x: wp.array2d(dtype=wp.transform), cdof: wp.array2d(dtype=wp.spatial_vector),
                q: wp.array2d(dtype=float), qd: wp.array2d(dtype=float),
@@ -251,7 +273,7 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
         prev_key[e, k] = contact_key[e, k]
     prev_count[e] = ncontact
 
-    base = 3 * contact_capacity
+    base = layout.joint_limits
     for li in range(limit_jnt.shape[0]):
         j = limit_jnt[li]
         dof = m.jnt_dofadr[j]
@@ -270,7 +292,7 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
                 if row_type[e, r] != INACTIVE:
                     lam_init[e, r] = warm
     # hard tendon limits (limit stiffness 0): J = coef on each tendon joint
-    base = base + 2 * limit_jnt.shape[0]
+    base = layout.tendon_limits
     for lt in range(limit_tendon.shape[0]):
         t = limit_tendon[lt]
         beg = m.tendon_adr[t]
@@ -302,7 +324,7 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
     # tendon spring-dampers (PhysX semantics): one soft row per tendon measuring L (J = coef) and
     # pushing each joint with recip/N; the limit spring (limit stiffness > 0) joins outside
     # [lower, upper]
-    base = base + 2 * limit_tendon.shape[0]
+    base = layout.springs
     for t in range(m.ntendon):
         r = base + t
         row_type[e, r] = INACTIVE
@@ -350,8 +372,8 @@ def build_rows(m: ModelArrays, h: float, rest_offset: float, bounce_threshold: f
     # solver builds it then (`build_dof_row`). Present always: impulses from other rows can push
     # a dof past its cap within the solve (and a row only near the cap let a humanoid under
     # random torques blow up: measured).
-    base = base + m.ntendon
-    for dof in range(dof_rows):
+    base = layout.dofs
+    for dof in range(layout.end - layout.dofs):
         r = base + dof
         warm = lam[e, r]
         bound = dof_frictionloss[e, dof] * h

@@ -368,9 +368,10 @@ class Simulator:
                                       device=dev)
         # ... one spring-damper row per tendon (present with or without `constraints`), and one
         # row per dof for joint friction and the maximum joint speed
-        self._dof_rows = m.nv if params.constraints else 0
-        self.nrow = (3 * self._contacts.capacity + 2 * len(limited) + 2 * len(limited_tendons)
-                     + m.ntendon + self._dof_rows)
+        self._rows_at = constraints.row_layout(self._contacts.capacity, len(limited),
+                                               len(limited_tendons), m.ntendon,
+                                               m.nv if params.constraints else 0)
+        self.nrow = self._rows_at.end
         R = self.nrow
         self._row_type = zeros(N, R, dtype=wp.int32)
         self._row_err = zeros(N, R)
@@ -599,10 +600,10 @@ class Simulator:
             return
         c, p = self._contacts, self.params
         self._launch(constraints.build_rows, self.num_envs, [
-            self._m, self.h, p.rest_offset, p.bounce_threshold_velocity, self._geom_body,
+            self._m, self._rows_at, self.h, p.rest_offset, p.bounce_threshold_velocity, self._geom_body,
             self._geom_friction, self._geom_restitution, c.capacity, c.count, c.geom, c.key, c.pos,
             c.normal, c.dist, self._prev_key, self._prev_count, self._lam, self._limit_jnt,
-            self._joint_range, self._limit_tendon, self._p, self._dof_rows,
+            self._joint_range, self._limit_tendon, self._p,
             self._dof_frictionloss, self._dof_max_velocity, self._body_x, self._cdof,
             self._q, self._qd, self._qacc, self._factor, self._row_type, self._row_err,
             self._row_inv_mass, self._row_mu, self._row_bounce, self._row_dir, self._row_k,
@@ -611,7 +612,7 @@ class Simulator:
     def _solve_constraints(self) -> None:
         p = self.params
         self._launch(solver_tgs.solve, self.num_envs, [
-            self._m, self.nrow, self._contacts.capacity, self._contacts.count, self._limit_jnt,
+            self._m, self._rows_at, self._contacts.capacity, self._contacts.count, self._limit_jnt,
             self.h, p.position_iterations, p.velocity_iterations, int(p.solver == "tgs"),
             p.max_depenetration_velocity, self._row_type, self._row_err, self._row_inv_mass,
             self._row_mu, self._row_bounce, self._row_k, self._row_d, self._row_span,
@@ -648,7 +649,7 @@ class Simulator:
     def _constraint_outputs(self) -> None:
         c = self._contacts
         self._launch(solver_tgs.constraint_forces, self.num_envs, [
-            self._m, self.nrow, self.h, self._geom_body, c.capacity, c.count, c.geom,
+            self._m, self._rows_at, self.h, self._geom_body, c.capacity, c.count, c.geom,
             self._row_dir, self._lam, self._row_type, self._row_span, self._jac_rows,
             self._contact_force,
             self._net_contact_force, self._dof_constraint_force])

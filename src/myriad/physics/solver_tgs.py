@@ -25,8 +25,8 @@ targets a separation speed of e times its approach speed.
 
 import warp as wp
 
-from .constraints import (DOF, FRICTION, NORMAL, SOFT, _row_dot, build_contact_rows,
-                          build_dof_row, build_limit_row)
+from .constraints import (DOF, FRICTION, INACTIVE, NORMAL, SOFT, RowLayout, _row_dot,
+                          build_contact_rows, build_dof_row, build_limit_row)
 from .structs import ModelArrays
 
 # fraction of the last substep's impulse a contact or limit row starts from: below 1 so that
@@ -49,16 +49,7 @@ def _apply(e: int, r: int, dl: float, minv_jt: wp.array3d(dtype=float), v: wp.ar
 
 
 @wp.func
-def _row(i: int, used: int, skip: int):
-    """The i-th row in use: contact rows [0, used) come first, then the rows from `used + skip`
-    on (limits, tendons, dofs); the `skip` contact slots past the env's contact count are empty."""
-    if i < used:
-        return i
-    return i + skip
-
-
-@wp.func
-def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, limit_base: int,
+def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
            limit_jnt: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int, hs: float,
            h: float,
            max_depenetration: float, row_type: wp.array2d(dtype=wp.int32),
@@ -68,21 +59,27 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, limit_base: 
            row_span: wp.array2d(dtype=wp.vec4i), factor: wp.array3d(dtype=float),
            jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
            v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float), lam: wp.array2d(dtype=float)):
-    # normal rows first, then friction rows, whose bounds then hold this sweep's normal impulses
-    count = nrow - skip
-    for rr in range(2 * count):
-        r = _row(rr % count, used, skip)
+    # normal rows first (the contacts', then joint and tendon limits), then the contacts'
+    # friction rows, whose bounds then hold this sweep's normal impulses, tendon springs and dofs
+    n_normal = ncontact + layout.springs - layout.joint_limits
+    n_rest = ncontact + layout.end - layout.springs
+    for rr in range(n_normal + n_rest):
+        r = layout.springs + rr - n_normal - ncontact
+        if rr < ncontact:
+            r = 3 * rr
+        elif rr < n_normal:
+            r = layout.joint_limits + rr - ncontact
+        elif rr < n_normal + ncontact:
+            r = 3 * (rr - n_normal) + 1
         t = row_type[e, r]
+        if t == INACTIVE:
+            continue
         sp = row_span[e, r]
-        if rr < count and t != NORMAL:
-            continue
-        if rr >= count and t == NORMAL:
-            continue
         if t == NORMAL:
             err = row_err[e, r]
-            li = r - limit_base
+            li = r - layout.joint_limits
             dof = int(-1)
-            if li >= 0 and li < 2 * limit_jnt.shape[0]:
+            if li >= 0 and r < layout.tendon_limits:
                 # a joint limit row: J = ±e_dof, so J·v is the dof's own speed
                 dof = m.jnt_dofadr[limit_jnt[li / 2]]
                 sign = 1.0 - 2.0 * float(li % 2)
@@ -133,7 +130,7 @@ def _sweep(m: ModelArrays, e: int, nrow: int, used: int, skip: int, limit_base: 
                 _apply(e, r, dl, minv_jt, v, sp)
         elif t == DOF:
             # J = e_dof (the dof rows come last, one per dof): J·v is the dof's own speed
-            dof = r - (nrow - m.nv)
+            dof = r - layout.dofs
             bound = row_mu[e, r]
             if bound > 0.0:
                 # joint friction: stop the dof, with at most frictionloss·h of impulse per substep
@@ -207,8 +204,8 @@ def _apply2(e: int, r: int, dl1: float, dl2: float, minv_jt: wp.array3d(dtype=fl
 
 
 @wp.kernel
-def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.array(dtype=wp.int32),
-          limit_jnt: wp.array(dtype=wp.int32), h: float, position_iterations: int,
+def solve(m: ModelArrays, layout: RowLayout, contact_capacity: int,
+          contact_count: wp.array(dtype=wp.int32), limit_jnt: wp.array(dtype=wp.int32), h: float, position_iterations: int,
           velocity_iterations: int, tgs: int, max_depenetration: float,
           row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
           row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
@@ -227,10 +224,12 @@ def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.ar
         qd_before[e, i] = qd[e, i]
         qd[e, i] = qd[e, i] + h * qacc[e, i]
         dq[e, i] = 0.0
-    used = 3 * wp.min(contact_count[e], contact_capacity)
-    skip = 3 * contact_capacity - used
-    for i in range(nrow - skip):
-        r = _row(i, used, skip)
+    ncontact = wp.min(contact_count[e], contact_capacity)
+    used = 3 * ncontact     # rows in use: the contacts' [0, used), and all from the limits on
+    for i in range(used + layout.end - layout.joint_limits):
+        r = i
+        if i >= used:
+            r = layout.joint_limits + i - used
         lam[e, r] = 0.0
         if row_type[e, r] >= 0:
             lam[e, r] = lam_init[e, r]
@@ -241,7 +240,8 @@ def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.ar
     if tgs != 0:
         hs = h / float(position_iterations)
     for it in range(position_iterations):
-        _sweep(m, e, nrow, used, skip, 3 * contact_capacity, limit_jnt, int(it == 0), 1, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
+        _sweep(m, e, layout, ncontact, limit_jnt, int(it == 0), 1, tgs, hs, h,
+               max_depenetration, row_type, row_err, row_inv_mass,
                row_mu, row_bounce, row_k, row_d, row_span, factor, jac, minv_jt, qd, dq, lam)
         if tgs != 0:
             for i in range(nv):
@@ -250,12 +250,13 @@ def solve(m: ModelArrays, nrow: int, contact_capacity: int, contact_count: wp.ar
         for i in range(nv):
             dq[e, i] = h * qd[e, i]
     for it in range(velocity_iterations):
-        _sweep(m, e, nrow, used, skip, 3 * contact_capacity, limit_jnt, 0, 0, tgs, hs, h, max_depenetration, row_type, row_err, row_inv_mass,
+        _sweep(m, e, layout, ncontact, limit_jnt, 0, 0, tgs, hs, h,
+               max_depenetration, row_type, row_err, row_inv_mass,
                row_mu, row_bounce, row_k, row_d, row_span, factor, jac, minv_jt, qd, dq, lam)
 
 
 @wp.kernel
-def constraint_forces(m: ModelArrays, nrow: int, h: float, geom_body: wp.array(dtype=wp.int32),
+def constraint_forces(m: ModelArrays, layout: RowLayout, h: float, geom_body: wp.array(dtype=wp.int32),
                       contact_capacity: int, contact_count: wp.array(dtype=wp.int32),
                       contact_geom: wp.array2d(dtype=wp.vec2i),
                       row_dir: wp.array2d(dtype=wp.vec3), lam: wp.array2d(dtype=float),
@@ -283,11 +284,12 @@ def constraint_forces(m: ModelArrays, nrow: int, h: float, geom_body: wp.array(d
                 net_contact_force[e, b1] = net_contact_force[e, b1] - f
         contact_force[e, k] = f
     used = 3 * ncontact
-    skip = 3 * contact_capacity - used
     for i in range(m.nv):
         dof_constraint_force[e, i] = 0.0
-    for rr in range(nrow - skip):
-        r = _row(rr, used, skip)
+    for rr in range(used + layout.end - layout.joint_limits):
+        r = rr
+        if rr >= used:
+            r = layout.joint_limits + rr - used
         if row_type[e, r] >= 0 and lam[e, r] != 0.0:   # (an unbuilt dof row has no impulse)
             sp = row_span[e, r]
             force = lam[e, r] / h
