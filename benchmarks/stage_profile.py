@@ -3,10 +3,11 @@
     python benchmarks/stage_profile.py [--envs 1024] [--steps 20] [--device cpu] [--threads 1]
         [--models ant,humanoid,hand-and-cube]
 
-Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on), fresh random controls before every
-step (as `step_rate.py`), after a 30-step settle. Each stage of `Simulator._step_kernels` is timed on its own
-(the device is synchronized after each, so on CUDA this runs without the step's CUDA graph and
-the sum exceeds a graph-captured step); the table gives ms per step and the share of the total.
+Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on), fresh random controls before
+every step (as `step_rate.py`), after a 30-step settle. Each stage of `Simulator._step_kernels`
+is timed on its own (the device is synchronized after each, so on CUDA this runs without the
+step's CUDA graph and the sum exceeds a graph-captured step); the table gives ms per step and
+the share of the total.
 """
 
 from __future__ import annotations

@@ -264,11 +264,12 @@ def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float, 
         # the response is built now if the contact starts with an impulse, else by the solver
         # once the contact first pushes (most contacts in the contact offset never do)
         if same >= 0:
-            if lam[e, 3 * same] != 0.0 or lam[e, 3 * same + 1] != 0.0 or lam[e, 3 * same + 2] != 0.0:
+            warm3 = wp.vec3(lam[e, 3 * same], lam[e, 3 * same + 1], lam[e, 3 * same + 2])
+            if warm3[0] != 0.0 or warm3[1] != 0.0 or warm3[2] != 0.0:
                 build_contact_rows(m, e, r0, sp, jac, factor, minv_jt, row_inv_mass, row_type)
                 for d in range(3):
                     if row_type[e, r0 + d] != INACTIVE:
-                        lam_init[e, r0 + d] = lam[e, 3 * same + d]
+                        lam_init[e, r0 + d] = warm3[d]
     for k in range(ncontact):
         prev_key[e, k] = contact_key[e, k]
     prev_count[e] = ncontact

@@ -205,7 +205,8 @@ def _apply2(e: int, r: int, dl1: float, dl2: float, minv_jt: wp.array3d(dtype=fl
 
 @wp.kernel
 def solve(m: ModelArrays, layout: RowLayout, contact_capacity: int,
-          contact_count: wp.array(dtype=wp.int32), limit_jnt: wp.array(dtype=wp.int32), h: float, position_iterations: int,
+          contact_count: wp.array(dtype=wp.int32), limit_jnt: wp.array(dtype=wp.int32),
+          h: float, position_iterations: int,
           velocity_iterations: int, tgs: int, max_depenetration: float,
           row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
           row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
@@ -256,7 +257,8 @@ def solve(m: ModelArrays, layout: RowLayout, contact_capacity: int,
 
 
 @wp.kernel
-def constraint_forces(m: ModelArrays, layout: RowLayout, h: float, geom_body: wp.array(dtype=wp.int32),
+def constraint_forces(m: ModelArrays, layout: RowLayout, h: float,
+                      geom_body: wp.array(dtype=wp.int32),
                       contact_capacity: int, contact_count: wp.array(dtype=wp.int32),
                       contact_geom: wp.array2d(dtype=wp.vec2i),
                       row_dir: wp.array2d(dtype=wp.vec3), lam: wp.array2d(dtype=float),
