@@ -33,12 +33,15 @@ DOF = wp.constant(4)         # a dof's dry friction (|impulse| <= frictionloss·
 @wp.struct
 class RowLayout:
     """Where each family of rows starts among an env's rows, fixed when the simulator is built.
-    Families are contiguous and in this order; `end` is the number of rows."""
-    joint_limits: int    # contacts come first: 3 rows per contact slot (normal, 2 friction)
-    tendon_limits: int   # joint limits: 2 rows per limited joint (lower, upper)
-    springs: int         # tendon limits: 2 rows per limited tendon with hard limits
-    dofs: int            # tendon spring-dampers: 1 row per tendon
-    end: int             # dof rows: 1 per dof (dry friction, speed cap), none without constraints
+    The families are contiguous, in this order: contacts from row 0 (3 rows per contact slot:
+    normal, two friction), joint limits (2 per limited joint: lower, upper), hard tendon limits
+    (2 per limited tendon), tendon spring-dampers (1 per tendon), dofs (1 per dof: dry friction
+    and speed cap; none without constraints)."""
+    joint_limits: int    # first joint-limit row
+    tendon_limits: int   # first tendon-limit row
+    springs: int         # first tendon spring-damper row
+    dofs: int            # first dof row
+    end: int             # number of rows
 
 
 def row_layout(contact_slots: int, limited_joints: int, limited_tendons: int, tendons: int,
@@ -175,7 +178,8 @@ def _tendon_span(m: ModelArrays, t: int):
 
 
 @wp.kernel
-def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float, bounce_threshold: float,
+def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float,
+               bounce_threshold: float,
                geom_body: wp.array(dtype=wp.int32), geom_friction: wp.array2d(dtype=float),
                geom_restitution: wp.array2d(dtype=float),
                contact_capacity: int, contact_count: wp.array(dtype=wp.int32),
@@ -288,8 +292,8 @@ def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float, 
             # built now if the limit starts with an impulse, else by the solver once it pushes
             warm = lam[e, r]   # the same limit's impulse in the last substep (0 if inactive)
             if row_type[e, r] != INACTIVE and warm != 0.0:
-                build_limit_row(m, e, r, dof, side, jac, factor, minv_jt, row_inv_mass,
-                                row_type, row_span)
+                build_dof_row(m, e, r, dof, 1.0 - 2.0 * float(side), NORMAL, jac, factor,
+                              minv_jt, row_inv_mass, row_type, row_span)
                 if row_type[e, r] != INACTIVE:
                     lam_init[e, r] = warm
     # hard tendon limits (limit stiffness 0): J = coef on each tendon joint
@@ -387,8 +391,8 @@ def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float, 
             row_mu[e, r] = bound
             row_k[e, r] = cap
             if bound > 0.0:
-                build_dof_row(m, e, r, dof, jac, factor, minv_jt, row_inv_mass, row_type,
-                              row_span)
+                build_dof_row(m, e, r, dof, 1.0, DOF, jac, factor, minv_jt, row_inv_mass,
+                              row_type, row_span)
                 if row_type[e, r] != INACTIVE:
                     lam_init[e, r] = wp.clamp(warm, -bound, bound)
 
@@ -413,29 +417,17 @@ def build_contact_rows(m: ModelArrays, e: int, r0: int, sp: wp.vec4i,
 
 
 @wp.func
-def build_limit_row(m: ModelArrays, e: int, r: int, dof: int, side: int,
-                    jac: wp.array3d(dtype=float), factor: wp.array3d(dtype=float),
-                    minv_jt: wp.array3d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
-                    row_type: wp.array2d(dtype=wp.int32), row_span: wp.array2d(dtype=wp.vec4i)):
-    """Row r as the lower (side 0) or upper (side 1) limit of dof `dof`: J = ±e_dof."""
+def build_dof_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, kind: int,
+                  jac: wp.array3d(dtype=float), factor: wp.array3d(dtype=float),
+                  minv_jt: wp.array3d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
+                  row_type: wp.array2d(dtype=wp.int32), row_span: wp.array2d(dtype=wp.vec4i)):
+    """Row r along one dof, J = sign·e_dof over its dof tree, as a `kind` row: its response and
+    1/(J M⁻¹ Jᵀ). A joint limit (NORMAL; sign -1 for the upper side) or a dof row (DOF)."""
     sp = _spans(m.dof_tree_span[dof], wp.vec2i(0, 0))
     row_span[e, r] = sp
     _zero_row(jac, e, r, sp)
-    jac[e, r, dof] = 1.0 - 2.0 * float(side)
-    _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, NORMAL)
-
-
-@wp.func
-def build_dof_row(m: ModelArrays, e: int, r: int, dof: int, jac: wp.array3d(dtype=float),
-                  factor: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
-                  row_inv_mass: wp.array2d(dtype=float), row_type: wp.array2d(dtype=wp.int32),
-                  row_span: wp.array2d(dtype=wp.vec4i)):
-    """Row r as dof `dof`'s row: J = e_dof over its dof tree, its response and 1/(J M⁻¹ Jᵀ)."""
-    sp = _spans(m.dof_tree_span[dof], wp.vec2i(0, 0))
-    row_span[e, r] = sp
-    _zero_row(jac, e, r, sp)
-    jac[e, r, dof] = 1.0
-    _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, DOF)
+    jac[e, r, dof] = sign
+    _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, kind)
 
 
 @wp.func

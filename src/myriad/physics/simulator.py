@@ -600,10 +600,10 @@ class Simulator:
             return
         c, p = self._contacts, self.params
         self._launch(constraints.build_rows, self.num_envs, [
-            self._m, self._rows_at, self.h, p.rest_offset, p.bounce_threshold_velocity, self._geom_body,
-            self._geom_friction, self._geom_restitution, c.capacity, c.count, c.geom, c.key, c.pos,
-            c.normal, c.dist, self._prev_key, self._prev_count, self._lam, self._limit_jnt,
-            self._joint_range, self._limit_tendon, self._p,
+            self._m, self._rows_at, self.h, p.rest_offset, p.bounce_threshold_velocity,
+            self._geom_body, self._geom_friction, self._geom_restitution, c.capacity, c.count,
+            c.geom, c.key, c.pos, c.normal, c.dist, self._prev_key, self._prev_count, self._lam,
+            self._limit_jnt, self._joint_range, self._limit_tendon, self._p,
             self._dof_frictionloss, self._dof_max_velocity, self._body_x, self._cdof,
             self._q, self._qd, self._qacc, self._factor, self._row_type, self._row_err,
             self._row_inv_mass, self._row_mu, self._row_bounce, self._row_dir, self._row_k,
@@ -612,12 +612,12 @@ class Simulator:
     def _solve_constraints(self) -> None:
         p = self.params
         self._launch(solver_tgs.solve, self.num_envs, [
-            self._m, self._rows_at, self._contacts.capacity, self._contacts.count, self._limit_jnt,
-            self.h, p.position_iterations, p.velocity_iterations, int(p.solver == "tgs"),
-            p.max_depenetration_velocity, self._row_type, self._row_err, self._row_inv_mass,
+            self._m, self._rows_at, self._contacts.capacity, self._contacts.count,
+            self._limit_jnt, self.h, p.position_iterations, p.velocity_iterations,
+            int(p.solver == "tgs"), p.max_depenetration_velocity, self._row_type, self._row_err, self._row_inv_mass,
             self._row_mu, self._row_bounce, self._row_k, self._row_d, self._row_span,
-            self._factor, self._jac_rows, self._minv_jt, self._lam_init, self._qacc, self._qd, self._qd_before,
-            self._dq, self._lam])
+            self._factor, self._jac_rows, self._minv_jt, self._lam_init, self._qacc, self._qd,
+            self._qd_before, self._dq, self._lam])
 
     def _integrate(self) -> None:
         self._launch(integrate.integrate, self.num_envs,

@@ -26,7 +26,7 @@ targets a separation speed of e times its approach speed.
 import warp as wp
 
 from .constraints import (DOF, FRICTION, INACTIVE, NORMAL, SOFT, RowLayout, _row_dot,
-                          build_contact_rows, build_dof_row, build_limit_row)
+                          build_contact_rows, build_dof_row)
 from .structs import ModelArrays
 
 # fraction of the last substep's impulse a contact or limit row starts from: below 1 so that
@@ -46,6 +46,15 @@ def _apply(e: int, r: int, dl: float, minv_jt: wp.array3d(dtype=float), v: wp.ar
         v[e, i] = v[e, i] + minv_jt[e, r, i] * dl
     for i in range(sp[2], sp[3]):
         v[e, i] = v[e, i] + minv_jt[e, r, i] * dl
+
+
+@wp.func
+def _row_in_use(i: int, used: int, layout: RowLayout):
+    """The i-th row in use: the contacts' rows [0, used) first, then every row from the joint
+    limits on (contact slots past the env's contact count are empty)."""
+    if i < used:
+        return i
+    return layout.joint_limits + i - used
 
 
 @wp.func
@@ -79,6 +88,7 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
             err = row_err[e, r]
             li = r - layout.joint_limits
             dof = int(-1)
+            sign = float(0.0)
             if li >= 0 and r < layout.tendon_limits:
                 # a joint limit row: J = ±e_dof, so J·v is the dof's own speed
                 dof = m.jnt_dofadr[limit_jnt[li / 2]]
@@ -105,8 +115,8 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
                 if target - jv <= 0.0:
                     continue
                 if dof >= 0:
-                    build_limit_row(m, e, r, dof, li % 2, jac, factor, minv_jt, row_inv_mass,
-                                    row_type, row_span)
+                    build_dof_row(m, e, r, dof, sign, NORMAL, jac, factor, minv_jt, row_inv_mass,
+                                  row_type, row_span)
                 else:
                     build_contact_rows(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type)
                 if row_type[e, r] != NORMAL:
@@ -143,8 +153,8 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
             cap = row_k[e, r]
             if wp.abs(jv) > cap:
                 if row_inv_mass[e, r] == 0.0:   # first time past the cap in this substep
-                    build_dof_row(m, e, r, dof, jac, factor, minv_jt, row_inv_mass, row_type,
-                                  row_span)
+                    build_dof_row(m, e, r, dof, 1.0, DOF, jac, factor, minv_jt, row_inv_mass,
+                                  row_type, row_span)
                     sp = row_span[e, r]
                 if row_type[e, r] == DOF:
                     _apply(e, r, (wp.clamp(jv, -cap, cap) - jv) * row_inv_mass[e, r], minv_jt,
@@ -228,9 +238,7 @@ def solve(m: ModelArrays, layout: RowLayout, contact_capacity: int,
     ncontact = wp.min(contact_count[e], contact_capacity)
     used = 3 * ncontact     # rows in use: the contacts' [0, used), and all from the limits on
     for i in range(used + layout.end - layout.joint_limits):
-        r = i
-        if i >= used:
-            r = layout.joint_limits + i - used
+        r = _row_in_use(i, used, layout)
         lam[e, r] = 0.0
         if row_type[e, r] >= 0:
             lam[e, r] = lam_init[e, r]
@@ -289,9 +297,7 @@ def constraint_forces(m: ModelArrays, layout: RowLayout, h: float,
     for i in range(m.nv):
         dof_constraint_force[e, i] = 0.0
     for rr in range(used + layout.end - layout.joint_limits):
-        r = rr
-        if rr >= used:
-            r = layout.joint_limits + rr - used
+        r = _row_in_use(rr, used, layout)
         if row_type[e, r] >= 0 and lam[e, r] != 0.0:   # (an unbuilt dof row has no impulse)
             sp = row_span[e, r]
             force = lam[e, r] / h
