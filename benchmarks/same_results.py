@@ -1,0 +1,60 @@
+"""Check that an engine change leaves the step results unchanged, bit for bit.
+
+    python benchmarks/same_results.py save ref.npz       # on the tree before the change
+    python benchmarks/same_results.py compare ref.npz    # on the tree after it
+
+The ant, the humanoid and the hand-and-cube stand-in, 8 envs each, 150 steps of seeded random
+controls on one CPU thread: the final q and `dof_constraint_force` are saved, or compared
+exactly (the largest absolute difference per array is printed; 0.0 means identical).
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import torch
+import warp as wp
+
+import myriad
+from memory import hand_and_cube_xml      # benchmarks/memory.py: the 30-DoF stand-in
+
+
+def results() -> dict[str, np.ndarray]:
+    models = {"ant": myriad.load(myriad.asset_path("ant.xml")),
+              "humanoid": myriad.load(myriad.asset_path("humanoid.xml")),
+              "hand-and-cube": myriad.load_xml(hand_and_cube_xml(), "hand-and-cube")}
+    out = {}
+    for name, model in models.items():
+        sim = myriad.Simulator(model, num_envs=8, cpu_threads=1)
+        gen = torch.Generator().manual_seed(0)
+        for _ in range(150):
+            sim.ctrl = torch.rand(8, model.nu, generator=gen) * 2 - 1
+            sim.step()
+        out[f"{name} q"] = sim.q.numpy().copy()
+        out[f"{name} dof_constraint_force"] = sim.dof_constraint_force.numpy().copy()
+    return out
+
+
+def main() -> None:
+    if len(sys.argv) != 3 or sys.argv[1] not in ("save", "compare"):
+        sys.exit(__doc__)
+    wp.config.log_level = wp.LOG_WARNING
+    mode, path = sys.argv[1:]
+    now = results()
+    if mode == "save":
+        np.savez(path, **now)
+        print(f"saved {len(now)} arrays to {path}")
+        return
+    before = np.load(path)
+    same = True
+    for key, value in now.items():
+        diff = float(np.abs(value - before[key]).max())
+        same &= diff == 0.0
+        print(f"{key}: max |difference| {diff}")
+    print("identical" if same else "DIFFERENT")
+    sys.exit(0 if same else 1)
+
+
+if __name__ == "__main__":
+    main()
