@@ -3,8 +3,9 @@
     python benchmarks/same_results.py save ref.npz       # on the tree before the change
     python benchmarks/same_results.py compare ref.npz    # on the tree after it
 
-The ant, the humanoid and the hand-and-cube stand-in, 8 envs each, 150 steps of seeded random
-controls on one CPU thread: the final q and `dof_constraint_force` are saved, or compared
+The ant, the humanoid and the hand-and-cube stand-in, 8 envs each, and 64 boxes dropped on a
+plane (2 envs: many trees, contacts between two of them), 150 steps of seeded random controls
+on one CPU thread: the final q and `dof_constraint_force` are saved, or compared
 exactly (the largest absolute difference per array is printed; 0.0 means identical).
 """
 
@@ -17,19 +18,23 @@ import torch
 import warp as wp
 
 import myriad
+from contacts import PARAMS as BOX_PARAMS, boxes_xml
 from memory import hand_and_cube_xml      # benchmarks/memory.py: the 30-DoF stand-in
 
 
 def results() -> dict[str, np.ndarray]:
     models = {"ant": myriad.load(myriad.asset_path("ant.xml")),
               "humanoid": myriad.load(myriad.asset_path("humanoid.xml")),
-              "hand-and-cube": myriad.load_xml(hand_and_cube_xml(), "hand-and-cube")}
+              "hand-and-cube": myriad.load_xml(hand_and_cube_xml(), "hand-and-cube"),
+              "64 boxes": myriad.load_xml(boxes_xml(), "64 boxes")}
     out = {}
     for name, model in models.items():
-        sim = myriad.Simulator(model, num_envs=8, cpu_threads=1)
+        n = 2 if name == "64 boxes" else 8
+        sim = myriad.Simulator(model, num_envs=n, cpu_threads=1,
+                               params=BOX_PARAMS if name == "64 boxes" else None)
         gen = torch.Generator().manual_seed(0)
         for _ in range(150):
-            sim.ctrl = torch.rand(8, model.nu, generator=gen) * 2 - 1
+            sim.ctrl = torch.rand(n, model.nu, generator=gen) * 2 - 1
             sim.step()
         out[f"{name} q"] = sim.q.numpy().copy()
         out[f"{name} dof_constraint_force"] = sim.dof_constraint_force.numpy().copy()

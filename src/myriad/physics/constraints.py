@@ -9,8 +9,10 @@ limited joint owns two rows (lower, upper), then each limited tendon. Unused slo
 Rows are tree-sparse: each row records in `row_span` the dofs it can touch, as two [lo, hi)
 ranges (the dof trees of its one or two bodies, or of its dofs; the second range empty when
 there is one tree). J and M⁻¹Jᵀ are zero outside them (the mass matrix is block-diagonal over
-dof trees), so building, sweeping and reading a row costs its trees' size, not nv; storage
-outside the spans is never read.
+dof trees), so building, sweeping and reading a row costs its trees' size, not nv, and a row
+stores only those dofs: column c < hi1 - lo1 holds dof lo1 + c, the columns after it the second
+range (`_col`). The row width is the model's widest span (`row_width`): two trees, or a tendon's
+trees, at most nv; 64 free boxes store 12 columns per row instead of 384.
 
 Each row's starting impulse (warm start) is the final impulse of the same constraint in the last
 substep: the same contact (pair and feature, e.g. the same box corner) or the same limit. A
@@ -60,12 +62,39 @@ def row_layout(contact_slots: int, limited_joints: int, limited_tendons: int, te
 LIMIT_MARGIN = wp.constant(0.1)
 
 
+def row_width(dof_tree_span, tendon_dofs) -> int:
+    """Columns a row needs: its widest possible span, at most nv. A contact touches two dof
+    trees at most, a tendon row the trees between its joints' (one range), any other row one
+    tree. `dof_tree_span` [nv, 2] per dof; `tendon_dofs` the dofs of each tendon's joints."""
+    nv = len(dof_tree_span)
+    sizes = sorted({(int(lo), int(hi)) for lo, hi in dof_tree_span}, key=lambda s: s[0] - s[1])
+    widest = sum(hi - lo for lo, hi in sizes[:2])
+    for dofs in tendon_dofs:
+        if len(dofs):
+            spans = dof_tree_span[list(dofs)]
+            widest = max(widest, int(spans[:, 1].max() - spans[:, 0].min()))
+    return min(widest, nv)
+
+
+@wp.func
+def _col(sp: wp.vec4i, i: int):
+    """The column of dof i in a row of span sp (i lies in one of its two ranges)."""
+    if i >= sp[0] and i < sp[1]:
+        return i - sp[0]
+    return sp[1] - sp[0] + i - sp[2]
+
+
+@wp.func
+def _width(sp: wp.vec4i):
+    return sp[1] - sp[0] + sp[3] - sp[2]
+
+
 @wp.func
 def _add_contact_jacobian(m: ModelArrays, e: int, body: int, point: wp.vec3, n: wp.vec3,
                           t1: wp.vec3, t2: wp.vec3, sign: float,
                           body_x: wp.array2d(dtype=wp.transform),
                           cdof: wp.array2d(dtype=wp.spatial_vector), jac: wp.array3d(dtype=float),
-                          r: int):
+                          r: int, sp: wp.vec4i):
     """J[r + d] += sign · (n, t1, t2)[d]ᵀ · (velocity of `point` fixed to `body`, per dof), for
     the three rows r, r+1, r+2 of a contact: one walk of the body's ancestor dofs."""
     if body < 0:
@@ -74,9 +103,10 @@ def _add_contact_jacobian(m: ModelArrays, e: int, body: int, point: wp.vec3, n: 
     j = m.body_last_dof[body]
     while j >= 0:
         u = sign * velocity_at(cdof[e, j], point - ref)
-        jac[e, r, j] = jac[e, r, j] + wp.dot(n, u)
-        jac[e, r + 1, j] = jac[e, r + 1, j] + wp.dot(t1, u)
-        jac[e, r + 2, j] = jac[e, r + 2, j] + wp.dot(t2, u)
+        c = _col(sp, j)
+        jac[e, r, c] = jac[e, r, c] + wp.dot(n, u)
+        jac[e, r + 1, c] = jac[e, r + 1, c] + wp.dot(t1, u)
+        jac[e, r + 2, c] = jac[e, r + 2, c] + wp.dot(t2, u)
         j = m.dof_parent[j]
 
 
@@ -93,10 +123,8 @@ def _spans(a: wp.vec2i, b: wp.vec2i):
 
 @wp.func
 def _zero_row(a: wp.array3d(dtype=float), e: int, r: int, sp: wp.vec4i):
-    for i in range(sp[0], sp[1]):
-        a[e, r, i] = 0.0
-    for i in range(sp[2], sp[3]):
-        a[e, r, i] = 0.0
+    for c in range(_width(sp)):
+        a[e, r, c] = 0.0
 
 
 @wp.func
@@ -104,10 +132,11 @@ def _row_dot(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=flo
              sp: wp.vec4i):
     """a[e, r] · v[e] over the row's span."""
     s = float(0.0)
+    o = sp[1] - sp[0] - sp[2]     # column of dof i in the second range: o + i
     for i in range(sp[0], sp[1]):
-        s = s + a[e, r, i] * v[e, i]
+        s = s + a[e, r, i - sp[0]] * v[e, i]
     for i in range(sp[2], sp[3]):
-        s = s + a[e, r, i] * v[e, i]
+        s = s + a[e, r, o + i] * v[e, i]
     return s
 
 
@@ -116,18 +145,16 @@ def _row_norm(jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float), e:
               sp: wp.vec4i):
     """J_r M⁻¹ J_rᵀ over the row's span."""
     s = float(0.0)
-    for i in range(sp[0], sp[1]):
-        s = s + jac[e, r, i] * minv_jt[e, r, i]
-    for i in range(sp[2], sp[3]):
-        s = s + jac[e, r, i] * minv_jt[e, r, i]
+    for c in range(_width(sp)):
+        s = s + jac[e, r, c] * minv_jt[e, r, c]
     return s
 
 
 @wp.func
 def _solve_row(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
                x: wp.array3d(dtype=float), r: int, sp: wp.vec4i):
-    solve_span(m, e, factor, x, r, sp[0], sp[1])
-    solve_span(m, e, factor, x, r, sp[2], sp[3])
+    solve_span(m, e, factor, x, r, sp[0], sp[1], 0)
+    solve_span(m, e, factor, x, r, sp[2], sp[3], sp[1] - sp[0])
 
 
 @wp.func
@@ -148,10 +175,8 @@ def _set_inv_mass(jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float)
 @wp.func
 def _copy_row(src: wp.array3d(dtype=float), dst: wp.array3d(dtype=float), e: int, r: int,
               sp: wp.vec4i):
-    for i in range(sp[0], sp[1]):
-        dst[e, r, i] = src[e, r, i]
-    for i in range(sp[2], sp[3]):
-        dst[e, r, i] = src[e, r, i]
+    for c in range(_width(sp)):
+        dst[e, r, c] = src[e, r, c]
 
 
 @wp.func
@@ -236,8 +261,8 @@ def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float,
         for d in range(3):
             row_span[e, r0 + d] = sp
             _zero_row(jac, e, r0 + d, sp)
-        _add_contact_jacobian(m, e, b2, p, n, t1, t2, 1.0, body_x, cdof, jac, r0)
-        _add_contact_jacobian(m, e, b1, p, n, t1, t2, -1.0, body_x, cdof, jac, r0)
+        _add_contact_jacobian(m, e, b2, p, n, t1, t2, 1.0, body_x, cdof, jac, r0, sp)
+        _add_contact_jacobian(m, e, b1, p, n, t1, t2, -1.0, body_x, cdof, jac, r0, sp)
         row_dir[e, r0] = n
         row_dir[e, r0 + 1] = t1
         row_dir[e, r0 + 2] = t2
@@ -320,8 +345,8 @@ def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float,
                 row_span[e, r] = sp
                 _zero_row(jac, e, r, sp)
                 for w in range(beg, beg + m.tendon_num[t]):
-                    dof = m.jnt_dofadr[m.wrap_jnt[w]]
-                    jac[e, r, dof] = jac[e, r, dof] + (1.0 - 2.0 * float(side)) * m.wrap_coef[w]
+                    c = m.jnt_dofadr[m.wrap_jnt[w]] - sp[0]
+                    jac[e, r, c] = jac[e, r, c] + (1.0 - 2.0 * float(side)) * m.wrap_coef[w]
                 warm = lam[e, r]
                 _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, NORMAL)
                 if row_type[e, r] != INACTIVE:
@@ -357,9 +382,9 @@ def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float,
             _zero_row(jac, e, r, sp)
             _zero_row(minv_jt, e, r, sp)
             for wi in range(beg, beg + m.tendon_num[t]):
-                dof = m.jnt_dofadr[m.wrap_jnt[wi]]
-                jac[e, r, dof] = jac[e, r, dof] + m.wrap_coef[wi]
-                minv_jt[e, r, dof] = minv_jt[e, r, dof] + m.wrap_recip[wi]
+                c = m.jnt_dofadr[m.wrap_jnt[wi]] - sp[0]
+                jac[e, r, c] = jac[e, r, c] + m.wrap_coef[wi]
+                minv_jt[e, r, c] = minv_jt[e, r, c] + m.wrap_recip[wi]
             _solve_row(m, e, factor, minv_jt, r, sp)
             w_eff = _row_norm(jac, minv_jt, e, r, sp)
             if w_eff > 1.0e-12:
@@ -406,8 +431,8 @@ def build_contact_rows(m: ModelArrays, e: int, r0: int, sp: wp.vec4i,
     (friction) from their J, in one walk of the factor; friction goes with its normal row."""
     for d in range(3):
         _copy_row(jac, minv_jt, e, r0 + d, sp)
-    solve_span3(m, e, factor, minv_jt, r0, sp[0], sp[1])
-    solve_span3(m, e, factor, minv_jt, r0, sp[2], sp[3])
+    solve_span3(m, e, factor, minv_jt, r0, sp[0], sp[1], 0)
+    solve_span3(m, e, factor, minv_jt, r0, sp[2], sp[3], sp[1] - sp[0])
     _set_inv_mass(jac, minv_jt, e, r0, sp, row_inv_mass, row_type, NORMAL)
     _set_inv_mass(jac, minv_jt, e, r0 + 1, sp, row_inv_mass, row_type, FRICTION)
     _set_inv_mass(jac, minv_jt, e, r0 + 2, sp, row_inv_mass, row_type, FRICTION2)
@@ -426,7 +451,7 @@ def build_dof_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, kind: i
     sp = _spans(m.dof_tree_span[dof], wp.vec2i(0, 0))
     row_span[e, r] = sp
     _zero_row(jac, e, r, sp)
-    jac[e, r, dof] = sign
+    jac[e, r, dof - sp[0]] = sign
     _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, kind)
 
 

@@ -144,63 +144,67 @@ def factor_matrix(m: ModelArrays, e: int, qm: wp.array3d(dtype=float),
 
 @wp.func
 def solve_span(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
-               x: wp.array3d(dtype=float), r: int, lo: int, hi: int):
-    """x[e, r, lo:hi] <- (Lᵀ D L)⁻¹ x[e, r, lo:hi] for [lo, hi) a whole number of dof trees
-    (the factor never couples two trees), walking only the ancestor chains."""
+               x: wp.array3d(dtype=float), r: int, lo: int, hi: int, col: int):
+    """x[e, r] <- (Lᵀ D L)⁻¹ x[e, r] over the dofs [lo, hi), a whole number of dof trees (the
+    factor never couples two trees), walking only the ancestor chains. Dof lo sits in column
+    `col` of x (rows store only the dofs they touch: `constraints`), dof i in col + i - lo."""
+    o = col - lo
     for kk in range(lo, hi):
         k = hi - 1 - (kk - lo)
-        xk = x[e, r, k]
+        xk = x[e, r, o + k]
         if xk != 0.0:      # a row's J is often zero off its bodies' ancestor chains
             j = m.dof_parent[k]
             while j >= 0:
-                x[e, r, j] = x[e, r, j] - factor[e, k, j] * xk
+                x[e, r, o + j] = x[e, r, o + j] - factor[e, k, j] * xk
                 j = m.dof_parent[j]
     for k in range(lo, hi):
-        x[e, r, k] = x[e, r, k] / factor[e, k, k]
+        x[e, r, o + k] = x[e, r, o + k] / factor[e, k, k]
     for k in range(lo, hi):
         j = m.dof_parent[k]
         while j >= 0:
-            x[e, r, k] = x[e, r, k] - factor[e, k, j] * x[e, r, j]
+            x[e, r, o + k] = x[e, r, o + k] - factor[e, k, j] * x[e, r, o + j]
             j = m.dof_parent[j]
 
 
 @wp.func
 def solve_span3(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
-                x: wp.array3d(dtype=float), r: int, lo: int, hi: int):
+                x: wp.array3d(dtype=float), r: int, lo: int, hi: int, col: int):
     """`solve_span` of rows r, r+1, r+2 together (a contact's normal and friction rows): one
     walk of the ancestor chains and one read of the factor serve all three."""
+    o = col - lo
     for kk in range(lo, hi):
         k = hi - 1 - (kk - lo)
-        xk = wp.vec3(x[e, r, k], x[e, r + 1, k], x[e, r + 2, k])
+        xk = wp.vec3(x[e, r, o + k], x[e, r + 1, o + k], x[e, r + 2, o + k])
         if xk[0] != 0.0 or xk[1] != 0.0 or xk[2] != 0.0:
             j = m.dof_parent[k]
             while j >= 0:
                 f = factor[e, k, j]
-                x[e, r, j] = x[e, r, j] - f * xk[0]
-                x[e, r + 1, j] = x[e, r + 1, j] - f * xk[1]
-                x[e, r + 2, j] = x[e, r + 2, j] - f * xk[2]
+                x[e, r, o + j] = x[e, r, o + j] - f * xk[0]
+                x[e, r + 1, o + j] = x[e, r + 1, o + j] - f * xk[1]
+                x[e, r + 2, o + j] = x[e, r + 2, o + j] - f * xk[2]
                 j = m.dof_parent[j]
     for k in range(lo, hi):
         d = factor[e, k, k]
-        x[e, r, k] = x[e, r, k] / d
-        x[e, r + 1, k] = x[e, r + 1, k] / d
-        x[e, r + 2, k] = x[e, r + 2, k] / d
+        x[e, r, o + k] = x[e, r, o + k] / d
+        x[e, r + 1, o + k] = x[e, r + 1, o + k] / d
+        x[e, r + 2, o + k] = x[e, r + 2, o + k] / d
     for k in range(lo, hi):
-        xk = wp.vec3(x[e, r, k], x[e, r + 1, k], x[e, r + 2, k])
+        xk = wp.vec3(x[e, r, o + k], x[e, r + 1, o + k], x[e, r + 2, o + k])
         j = m.dof_parent[k]
         while j >= 0:
-            xk = xk - factor[e, k, j] * wp.vec3(x[e, r, j], x[e, r + 1, j], x[e, r + 2, j])
+            xk = xk - factor[e, k, j] * wp.vec3(x[e, r, o + j], x[e, r + 1, o + j],
+                                                x[e, r + 2, o + j])
             j = m.dof_parent[j]
-        x[e, r, k] = xk[0]
-        x[e, r + 1, k] = xk[1]
-        x[e, r + 2, k] = xk[2]
+        x[e, r, o + k] = xk[0]
+        x[e, r + 1, o + k] = xk[1]
+        x[e, r + 2, o + k] = xk[2]
 
 
 @wp.func
 def solve_in_place(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
                    x: wp.array3d(dtype=float), r: int):
     """x[e, r, :] <- (Lᵀ D L)⁻¹ x[e, r, :]."""
-    solve_span(m, e, factor, x, r, 0, m.nv)
+    solve_span(m, e, factor, x, r, 0, m.nv, 0)
 
 
 @wp.kernel

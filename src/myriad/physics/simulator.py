@@ -382,8 +382,11 @@ class Simulator:
         self._row_k = zeros(N, R)
         self._row_d = zeros(N, R)
         self._row_span = zeros(N, R, dtype=wp.vec4i)   # the dof ranges a row touches
-        self._jac_rows = zeros(N, R, m.nv)
-        self._minv_jt = zeros(N, R, m.nv)
+        # J and M⁻¹Jᵀ of each row, over the dofs of its span only (`constraints`)
+        tendon_dofs = [m.jnt_dofadr[m.wrap_jnt[a:a + k]] for a, k in zip(m.tendon_adr, m.tendon_num)]
+        self.row_width = constraints.row_width(tree_spans(model)[0], tendon_dofs)
+        self._jac_rows = zeros(N, R, self.row_width)
+        self._minv_jt = zeros(N, R, self.row_width)
         self._lam = zeros(N, R)
         self._lam_init = zeros(N, R)
         self._prev_key = zeros(N, self._contacts.capacity, dtype=wp.int32)

@@ -42,10 +42,11 @@ def _apply(e: int, r: int, dl: float, minv_jt: wp.array3d(dtype=float), v: wp.ar
     """v += M⁻¹J_rᵀ·dl over the row's span (the response is zero outside it)."""
     if dl == 0.0:
         return
+    o = sp[1] - sp[0] - sp[2]     # column of dof i in the second range: o + i
     for i in range(sp[0], sp[1]):
-        v[e, i] = v[e, i] + minv_jt[e, r, i] * dl
+        v[e, i] = v[e, i] + minv_jt[e, r, i - sp[0]] * dl
     for i in range(sp[2], sp[3]):
-        v[e, i] = v[e, i] + minv_jt[e, r, i] * dl
+        v[e, i] = v[e, i] + minv_jt[e, r, o + i] * dl
 
 
 @wp.func
@@ -192,12 +193,13 @@ def _row_dot2(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=fl
     """(a[e, r] · v[e], a[e, r + 1] · v[e]) over the rows' span, in one pass."""
     s1 = float(0.0)
     s2 = float(0.0)
+    o = sp[1] - sp[0] - sp[2]
     for i in range(sp[0], sp[1]):
-        s1 = s1 + a[e, r, i] * v[e, i]
-        s2 = s2 + a[e, r + 1, i] * v[e, i]
+        s1 = s1 + a[e, r, i - sp[0]] * v[e, i]
+        s2 = s2 + a[e, r + 1, i - sp[0]] * v[e, i]
     for i in range(sp[2], sp[3]):
-        s1 = s1 + a[e, r, i] * v[e, i]
-        s2 = s2 + a[e, r + 1, i] * v[e, i]
+        s1 = s1 + a[e, r, o + i] * v[e, i]
+        s2 = s2 + a[e, r + 1, o + i] * v[e, i]
     return wp.vec2(s1, s2)
 
 
@@ -207,10 +209,12 @@ def _apply2(e: int, r: int, dl1: float, dl2: float, minv_jt: wp.array3d(dtype=fl
     """v += M⁻¹J_rᵀ·dl1 + M⁻¹J_{r+1}ᵀ·dl2 over the rows' span, in one pass."""
     if dl1 == 0.0 and dl2 == 0.0:
         return
+    o = sp[1] - sp[0] - sp[2]
     for i in range(sp[0], sp[1]):
-        v[e, i] = v[e, i] + minv_jt[e, r, i] * dl1 + minv_jt[e, r + 1, i] * dl2
+        c = i - sp[0]
+        v[e, i] = v[e, i] + minv_jt[e, r, c] * dl1 + minv_jt[e, r + 1, c] * dl2
     for i in range(sp[2], sp[3]):
-        v[e, i] = v[e, i] + minv_jt[e, r, i] * dl1 + minv_jt[e, r + 1, i] * dl2
+        v[e, i] = v[e, i] + minv_jt[e, r, o + i] * dl1 + minv_jt[e, r + 1, o + i] * dl2
 
 
 @wp.kernel
@@ -301,7 +305,8 @@ def constraint_forces(m: ModelArrays, layout: RowLayout, h: float,
         if row_type[e, r] >= 0 and lam[e, r] != 0.0:   # (an unbuilt dof row has no impulse)
             sp = row_span[e, r]
             force = lam[e, r] / h
+            o = sp[1] - sp[0] - sp[2]
             for i in range(sp[0], sp[1]):
-                dof_constraint_force[e, i] = dof_constraint_force[e, i] + jac[e, r, i] * force
+                dof_constraint_force[e, i] = dof_constraint_force[e, i] + jac[e, r, i - sp[0]] * force
             for i in range(sp[2], sp[3]):
-                dof_constraint_force[e, i] = dof_constraint_force[e, i] + jac[e, r, i] * force
+                dof_constraint_force[e, i] = dof_constraint_force[e, i] + jac[e, r, o + i] * force
