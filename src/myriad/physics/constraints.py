@@ -151,7 +151,7 @@ def _row_norm(jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float), e:
 
 
 @wp.func
-def _solve_row(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
+def _solve_row(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
                x: wp.array3d(dtype=float), r: int, sp: wp.vec4i):
     solve_span(m, e, factor, x, r, sp[0], sp[1], 0)
     solve_span(m, e, factor, x, r, sp[2], sp[3], sp[1] - sp[0])
@@ -181,7 +181,7 @@ def _copy_row(src: wp.array3d(dtype=float), dst: wp.array3d(dtype=float), e: int
 
 @wp.func
 def _finish_row(m: ModelArrays, e: int, r: int, sp: wp.vec4i, jac: wp.array3d(dtype=float),
-                factor: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
+                factor: wp.array2d(dtype=float), minv_jt: wp.array3d(dtype=float),
                 row_inv_mass: wp.array2d(dtype=float), row_type: wp.array2d(dtype=wp.int32),
                 kind: int):
     """Response M⁻¹J_rᵀ and 1/(J M⁻¹ Jᵀ) of row r from its J."""
@@ -220,7 +220,7 @@ def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float,
                dof_max_velocity: wp.array2d(dtype=float),
                body_x: wp.array2d(dtype=wp.transform), cdof: wp.array2d(dtype=wp.spatial_vector),
                q: wp.array2d(dtype=float), qd: wp.array2d(dtype=float),
-               qacc: wp.array2d(dtype=float), factor: wp.array3d(dtype=float),
+               qacc: wp.array2d(dtype=float), factor: wp.array2d(dtype=float),
                # outputs
                row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
                row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
@@ -424,7 +424,7 @@ def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float,
 
 @wp.func
 def build_contact_rows(m: ModelArrays, e: int, r0: int, sp: wp.vec4i,
-                       jac: wp.array3d(dtype=float), factor: wp.array3d(dtype=float),
+                       jac: wp.array3d(dtype=float), factor: wp.array2d(dtype=float),
                        minv_jt: wp.array3d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
                        row_type: wp.array2d(dtype=wp.int32)):
     """Responses M⁻¹Jᵀ and 1/(J M⁻¹ Jᵀ) of a contact's three rows r0 (normal), r0+1, r0+2
@@ -443,7 +443,7 @@ def build_contact_rows(m: ModelArrays, e: int, r0: int, sp: wp.vec4i,
 
 @wp.func
 def build_dof_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, kind: int,
-                  jac: wp.array3d(dtype=float), factor: wp.array3d(dtype=float),
+                  jac: wp.array3d(dtype=float), factor: wp.array2d(dtype=float),
                   minv_jt: wp.array3d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
                   row_type: wp.array2d(dtype=wp.int32), row_span: wp.array2d(dtype=wp.vec4i)):
     """Row r along one dof, J = sign·e_dof over its dof tree, as a `kind` row: its response and
@@ -457,7 +457,7 @@ def build_dof_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, kind: i
 
 @wp.func
 def _limit_row(m: ModelArrays, e: int, r: int, side: int, x: float, lim: wp.vec2, reach: float,
-               h: float, jac: wp.array3d(dtype=float), factor: wp.array3d(dtype=float),
+               h: float, jac: wp.array3d(dtype=float), factor: wp.array2d(dtype=float),
                minv_jt: wp.array3d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
                row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
                row_mu: wp.array2d(dtype=float), row_bounce: wp.array2d(dtype=float),

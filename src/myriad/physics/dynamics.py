@@ -7,12 +7,30 @@ The mass matrix has the branch-induced sparsity of the kinematic tree: entry (i,
 only if dof j is on the path from dof i to the world (`dof_parent` chain). The factorization
 M = Lᵀ D L and the solves below touch only those entries (Featherstone's LTDL, as MuJoCo's
 `mj_factorM`), so their cost is O(nv · depth²) instead of O(nv³).
+
+Storage: M and its factor are block-diagonal over dof trees (dofs of different trees never
+couple), so each env stores only the square block of each tree, one after another:
+entry (i, j) of the same tree sits at `dof_madr[i] + j` (`mass_matrix_layout`). 64 free boxes
+keep 64 blocks of 6×6 instead of a 384×384 matrix.
 """
 
+import numpy as np
 import warp as wp
 
 from .spatial import force_cross, inertia_about_point, inertia_times
 from .structs import EnvParams, ModelArrays
+
+
+def mass_matrix_layout(dof_tree_span: np.ndarray) -> tuple[np.ndarray, int]:
+    """(dof_madr [nv], size): entry (i, j) of M, i and j in the same dof tree [lo, hi), sits at
+    dof_madr[i] + j of a per-env array of `size` floats, the trees' square blocks in order."""
+    madr = np.zeros(len(dof_tree_span), np.int32)
+    size = 0
+    for i, (lo, hi) in enumerate(dof_tree_span):
+        if i == lo:                       # a tree starts: its block follows the last one
+            start, size = size, size + (hi - lo) ** 2
+        madr[i] = start + (i - lo) * (hi - lo) - lo
+    return madr, size
 
 
 @wp.kernel
@@ -22,7 +40,7 @@ def mass_matrix(m: ModelArrays, p: EnvParams, body_x: wp.array2d(dtype=wp.transf
                 # scratch: composite rigid-body inertia of each subtree
                 crb_m: wp.array2d(dtype=float), crb_h: wp.array2d(dtype=wp.vec3),
                 crb_i: wp.array2d(dtype=wp.mat33),
-                qm: wp.array3d(dtype=float)):
+                qm: wp.array2d(dtype=float)):
     e = wp.tid()
     for b in range(m.nbody):
         ref = wp.transform_get_translation(body_x[e, m.body_root[b]])
@@ -42,12 +60,13 @@ def mass_matrix(m: ModelArrays, p: EnvParams, body_x: wp.array2d(dtype=wp.transf
     for i in range(m.nv):
         b = m.dof_body[i]
         f = inertia_times(crb_m[e, b], crb_h[e, b], crb_i[e, b], cdof[e, i])
-        qm[e, i, i] = wp.dot(cdof[e, i], f) + p.dof_armature[e, i]
+        mi = m.dof_madr[i]
+        qm[e, mi + i] = wp.dot(cdof[e, i], f) + p.dof_armature[e, i]
         j = m.dof_parent[i]
         while j >= 0:
             mij = wp.dot(cdof[e, j], f)
-            qm[e, i, j] = mij
-            qm[e, j, i] = mij
+            qm[e, mi + j] = mij
+            qm[e, m.dof_madr[j] + i] = mij
             j = m.dof_parent[j]
 
 
@@ -113,8 +132,8 @@ def bias_forces(m: ModelArrays, p: EnvParams, body_x: wp.array2d(dtype=wp.transf
 
 
 @wp.func
-def factor_matrix(m: ModelArrays, e: int, qm: wp.array3d(dtype=float),
-                  implicit_diag: wp.array2d(dtype=float), factor: wp.array3d(dtype=float)):
+def factor_matrix(m: ModelArrays, e: int, qm: wp.array2d(dtype=float),
+                  implicit_diag: wp.array2d(dtype=float), factor: wp.array2d(dtype=float)):
     """factor <- Lᵀ D L of (M + diag(implicit_diag)), eliminating from the leaves up.
 
     `implicit_diag` holds the joint-space damping and stiffness of implicit terms (h·d + h²·k):
@@ -123,27 +142,30 @@ def factor_matrix(m: ModelArrays, e: int, qm: wp.array3d(dtype=float),
     """
     nv = m.nv
     for i in range(nv):
-        factor[e, i, i] = qm[e, i, i] + implicit_diag[e, i]
+        mi = m.dof_madr[i]
+        factor[e, mi + i] = qm[e, mi + i] + implicit_diag[e, i]
         j = m.dof_parent[i]
         while j >= 0:
-            factor[e, i, j] = qm[e, i, j]
+            factor[e, mi + j] = qm[e, mi + j]
             j = m.dof_parent[j]
     for kk in range(nv):
         k = nv - 1 - kk
-        dk = factor[e, k, k]
+        mk = m.dof_madr[k]
+        dk = factor[e, mk + k]
         i = m.dof_parent[k]
         while i >= 0:
-            lki = factor[e, k, i] / dk
+            lki = factor[e, mk + i] / dk
+            mi = m.dof_madr[i]
             j = i
             while j >= 0:
-                factor[e, i, j] = factor[e, i, j] - lki * factor[e, k, j]
+                factor[e, mi + j] = factor[e, mi + j] - lki * factor[e, mk + j]
                 j = m.dof_parent[j]
-            factor[e, k, i] = lki
+            factor[e, mk + i] = lki
             i = m.dof_parent[i]
 
 
 @wp.func
-def solve_span(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
+def solve_span(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
                x: wp.array3d(dtype=float), r: int, lo: int, hi: int, col: int):
     """x[e, r] <- (Lᵀ D L)⁻¹ x[e, r] over the dofs [lo, hi), a whole number of dof trees (the
     factor never couples two trees), walking only the ancestor chains. Dof lo sits in column
@@ -153,21 +175,23 @@ def solve_span(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
         k = hi - 1 - (kk - lo)
         xk = x[e, r, o + k]
         if xk != 0.0:      # a row's J is often zero off its bodies' ancestor chains
+            mk = m.dof_madr[k]
             j = m.dof_parent[k]
             while j >= 0:
-                x[e, r, o + j] = x[e, r, o + j] - factor[e, k, j] * xk
+                x[e, r, o + j] = x[e, r, o + j] - factor[e, mk + j] * xk
                 j = m.dof_parent[j]
     for k in range(lo, hi):
-        x[e, r, o + k] = x[e, r, o + k] / factor[e, k, k]
+        x[e, r, o + k] = x[e, r, o + k] / factor[e, m.dof_madr[k] + k]
     for k in range(lo, hi):
+        mk = m.dof_madr[k]
         j = m.dof_parent[k]
         while j >= 0:
-            x[e, r, o + k] = x[e, r, o + k] - factor[e, k, j] * x[e, r, o + j]
+            x[e, r, o + k] = x[e, r, o + k] - factor[e, mk + j] * x[e, r, o + j]
             j = m.dof_parent[j]
 
 
 @wp.func
-def solve_span3(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
+def solve_span3(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
                 x: wp.array3d(dtype=float), r: int, lo: int, hi: int, col: int):
     """`solve_span` of rows r, r+1, r+2 together (a contact's normal and friction rows): one
     walk of the ancestor chains and one read of the factor serve all three."""
@@ -176,23 +200,25 @@ def solve_span3(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
         k = hi - 1 - (kk - lo)
         xk = wp.vec3(x[e, r, o + k], x[e, r + 1, o + k], x[e, r + 2, o + k])
         if xk[0] != 0.0 or xk[1] != 0.0 or xk[2] != 0.0:
+            mk = m.dof_madr[k]
             j = m.dof_parent[k]
             while j >= 0:
-                f = factor[e, k, j]
+                f = factor[e, mk + j]
                 x[e, r, o + j] = x[e, r, o + j] - f * xk[0]
                 x[e, r + 1, o + j] = x[e, r + 1, o + j] - f * xk[1]
                 x[e, r + 2, o + j] = x[e, r + 2, o + j] - f * xk[2]
                 j = m.dof_parent[j]
     for k in range(lo, hi):
-        d = factor[e, k, k]
+        d = factor[e, m.dof_madr[k] + k]
         x[e, r, o + k] = x[e, r, o + k] / d
         x[e, r + 1, o + k] = x[e, r + 1, o + k] / d
         x[e, r + 2, o + k] = x[e, r + 2, o + k] / d
     for k in range(lo, hi):
         xk = wp.vec3(x[e, r, o + k], x[e, r + 1, o + k], x[e, r + 2, o + k])
+        mk = m.dof_madr[k]
         j = m.dof_parent[k]
         while j >= 0:
-            xk = xk - factor[e, k, j] * wp.vec3(x[e, r, o + j], x[e, r + 1, o + j],
+            xk = xk - factor[e, mk + j] * wp.vec3(x[e, r, o + j], x[e, r + 1, o + j],
                                                 x[e, r + 2, o + j])
             j = m.dof_parent[j]
         x[e, r, o + k] = xk[0]
@@ -201,16 +227,16 @@ def solve_span3(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
 
 
 @wp.func
-def solve_in_place(m: ModelArrays, e: int, factor: wp.array3d(dtype=float),
+def solve_in_place(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
                    x: wp.array3d(dtype=float), r: int):
     """x[e, r, :] <- (Lᵀ D L)⁻¹ x[e, r, :]."""
     solve_span(m, e, factor, x, r, 0, m.nv, 0)
 
 
 @wp.kernel
-def solve_acceleration(m: ModelArrays, qm: wp.array3d(dtype=float),
+def solve_acceleration(m: ModelArrays, qm: wp.array2d(dtype=float),
                        implicit_diag: wp.array2d(dtype=float), qfrc: wp.array2d(dtype=float),
-                       factor: wp.array3d(dtype=float), qacc: wp.array3d(dtype=float)):
+                       factor: wp.array2d(dtype=float), qacc: wp.array3d(dtype=float)):
     """Unconstrained qacc = (M + implicit_diag)⁻¹ qfrc (qacc viewed as [N, 1, nv])."""
     e = wp.tid()
     factor_matrix(m, e, qm, implicit_diag, factor)

@@ -176,6 +176,7 @@ def _model_arrays(model: Model, device) -> ModelArrays:
     dof_span, body_span = tree_spans(model)
     s.dof_tree_span = arr(dof_span, wp.vec2i)
     s.body_tree_span = arr(body_span, wp.vec2i)
+    s.dof_madr = arr(dynamics.mass_matrix_layout(dof_span)[0], i32)
     s.site_body = arr(model.site_body, i32)
     s.site_pos = arr(model.site_pos.reshape(-1, 3), wp.vec3)
     s.site_quat = arr(model.site_quat.reshape(-1, 4), wp.quat)
@@ -316,8 +317,17 @@ class Simulator:
         self._crb_m = zeros(N, m.nbody)
         self._crb_h = zeros(N, m.nbody, dtype=wp.vec3)
         self._crb_i = zeros(N, m.nbody, dtype=wp.mat33)
-        self._qm = zeros(N, m.nv, m.nv)
-        self._factor = zeros(N, m.nv, m.nv)
+        # the mass matrix and its factor: one square block per dof tree (`dynamics`)
+        dof_span = tree_spans(model)[0]
+        madr, msize = dynamics.mass_matrix_layout(dof_span)
+        self._qm = zeros(N, msize)
+        self._factor = zeros(N, msize)
+        # where the blocks' entries go in a dense [nv, nv] matrix (the `mass_matrix` property)
+        blocks = [(i, j) for i in range(m.nv) for j in range(*dof_span[i])]
+        self._qm_dense_at = torch.as_tensor(np.asarray(blocks, np.int64).reshape(-1, 2).T,
+                                            device=self.torch_device)
+        self._qm_block_at = torch.as_tensor(np.asarray([madr[i] + j for i, j in blocks], np.int64),
+                                            device=self.torch_device)
         self._bias = zeros(N, m.nv)
         self._qfrc = zeros(N, m.nv)
         self._qfrc_actuator = zeros(N, m.nv)
@@ -384,7 +394,7 @@ class Simulator:
         self._row_span = zeros(N, R, dtype=wp.vec4i)   # the dof ranges a row touches
         # J and M⁻¹Jᵀ of each row, over the dofs of its span only (`constraints`)
         tendon_dofs = [m.jnt_dofadr[m.wrap_jnt[a:a + k]] for a, k in zip(m.tendon_adr, m.tendon_num)]
-        self.row_width = constraints.row_width(tree_spans(model)[0], tendon_dofs)
+        self.row_width = constraints.row_width(dof_span, tendon_dofs)
         self._jac_rows = zeros(N, R, self.row_width)
         self._minv_jt = zeros(N, R, self.row_width)
         self._lam = zeros(N, R)
@@ -432,7 +442,6 @@ class Simulator:
         self.body_vel = t(self._body_vel)         # [N, nbody, 6] linear (of the body origin), angular; world
         self.body_com = t(self._body_com)         # [N, nbody, 3] centers of mass, world
         self.site_pose = t(self._site_x)          # [N, nsite, 7]
-        self.mass_matrix = t(self._qm)            # [N, nv, nv] with armature
         self.bias_force = t(self._bias)           # [N, nv] C(q, qd)·qd + g(q)
         self.qacc = t(self._qacc)                 # [N, nv] acceleration of the last substep
         self.dof_actuator_force = t(self._qfrc_actuator)  # [N, nv] generalized actuator force
@@ -641,6 +650,19 @@ class Simulator:
                           f"{int(self.contact_count.max())}); raise "
                           "SimParams(contacts_per_env=...)", RuntimeWarning, stacklevel=2)
         return over
+
+    @property
+    def mass_matrix(self) -> torch.Tensor:
+        """[N, nv, nv] joint-space mass matrix with armature, of the current kinematics.
+
+        A new dense tensor built from the stored blocks (one per dof tree) on each read: zero
+        between dofs of different trees.
+        """
+        n, nv = self.num_envs, self.model.nv
+        dense = torch.zeros(n, nv, nv, device=self.torch_device)
+        rows, cols = self._qm_dense_at
+        dense[:, rows, cols] = wp.to_torch(self._qm)[:, self._qm_block_at]
+        return dense
 
     @property
     def sensor_data(self) -> torch.Tensor:

@@ -42,6 +42,9 @@ class ModelArrays:
     # mass matrix is block-diagonal over these trees, so a row's response stays inside them
     dof_tree_span: wp.array(dtype=wp.vec2i)
     body_tree_span: wp.array(dtype=wp.vec2i)   # of the dofs that move a body; (0, 0) if none
+    # entry (i, j) of the mass matrix and its factor (i, j in one dof tree) sits at
+    # dof_madr[i] + j of an env's block-diagonal storage (`dynamics.mass_matrix_layout`)
+    dof_madr: wp.array(dtype=wp.int32)
 
     site_body: wp.array(dtype=wp.int32)
     site_pos: wp.array(dtype=wp.vec3)
