@@ -7,7 +7,7 @@ import torch
 
 import myriad
 from myriad.physics.collision import candidate_pairs
-from myriad.physics.model import GEOM_TYPES
+from myriad.physics.types import GeomType
 
 MARGIN = 0.02
 
@@ -78,7 +78,7 @@ def test_contacts_match_mujoco(seed, device):
         for key, theirs in expected.items():
             mine = sorted(ours[key], key=lambda c: c[0])
             theirs = sorted(theirs, key=lambda c: c[0])
-            kinds = tuple(GEOM_TYPES[t] for t in sorted(model.geom_type[list(key)]))
+            kinds = tuple(GeomType(t).name.lower() for t in sorted(model.geom_type[list(key)]))
             # exact closed forms: 1e-5 m and 1e-4 on the normal; clipped, searched or GJK
             # (iterative, float32): 5e-4 m and 6e-2 (a flat cap facing a flat face 2 cm away
             # leaves GJK's direction 0.05 off while its distance is good to 3e-5 m)
@@ -117,7 +117,7 @@ def test_mpr_depth_is_never_shallower_than_the_minimum_translation():
         expected = _mujoco_contacts(model)
         for k in range(int(sim.contact_count[0])):
             key = tuple(sorted(sim.contact_geom[0, k].tolist()))
-            kinds = tuple(GEOM_TYPES[t] for t in sorted(model.geom_type[list(key)]))
+            kinds = tuple(GeomType(t).name.lower() for t in sorted(model.geom_type[list(key)]))
             if "plane" in kinds or kinds in SAME_POINTS or kinds in (("box", "box"), ("capsule", "box")):
                 continue
             theirs = min(c[0] for c in expected[key])

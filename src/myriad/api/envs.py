@@ -26,7 +26,7 @@ import numpy as np
 import torch
 
 from ..physics import Model, SimParams, Simulator
-from ..physics.model import JOINT_FREE, JOINT_HINGE, JOINT_SLIDE
+from ..physics.types import JointType
 from ..torch_utils import quat_rotate, quat_rotate_inverse
 
 
@@ -45,7 +45,7 @@ class Envs:
         self.actor_root_body = [int(np.flatnonzero(body_actor == i)[0])
                                 for i in range(len(self.actors))]
         self.actor_fixed = [bool(a.fix_base) for a in self.actors]
-        dof_joints = [j for j in range(m.njnt) if m.jnt_type[j] in (JOINT_HINGE, JOINT_SLIDE)]
+        dof_joints = [j for j in range(m.njnt) if m.jnt_type[j] in (JointType.HINGE, JointType.SLIDE)]
         self.dof_names = [m.joint_names[j] for j in dof_joints]
         self.body_names = list(m.body_names)
         self.sensor_names = [m.site_names[s] for s in self.sim.sensor_sites]
@@ -64,7 +64,7 @@ class Envs:
         free_root = [i for i in range(self.num_actors) if not self.actor_fixed[i]]
         for i in free_root:
             b = self.actor_root_body[i]
-            if m.body_jntnum[b] != 1 or m.jnt_type[m.body_jntadr[b]] != JOINT_FREE:
+            if m.body_jntnum[b] != 1 or m.jnt_type[m.body_jntadr[b]] != JointType.FREE:
                 raise ValueError(f"actor {self.actor_names[i]!r}: a free base needs its root body "
                                  "to have exactly one joint, a free joint")
         self._free_actors = torch.as_tensor(free_root, **long)

@@ -24,13 +24,8 @@ import warp as wp
 from .dynamics import solve_span, solve_span3
 from .spatial import velocity_at
 from .structs import EnvParams, ModelArrays
+from .types import DOF, FRICTION, FRICTION2, INACTIVE, NORMAL, SOFT
 
-INACTIVE = wp.constant(-1)
-NORMAL = wp.constant(0)      # unilateral: J v >= target, impulse >= 0 (contacts and limits)
-FRICTION = wp.constant(1)    # first of a contact's two friction rows: solved as a 2D disk
-FRICTION2 = wp.constant(2)   # second friction row (handled with the first)
-SOFT = wp.constant(3)        # implicit spring-damper along J (fixed tendons): force, not constraint
-DOF = wp.constant(4)         # a dof's dry friction (|impulse| <= frictionloss·h) and speed cap
 
 @wp.struct
 class RowLayout:

@@ -20,14 +20,10 @@ other envs are untouched (every kernel is per env).
 
 import warp as wp
 
-from . import model as M
+from .types import HINGE, MOTOR, POSITION, SLIDE
 from .spatial import row_finite
 from .structs import EnvParams, ModelArrays
 
-HINGE = wp.constant(M.JOINT_HINGE)
-SLIDE = wp.constant(M.JOINT_SLIDE)
-MOTOR = wp.constant(M.ACTUATOR_MOTOR)
-POSITION = wp.constant(M.ACTUATOR_POSITION)
 
 
 @wp.kernel

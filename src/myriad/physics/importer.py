@@ -20,8 +20,8 @@ import xml.parsers.expat
 import mujoco
 import numpy as np
 
-from .model import (ACTUATOR_MOTOR, ACTUATOR_POSITION, ACTUATOR_VELOCITY, JOINT_BALL, JOINT_FREE,
-                    JOINT_HINGE, JOINT_SLIDE, Model, ModelError)
+from .model import Model, ModelError
+from .types import ActuatorKind, JointType
 
 
 def load(path: str | os.PathLike) -> Model:
@@ -255,7 +255,7 @@ def _check_supported(m, source: str) -> None:
             fail(f"{_label(m, o.mjOBJ_BODY, b, 'body')}: gravcomp is not supported")
     for j in range(m.njnt):
         label = _label(m, o.mjOBJ_JOINT, j, "joint")
-        if m.jnt_type[j] in (JOINT_FREE, JOINT_BALL) and m.jnt_stiffness[j] != 0:
+        if m.jnt_type[j] in (JointType.FREE, JointType.BALL) and m.jnt_stiffness[j] != 0:
             fail(f"{label}: stiffness on free and ball joints is not supported")
         if np.any(m.jnt_stiffnesspoly[j] != 0):
             fail(f"{label}: polynomial stiffness is not supported")
@@ -267,7 +267,7 @@ def _check_supported(m, source: str) -> None:
         if np.any(m.wrap_type[adr:adr + num] != mujoco.mjtWrap.mjWRAP_JOINT):
             fail(f"{label}: spatial tendons are not supported (fixed tendons only)")
         for w in range(adr, adr + num):
-            if m.jnt_type[m.wrap_objid[w]] not in (JOINT_HINGE, JOINT_SLIDE):
+            if m.jnt_type[m.wrap_objid[w]] not in (JointType.HINGE, JointType.SLIDE):
                 fail(f"{label}: a fixed tendon may only span hinge and slide joints")
         if m.tendon_armature[t] != 0 or np.any(m.tendon_stiffnesspoly[t] != 0) \
                 or np.any(m.tendon_dampingpoly[t] != 0):
@@ -278,7 +278,7 @@ def _check_supported(m, source: str) -> None:
         label = _label(m, o.mjOBJ_ACTUATOR, a, "actuator")
         if m.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
             fail(f"{label}: only joint transmissions are supported")
-        if m.jnt_type[m.actuator_trnid[a, 0]] not in (JOINT_HINGE, JOINT_SLIDE):
+        if m.jnt_type[m.actuator_trnid[a, 0]] not in (JointType.HINGE, JointType.SLIDE):
             fail(f"{label}: actuators may only drive hinge and slide joints")
         if m.actuator_dyntype[a] != mujoco.mjtDyn.mjDYN_NONE:
             fail(f"{label}: actuator dynamics (dyntype) are not supported")
@@ -303,12 +303,12 @@ def _actuator_kind(m, a: int, fail) -> int:
     if m.actuator_gaintype[a] != mujoco.mjtGain.mjGAIN_FIXED:
         fail(f"{label}: only fixed gains are supported")
     if m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE:
-        return ACTUATOR_MOTOR
+        return ActuatorKind.MOTOR
     if m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE and bias[0] == 0:
         if np.isclose(bias[1], -gain[0]) and bias[1] != 0:
-            return ACTUATOR_POSITION  # force = kp*(ctrl - length) - kv*velocity
+            return ActuatorKind.POSITION  # force = kp*(ctrl - length) - kv*velocity
         if bias[1] == 0 and np.isclose(bias[2], -gain[0]):
-            return ACTUATOR_VELOCITY  # force = kv*(ctrl - velocity)
+            return ActuatorKind.VELOCITY  # force = kv*(ctrl - velocity)
     fail(f"{label}: a general actuator that is not a motor, position or velocity actuator is "
          "not supported")
     return -1
@@ -360,16 +360,16 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
     qpos_spring = m.qpos_spring.astype(np.float32)
     jnt_springref = np.zeros(m.njnt, np.float32)
     for j in range(m.njnt):
-        if m.jnt_type[j] in (JOINT_HINGE, JOINT_SLIDE):
+        if m.jnt_type[j] in (JointType.HINGE, JointType.SLIDE):
             jnt_springref[j] = qpos_spring[m.jnt_qposadr[j]]
 
     nu = m.nu
     kind = np.array([_actuator_kind(m, a, None) for a in range(nu)], np.int32)
     gear = m.actuator_gear[:, 0] if nu else np.zeros(0)
-    gain = np.where(kind == ACTUATOR_MOTOR, m.actuator_gainprm[:, 0], 0.0) if nu else np.zeros(0)
-    kp = np.where(kind == ACTUATOR_POSITION, m.actuator_gainprm[:, 0], 0.0) if nu else np.zeros(0)
-    kv = (np.where(kind == ACTUATOR_POSITION, -m.actuator_biasprm[:, 2], 0.0)
-          + np.where(kind == ACTUATOR_VELOCITY, m.actuator_gainprm[:, 0], 0.0)) if nu else np.zeros(0)
+    gain = np.where(kind == ActuatorKind.MOTOR, m.actuator_gainprm[:, 0], 0.0) if nu else np.zeros(0)
+    kp = np.where(kind == ActuatorKind.POSITION, m.actuator_gainprm[:, 0], 0.0) if nu else np.zeros(0)
+    kv = (np.where(kind == ActuatorKind.POSITION, -m.actuator_biasprm[:, 2], 0.0)
+          + np.where(kind == ActuatorKind.VELOCITY, m.actuator_gainprm[:, 0], 0.0)) if nu else np.zeros(0)
     actuator_dof = _i32(m.jnt_dofadr[m.actuator_trnid[:, 0]]) if nu else np.zeros(0, np.int32)
 
     hull_face, hull_faceadr, hull_facenum = _mesh_hulls(m, source)
@@ -442,8 +442,8 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
 def _qpos_xyzw(m, qpos: np.ndarray) -> np.ndarray:
     out = qpos.copy()
     for j in range(m.njnt):
-        if m.jnt_type[j] in (JOINT_FREE, JOINT_BALL):
-            a = m.jnt_qposadr[j] + (3 if m.jnt_type[j] == JOINT_FREE else 0)
+        if m.jnt_type[j] in (JointType.FREE, JointType.BALL):
+            a = m.jnt_qposadr[j] + (3 if m.jnt_type[j] == JointType.FREE else 0)
             out[a:a + 4] = qpos[[a + 1, a + 2, a + 3, a]]
     return out
 

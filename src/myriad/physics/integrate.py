@@ -11,12 +11,10 @@ an env whose state is no longer finite is flagged in `nonfinite`.
 
 import warp as wp
 
-from . import model as M
+from .types import BALL, FREE
 from .spatial import quat_integrate, row_finite
 from .structs import ModelArrays
 
-FREE = wp.constant(M.JOINT_FREE)
-BALL = wp.constant(M.JOINT_BALL)
 
 
 @wp.kernel

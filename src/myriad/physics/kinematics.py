@@ -8,14 +8,10 @@ point), its time derivative `cdof_dot`, and body velocities, as `mj_comVel` does
 
 import warp as wp
 
-from . import model as M
+from .types import BALL, FREE, HINGE, SLIDE
 from .spatial import motion_cross, velocity_at
 from .structs import ModelArrays
 
-FREE = wp.constant(M.JOINT_FREE)
-BALL = wp.constant(M.JOINT_BALL)
-SLIDE = wp.constant(M.JOINT_SLIDE)
-HINGE = wp.constant(M.JOINT_HINGE)
 
 
 @wp.func

@@ -15,22 +15,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .types import JointType
+
 
 class ModelError(ValueError):
     """A model file MuJoCo rejects, or a feature Myriad does not support (yet)."""
-
-
-# joint types: MuJoCo's mjtJoint values
-JOINT_FREE, JOINT_BALL, JOINT_SLIDE, JOINT_HINGE = 0, 1, 2, 3
-JOINT_QPOS_SIZE = {JOINT_FREE: 7, JOINT_BALL: 4, JOINT_SLIDE: 1, JOINT_HINGE: 1}
-JOINT_DOF_SIZE = {JOINT_FREE: 6, JOINT_BALL: 3, JOINT_SLIDE: 1, JOINT_HINGE: 1}
-
-# actuator kinds (MuJoCo's motor / position / velocity shortcuts)
-ACTUATOR_MOTOR, ACTUATOR_POSITION, ACTUATOR_VELOCITY = 0, 1, 2
-
-# geom types: MuJoCo's mjtGeom values
-GEOM_TYPES = {0: "plane", 1: "hfield", 2: "sphere", 3: "capsule", 4: "ellipsoid", 5: "cylinder",
-              6: "box", 7: "mesh"}
 
 
 @dataclass
@@ -70,7 +59,7 @@ class Model:
     body_last_dof: np.ndarray        # [nbody] last dof moving this body (own or an ancestor's), -1 if none
 
     # joints
-    jnt_type: np.ndarray             # [njnt] JOINT_*
+    jnt_type: np.ndarray             # [njnt] types.JointType
     jnt_body: np.ndarray             # [njnt]
     jnt_qposadr: np.ndarray          # [njnt]
     jnt_dofadr: np.ndarray           # [njnt]
@@ -125,7 +114,7 @@ class Model:
     site_quat: np.ndarray            # [nsite, 4] xyzw
 
     # actuators (joint transmission)
-    actuator_kind: np.ndarray        # [nu] ACTUATOR_*
+    actuator_kind: np.ndarray        # [nu] types.ActuatorKind
     actuator_dof: np.ndarray         # [nu] the dof the actuator drives
     actuator_gear: np.ndarray        # [nu]
     actuator_gain: np.ndarray        # [nu] motor: force per unit ctrl
@@ -164,8 +153,8 @@ class Model:
     @property
     def quat_qpos_adr(self) -> np.ndarray:
         """qpos address of every quaternion (ball joints and the rotation of free joints)."""
-        adr = [a + (3 if t == JOINT_FREE else 0)
-               for t, a in zip(self.jnt_type, self.jnt_qposadr) if t in (JOINT_FREE, JOINT_BALL)]
+        adr = [a + (3 if t == JointType.FREE else 0) for t, a in zip(self.jnt_type, self.jnt_qposadr)
+               if t in (JointType.FREE, JointType.BALL)]
         return np.asarray(adr, dtype=np.int64)
 
     def _qpos_permutation(self, to_mujoco: bool) -> np.ndarray:

@@ -25,8 +25,8 @@ targets a separation speed of e times its approach speed.
 
 import warp as wp
 
-from .constraints import (DOF, FRICTION, INACTIVE, NORMAL, SOFT, RowLayout, _row_dot,
-                          build_contact_rows, build_dof_row)
+from .constraints import RowLayout, _row_dot, build_contact_rows, build_dof_row
+from .types import DOF, FRICTION, INACTIVE, NORMAL, SOFT
 from .structs import ModelArrays
 
 # fraction of the last substep's impulse a contact or limit row starts from: below 1 so that

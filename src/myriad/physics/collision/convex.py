@@ -12,12 +12,7 @@ and B that the portal's barycentric weights pick, and their midpoint.
 
 import warp as wp
 
-SPHERE = wp.constant(2)
-CAPSULE = wp.constant(3)
-ELLIPSOID = wp.constant(4)
-CYLINDER = wp.constant(5)
-BOX = wp.constant(6)
-MESH = wp.constant(7)
+from ..types import BOX, CAPSULE, CYLINDER, ELLIPSOID, SPHERE
 
 MPR_ITERATIONS = wp.constant(48)
 

@@ -9,7 +9,8 @@ legged robots; it is exact on a triangle's face and approximates where a shape s
 
 import warp as wp
 
-from .convex import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, Meshes, box_corner, support
+from ..types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
+from .convex import Meshes, box_corner, support
 
 
 @wp.struct

@@ -12,12 +12,10 @@ from __future__ import annotations
 
 import warp as wp
 
-from .convex import (BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, Meshes, bounding_radius,
-                     box_corner, convex_contact, support)
+from ..types import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPHERE
+from .convex import Meshes, bounding_radius, box_corner, convex_contact, support
 from .heightfield import HFields, ellipsoid_probe, probe_point, surface
 
-PLANE = wp.constant(0)
-HFIELD = wp.constant(1)
 
 # probes per shape against a height field (see heightfield.probe_point); meshes: at most this many
 # of their vertices (the hull's vertices come first in MuJoCo's mesh data)

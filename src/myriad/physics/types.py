@@ -1,0 +1,75 @@
+"""The engine's enumerations, in one place: host code uses the enums, kernels the constants.
+
+Joint and geom values are MuJoCo's (`mjtJoint`, `mjtGeom`), so a compiled MuJoCo model's arrays
+are read as they are.
+"""
+
+from enum import IntEnum
+
+import warp as wp
+
+
+class JointType(IntEnum):
+    FREE = 0     # 7 qpos (position, quaternion xyzw), 6 dofs (linear, angular)
+    BALL = 1     # 4 qpos (quaternion xyzw), 3 dofs
+    SLIDE = 2    # 1 qpos, 1 dof, along the axis (m)
+    HINGE = 3    # 1 qpos, 1 dof, about the axis (rad)
+
+
+JOINT_QPOS_SIZE = {JointType.FREE: 7, JointType.BALL: 4, JointType.SLIDE: 1, JointType.HINGE: 1}
+JOINT_DOF_SIZE = {JointType.FREE: 6, JointType.BALL: 3, JointType.SLIDE: 1, JointType.HINGE: 1}
+
+
+class ActuatorKind(IntEnum):
+    """MuJoCo's motor / position / velocity shortcuts, the kinds Myriad supports."""
+    MOTOR = 0      # force = gear · gain · ctrl
+    POSITION = 1   # force = kp·(ctrl − q) − kv·qd, implicit in the step
+    VELOCITY = 2   # force = kv·(ctrl − qd), implicit in the step
+
+
+class GeomType(IntEnum):
+    PLANE = 0
+    HFIELD = 1
+    SPHERE = 2
+    CAPSULE = 3
+    ELLIPSOID = 4
+    CYLINDER = 5
+    BOX = 6
+    MESH = 7     # the convex hull of the mesh's vertices
+
+
+class RowType(IntEnum):
+    """Kind of a constraint row (`constraints`)."""
+    INACTIVE = -1  # not in use this substep: skipped
+    NORMAL = 0     # unilateral: J v >= target, impulse >= 0 (contacts and limits)
+    FRICTION = 1   # first of a contact's two friction rows: solved as a 2D disk
+    FRICTION2 = 2  # second friction row (handled with the first)
+    SOFT = 3       # implicit spring-damper along J (fixed tendons): force, not constraint
+    DOF = 4        # a dof's dry friction (|impulse| <= frictionloss·h) and speed cap
+
+
+# the same values as kernel constants
+FREE = wp.constant(int(JointType.FREE))
+BALL = wp.constant(int(JointType.BALL))
+SLIDE = wp.constant(int(JointType.SLIDE))
+HINGE = wp.constant(int(JointType.HINGE))
+
+MOTOR = wp.constant(int(ActuatorKind.MOTOR))
+POSITION = wp.constant(int(ActuatorKind.POSITION))
+VELOCITY = wp.constant(int(ActuatorKind.VELOCITY))
+
+PLANE = wp.constant(int(GeomType.PLANE))
+HFIELD = wp.constant(int(GeomType.HFIELD))
+SPHERE = wp.constant(int(GeomType.SPHERE))
+CAPSULE = wp.constant(int(GeomType.CAPSULE))
+ELLIPSOID = wp.constant(int(GeomType.ELLIPSOID))
+CYLINDER = wp.constant(int(GeomType.CYLINDER))
+BOX = wp.constant(int(GeomType.BOX))
+MESH = wp.constant(int(GeomType.MESH))
+
+INACTIVE = wp.constant(int(RowType.INACTIVE))
+NORMAL = wp.constant(int(RowType.NORMAL))
+FRICTION = wp.constant(int(RowType.FRICTION))
+FRICTION2 = wp.constant(int(RowType.FRICTION2))
+SOFT = wp.constant(int(RowType.SOFT))
+DOF = wp.constant(int(RowType.DOF))
