@@ -26,7 +26,6 @@ import torch
 import warp as wp
 
 import myriad
-from myriad.physics.structs import EnvParams
 
 
 def myriad_rate(model, num_envs: int, device: str, min_seconds: float) -> float:
@@ -79,7 +78,7 @@ def memory_per_env(model, device: str) -> float:
     def total(n):
         sim = myriad.Simulator(model, num_envs=n, device=device)
         arrays = [v for v in vars(sim).values() if isinstance(v, wp.array)]
-        arrays += [getattr(sim._p, f) for f in EnvParams.vars]
+        arrays += [getattr(s, f) for struct, s in sim._structs.items() for f in struct.fields]
         return sum(a.capacity for a in arrays)
     return total(2) - total(1)
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 import warp as wp
 
 import myriad
-from myriad.physics.structs import EnvParams
 
 
 def hand_and_cube_xml() -> str:
@@ -37,8 +36,7 @@ def memory_per_env(model, params, device="cpu") -> int:
     def total(n):
         sim = myriad.Simulator(model, num_envs=n, device=device, params=params)
         arrays = [v for v in vars(sim).values() if isinstance(v, wp.array)]
-        arrays += [getattr(sim._p, f) for f in EnvParams.vars]
-        arrays += [getattr(sim._contacts, f) for f in ("count", "geom", "pos", "normal", "dist", "key")]
+        arrays += [getattr(s, f) for struct, s in sim._structs.items() for f in struct.fields]
         return sum(a.capacity for a in arrays)
     return total(2) - total(1)
 

@@ -3,7 +3,8 @@
 from .kernels import configure_modules
 from .importer import from_mujoco, load, load_xml
 from .model import Model, ModelError
-from .simulator import SimParams, Simulator
+from .params import SimParams
+from .simulator import Simulator
 
 __all__ = ["Model", "ModelError", "SimParams", "Simulator", "from_mujoco", "load", "load_xml"]
 

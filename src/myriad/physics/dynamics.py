@@ -10,27 +10,14 @@ M = Lᵀ D L and the solves below touch only those entries (Featherstone's LTDL,
 
 Storage: M and its factor are block-diagonal over dof trees (dofs of different trees never
 couple), so each env stores only the square block of each tree, one after another:
-entry (i, j) of the same tree sits at `dof_madr[i] + j` (`mass_matrix_layout`). 64 free boxes
+entry (i, j) of the same tree sits at `dof_madr[i] + j` (`structs.mass_matrix_layout`). 64 free boxes
 keep 64 blocks of 6×6 instead of a 384×384 matrix.
 """
 
-import numpy as np
 import warp as wp
 
 from .spatial import force_cross, inertia_about_point, inertia_times
 from .structs import EnvParams, ModelArrays
-
-
-def mass_matrix_layout(dof_tree_span: np.ndarray) -> tuple[np.ndarray, int]:
-    """(dof_madr [nv], size): entry (i, j) of M, i and j in the same dof tree [lo, hi), sits at
-    dof_madr[i] + j of a per-env array of `size` floats, the trees' square blocks in order."""
-    madr = np.zeros(len(dof_tree_span), np.int32)
-    size = 0
-    for i, (lo, hi) in enumerate(dof_tree_span):
-        if i == lo:                       # a tree starts: its block follows the last one
-            start, size = size, size + (hi - lo) ** 2
-        madr[i] = start + (i - lo) * (hi - lo) - lo
-    return madr, size
 
 
 @wp.kernel

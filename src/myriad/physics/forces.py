@@ -79,7 +79,7 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
         if t == HINGE or t == SLIDE:
             a = m.jnt_qposadr[j]
             i = m.jnt_dofadr[j]
-            k = p.jnt_stiffness[e, j]
+            k = p.joint_stiffness[e, j]
             qfrc[e, i] = qfrc[e, i] - k * (q[e, a] - m.jnt_springref[j])
             # effort limit on the joint's total actuator force (URDF effort, MJCF actuatorfrcrange)
             if m.jnt_actfrclimited[j] != 0:

@@ -1,11 +1,86 @@
-"""Device-side bundles of arrays handed to the kernels.
+"""The engine's data, declared once: what each array holds, its shape and units.
 
-`ModelArrays` holds the structure shared by all envs (the tree, joint types, frames); `EnvParams`
-holds every quantity that may differ between envs, each with a leading env dimension. Both are
-built once by the `Simulator`.
+`ModelArrays` is the structure shared by all envs (the tree, joint types, frames), built from
+the `Model` on the host. Everything else has one entry per env, a leading dimension of
+`num_envs`, and is declared below as a field of one of six structs:
+
+| struct      | holds                                                        | who writes it        |
+|-------------|--------------------------------------------------------------|----------------------|
+| `EnvParams` | physical parameters each env may have its own of            | user, randomization  |
+| `State`     | q, qd and what kinematics derives from them                  | the step             |
+| `Control`   | actuator inputs, applied joint forces and body wrenches      | user, task           |
+| `Dynamics`  | mass matrix, its factor, bias and generalized forces         | the step             |
+| `Contacts`  | the contacts found in each env's slots and their forces      | collision, solver    |
+| `Rows`      | constraint rows: Jacobians, responses, bounds, impulses      | constraints, solver  |
+
+A field is declared as `name = per_env(*dims, dtype=..., doc=..., public=...)`: `dims` are the
+sizes after the env dimension, named after the `Simulator`'s sizes (`"nv"`, `"nbody"`, ...).
+`allocate` makes every field of a struct in one loop, `shard` gives the struct restricted to a
+range of envs (a CPU thread's share), and a field with a `public` name is the `Simulator`
+attribute of that name: a zero-copy torch view, writable where `writable`. A field added to a
+declaration is allocated, sharded and (if public) exposed without another line of code.
 """
 
+from typing import NamedTuple
+
+import numpy as np
 import warp as wp
+
+
+class Field(NamedTuple):
+    dims: tuple               # sizes after the env dimension: names of Simulator sizes, or ints
+    dtype: object             # Warp type of one element
+    doc: str                  # meaning, units
+    public: str | None        # name of the Simulator's torch view of it; None: internal
+    writable: bool            # the view may be assigned (sim.q = ...)
+
+
+def per_env(*dims, dtype=wp.float32, doc: str = "", public: str | None = None,
+            writable: bool = False) -> Field:
+    return Field(dims, dtype, doc, public, writable)
+
+
+def declared(cls):
+    """A wp.struct of per-env arrays from a class of `name = per_env(...)` fields; the
+    declarations stay on it as `.fields`, in order."""
+    fields = {name: f for name, f in vars(cls).items() if isinstance(f, Field)}
+    arrays = type(cls.__name__, (), {
+        "__doc__": cls.__doc__, "__module__": cls.__module__, "__qualname__": cls.__qualname__,
+        "__annotations__": {name: wp.array(dtype=f.dtype, ndim=1 + len(f.dims))
+                            for name, f in fields.items()}})
+    struct = wp.struct(arrays)
+    struct.fields = fields
+    return struct
+
+
+def field_shape(f: Field, num_envs: int, sizes: dict) -> tuple:
+    return (num_envs,) + tuple(sizes[d] if isinstance(d, str) else d for d in f.dims)
+
+
+def allocate(struct, num_envs: int, sizes: dict, device, values: dict | None = None):
+    """An instance of `struct` with every field allocated: zeros, or the per-env copy of
+    values[name] (one env's value, broadcast to all)."""
+    out = struct()
+    for name, f in struct.fields.items():
+        shape = field_shape(f, num_envs, sizes)
+        if values is not None and name in values:
+            one = np.asarray(values[name], np.float32)
+            assert one.shape[:len(shape) - 1] == shape[1:], (name, one.shape, shape)
+            array = wp.array(np.ascontiguousarray(np.broadcast_to(one, (num_envs,) + one.shape)),
+                             dtype=f.dtype, device=device)
+        else:
+            array = wp.zeros(shape, dtype=f.dtype, device=device)
+        setattr(out, name, array)
+    return out
+
+
+def shard(struct, whole, lo: int, hi: int):
+    """`whole` restricted to envs [lo, hi): every field a view of its rows, no copy."""
+    part = struct()
+    for name in struct.fields:
+        array = getattr(whole, name)
+        setattr(part, name, array[lo:hi] if array.size else array)  # empty: nothing to read
+    return part
 
 
 @wp.struct
@@ -43,7 +118,7 @@ class ModelArrays:
     dof_tree_span: wp.array(dtype=wp.vec2i)
     body_tree_span: wp.array(dtype=wp.vec2i)   # of the dofs that move a body; (0, 0) if none
     # entry (i, j) of the mass matrix and its factor (i, j in one dof tree) sits at
-    # dof_madr[i] + j of an env's block-diagonal storage (`dynamics.mass_matrix_layout`)
+    # dof_madr[i] + j of an env's block-diagonal storage (`mass_matrix_layout`)
     dof_madr: wp.array(dtype=wp.int32)
 
     site_body: wp.array(dtype=wp.int32)
@@ -66,21 +141,214 @@ class ModelArrays:
     tendon_limited: wp.array(dtype=wp.int32)
 
 
-@wp.struct
+def tree_spans(model) -> tuple[np.ndarray, np.ndarray]:
+    """[lo, hi) of the dof tree of each dof [nv, 2] and of each body's moving dofs [nbody, 2].
+
+    A dof tree is a top dof (no parent dof) with all its descendants: in MuJoCo's depth-first
+    order its dofs are contiguous, and dofs of different trees never couple in the mass matrix.
+    """
+    top = np.arange(model.nv)
+    for i in range(model.nv):                      # parents come first in MuJoCo's order
+        if model.dof_parent[i] >= 0:
+            top[i] = top[model.dof_parent[i]]
+    dof_span = np.zeros((model.nv, 2), np.int32)
+    for t in np.unique(top):
+        members = np.flatnonzero(top == t)
+        assert members[-1] - members[0] + 1 == len(members), "a dof tree is not contiguous"
+        dof_span[members] = (members[0], members[-1] + 1)
+    body_span = np.zeros((model.nbody, 2), np.int32)
+    moved = model.body_last_dof >= 0
+    body_span[moved] = dof_span[model.body_last_dof[moved]]
+    return dof_span, body_span
+
+
+def mass_matrix_layout(dof_tree_span: np.ndarray) -> tuple[np.ndarray, int]:
+    """(dof_madr [nv], size): entry (i, j) of M, i and j in the same dof tree [lo, hi), sits at
+    dof_madr[i] + j of a per-env array of `size` floats, the trees' square blocks in order."""
+    madr = np.zeros(len(dof_tree_span), np.int32)
+    size = 0
+    for i, (lo, hi) in enumerate(dof_tree_span):
+        if i == lo:                       # a tree starts: its block follows the last one
+            start, size = size, size + (hi - lo) ** 2
+        madr[i] = start + (i - lo) * (hi - lo) - lo
+    return madr, size
+
+
+def model_arrays(model, device) -> ModelArrays:
+    """`model` on the device: each field of ModelArrays is the Model's attribute of the same
+    name, except the few derived here."""
+    dof_span, body_span = tree_spans(model)
+    derived = dict(dof_tree_span=dof_span, body_tree_span=body_span,
+                   dof_madr=mass_matrix_layout(dof_span)[0],
+                   actuator_qposadr=model.jnt_qposadr[model.dof_jnt[model.actuator_dof]])
+    out = ModelArrays()
+    for name, var in ModelArrays.vars.items():
+        value = derived[name] if name in derived else getattr(model, name)
+        if not isinstance(var.type, wp.array):       # a size
+            setattr(out, name, int(value))
+            continue
+        dtype = var.type.dtype
+        scalar = getattr(dtype, "_wp_scalar_type_", dtype)       # of a vector type, or itself
+        value = np.ascontiguousarray(value, {wp.float32: np.float32, wp.int32: np.int32}[scalar])
+        if scalar is not dtype:
+            value = value.reshape(-1, dtype._length_)
+        setattr(out, name, wp.array(value, dtype=dtype, device=device))
+    return out
+
+
+# ---------------------------------------------------------------------------------- per env
+@declared
 class EnvParams:
-    body_mass: wp.array2d(dtype=float)
-    body_inertia: wp.array2d(dtype=wp.vec3)
-    jnt_stiffness: wp.array2d(dtype=float)
-    dof_damping: wp.array2d(dtype=float)
-    dof_armature: wp.array2d(dtype=float)
-    actuator_gear: wp.array2d(dtype=float)
-    actuator_gain: wp.array2d(dtype=float)
-    actuator_kp: wp.array2d(dtype=float)
-    actuator_kv: wp.array2d(dtype=float)
-    tendon_stiffness: wp.array2d(dtype=float)
-    tendon_damping: wp.array2d(dtype=float)
-    tendon_limit_stiffness: wp.array2d(dtype=float)
-    tendon_rest_length: wp.array2d(dtype=float)
-    tendon_offset: wp.array2d(dtype=float)
-    tendon_range: wp.array2d(dtype=wp.vec2)
-    gravity: wp.array(dtype=wp.vec3)
+    """Physical parameters of each env, initialized from the model; domain randomization and
+    users write them between steps."""
+    body_mass = per_env("nbody", doc="mass (kg)", public="body_mass", writable=True)
+    body_inertia = per_env("nbody", dtype=wp.vec3, doc="principal moments of inertia about the "
+                          "center of mass (kg·m²)", public="body_inertia", writable=True)
+    geom_friction = per_env("ngeom", doc="sliding friction coefficient; a contact uses its two "
+                           "geoms' average", public="geom_friction", writable=True)
+    geom_restitution = per_env("ngeom", doc="restitution coefficient; a contact uses the two "
+                              "geoms' average", public="geom_restitution", writable=True)
+    geom_size = per_env("ngeom", dtype=wp.vec3, doc="MuJoCo's size parameters (m), primitives",
+                       public="geom_size", writable=True)
+    geom_pos = per_env("ngeom", dtype=wp.vec3, doc="position in the body frame (m)",
+                      public="geom_pos", writable=True)
+    site_pos = per_env("nsite", dtype=wp.vec3, doc="position in the body frame (m)")
+    joint_stiffness = per_env("njnt", doc="spring stiffness toward the spring reference "
+                             "(N·m/rad or N/m)", public="joint_stiffness", writable=True)
+    joint_range = per_env("njnt", dtype=wp.vec2, doc="lower, upper limit (rad or m) of a "
+                         "limited joint", public="joint_range", writable=True)
+    dof_damping = per_env("nv", doc="viscous damping (N·m·s/rad or N·s/m)", public="dof_damping",
+                         writable=True)
+    dof_armature = per_env("nv", doc="rotor inertia added to the mass matrix diagonal",
+                          public="dof_armature", writable=True)
+    dof_frictionloss = per_env("nv", doc="joint (dry) friction, force or torque",
+                              public="dof_frictionloss", writable=True)
+    dof_max_velocity = per_env("nv", doc="maximum joint speed (rad/s or m/s)",
+                              public="dof_max_velocity", writable=True)
+    actuator_gear = per_env("nu", doc="transmission ratio", public="actuator_gear", writable=True)
+    actuator_gain = per_env("nu", doc="motors: force per unit ctrl", public="actuator_gain",
+                           writable=True)
+    actuator_kp = per_env("nu", doc="position actuators: stiffness", public="actuator_kp",
+                         writable=True)
+    actuator_kv = per_env("nu", doc="position and velocity actuators: damping",
+                         public="actuator_kv", writable=True)
+    tendon_stiffness = per_env("ntendon", doc="spring stiffness along the tendon length",
+                              public="tendon_stiffness", writable=True)
+    tendon_damping = per_env("ntendon", doc="damping along the tendon length",
+                            public="tendon_damping", writable=True)
+    tendon_range = per_env("ntendon", dtype=wp.vec2, doc="lower, upper length limits",
+                          public="tendon_range", writable=True)
+    tendon_limit_stiffness = per_env("ntendon", doc="0: hard length limits; > 0: a limit spring",
+                                    public="tendon_limit_stiffness", writable=True)
+    tendon_rest_length = per_env("ntendon", doc="spring rest length", public="tendon_rest_length",
+                                writable=True)
+    tendon_offset = per_env("ntendon", doc="length at q = 0", public="tendon_offset",
+                           writable=True)
+    gravity = per_env(dtype=wp.vec3, doc="gravitational acceleration, world (m/s²)",
+                     public="gravity", writable=True)
+
+
+@declared
+class State:
+    """The generalized state and what kinematics derives from it. World frame unless noted;
+    the motion subspaces `c*` are taken at each tree's root (see `spatial`)."""
+    q = per_env("nq", doc="generalized positions (free and ball joints: quaternions xyzw)",
+               public="q", writable=True)
+    qd = per_env("nv", doc="generalized velocities", public="qd", writable=True)
+    qacc = per_env("nv", doc="unconstrained acceleration of the last substep", public="qacc")
+    qd_before = per_env("nv", doc="qd at the start of the last substep")
+    dq = per_env("nv", doc="the solver's displacement of the substep, integrated into q")
+    body_x = per_env("nbody", dtype=wp.transform, doc="pose of the body frame: position, "
+                    "quaternion xyzw", public="body_pose")
+    body_com = per_env("nbody", dtype=wp.vec3, doc="center of mass (m)", public="body_com")
+    body_iframe = per_env("nbody", dtype=wp.quat, doc="orientation of the principal axes")
+    body_vel = per_env("nbody", dtype=wp.spatial_vector, doc="linear velocity of the body origin, "
+                      "then angular velocity", public="body_vel")
+    site_x = per_env("nsite", dtype=wp.transform, doc="pose of each site", public="site_pose")
+    geom_x = per_env("ngeom", dtype=wp.transform, doc="pose of each geom, as of the last "
+                    "collision stage", public="geom_pose")
+    jnt_anchor = per_env("njnt", dtype=wp.vec3, doc="joint anchor point")
+    jnt_xaxis = per_env("njnt", dtype=wp.vec3, doc="joint axis")
+    cvel = per_env("nbody", dtype=wp.spatial_vector, doc="spatial velocity at the tree root")
+    cdof = per_env("nv", dtype=wp.spatial_vector, doc="motion subspace of each dof")
+    cdof_dot = per_env("nv", dtype=wp.spatial_vector, doc="its time derivative")
+    sensor_wrench = per_env("nsensor", dtype=wp.spatial_vector, doc="force then torque that each "
+                           "sensor site's body receives from its parent, site frame (MuJoCo's "
+                           "force/torque sensors)", public="sensor_wrench")
+    nonfinite = per_env(dtype=wp.int32, doc="1 once the env's state or input went non-finite "
+                       "(its state is then NaN); the task resets it", public="nonfinite",
+                       writable=True)
+
+
+@declared
+class Control:
+    """Inputs applied during the next step (held through its substeps)."""
+    ctrl = per_env("nu", doc="actuator inputs", public="ctrl", writable=True)
+    joint_force = per_env("nv", doc="generalized force", public="joint_force", writable=True)
+    body_force = per_env("nbody", dtype=wp.spatial_vector, doc="force at the center of mass, then "
+                        "torque, world axes (N, N·m)", public="body_force", writable=True)
+
+
+@declared
+class Dynamics:
+    """Terms of the equation of motion of the current substep."""
+    qm = per_env("nmass", doc="mass matrix with armature, one square block per dof tree "
+                "(`mass_matrix_layout`)")
+    factor = per_env("nmass", doc="Lᵀ D L factor of qm + implicit_diag, same layout")
+    bias = per_env("nv", doc="C(q, qd)·qd + g(q)", public="bias_force")
+    qfrc = per_env("nv", doc="explicit generalized force minus bias")
+    qfrc_applied = per_env("nv", doc="generalized force of joint_force and body_force")
+    qfrc_actuator = per_env("nv", doc="generalized actuator force", public="dof_actuator_force")
+    implicit_diag = per_env("nv", doc="h·d + h²·k of implicit dampers and drives, added to M's "
+                           "diagonal in the solve")
+    wrench = per_env("nbody", dtype=wp.spatial_vector, doc="body_force at the tree root")
+    cacc = per_env("nbody", dtype=wp.spatial_vector, doc="RNEA: spatial acceleration")
+    cfrc = per_env("nbody", dtype=wp.spatial_vector, doc="RNEA: subtree force")
+    crb_m = per_env("nbody", doc="CRBA: subtree mass")
+    crb_h = per_env("nbody", dtype=wp.vec3, doc="CRBA: subtree first moment")
+    crb_i = per_env("nbody", dtype=wp.mat33, doc="CRBA: subtree inertia")
+
+
+@declared
+class Contacts:
+    """Contacts of the last collision stage, in `ncontact` slots per env, and their forces."""
+    count = per_env(dtype=wp.int32, doc="contacts found; above the capacity: overflow (the rest "
+                   "were dropped)", public="contact_count")
+    geom = per_env("ncontact", dtype=wp.vec2i, doc="geom 1, geom 2", public="contact_geom")
+    key = per_env("ncontact", dtype=wp.int32, doc="identity across substeps (pair and feature, "
+                 "e.g. which box corner), for warm starts")
+    pos = per_env("ncontact", dtype=wp.vec3, doc="midpoint between the surfaces",
+                 public="contact_pos")
+    normal = per_env("ncontact", dtype=wp.vec3, doc="from geom 1 to geom 2",
+                    public="contact_normal")
+    dist = per_env("ncontact", doc="signed distance, < 0: penetration (m)", public="contact_dist")
+    force = per_env("ncontact", dtype=wp.vec3, doc="force on geom 2 in the last substep, world (N)",
+                   public="contact_force")
+    net_force = per_env("nbody", dtype=wp.vec3, doc="sum of the contact forces on each body (N)",
+                       public="net_contact_force")
+    prev_key = per_env("ncontact", dtype=wp.int32, doc="the last substep's keys (warm start)")
+    prev_count = per_env(dtype=wp.int32, doc="the last substep's contacts in use")
+
+
+@declared
+class Rows:
+    """Constraint rows at fixed slots (`constraints.RowLayout`); J and M⁻¹Jᵀ over the dofs of
+    each row's span only (`row_width` columns)."""
+    type = per_env("nrow", dtype=wp.int32, doc="types.RowType")
+    err = per_env("nrow", doc="position error at the start of the substep (m or rad); < 0 violates")
+    inv_mass = per_env("nrow", doc="1 / (J M⁻¹ Jᵀ); 0 while the response is not built")
+    mu = per_env("nrow", doc="contacts: friction coefficient; dof rows: impulse bound")
+    bounce = per_env("nrow", doc="restitution target speed (m/s), 0 if none")
+    dir = per_env("nrow", dtype=wp.vec3, doc="contacts: the row's direction, world")
+    k = per_env("nrow", doc="soft rows: stiffness; dof rows: speed cap")
+    d = per_env("nrow", doc="soft rows: damping")
+    span = per_env("nrow", dtype=wp.vec4i, doc="the two dof ranges [lo, hi) the row touches")
+    jac = per_env("nrow", "row_width", doc="J over the span's dofs")
+    minv_jt = per_env("nrow", "row_width", doc="M⁻¹Jᵀ over the span's dofs")
+    lam = per_env("nrow", doc="impulse of the last substep (N·s or N·m·s)")
+    lam_init = per_env("nrow", doc="starting impulse of the substep (warm start)")
+    dof_force = per_env("nv", doc="generalized force of all rows in the last substep",
+                       public="dof_constraint_force")
+
+
+STRUCTS = (EnvParams, State, Control, Dynamics, Contacts, Rows)

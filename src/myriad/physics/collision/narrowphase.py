@@ -25,21 +25,6 @@ HFIELD_PROBES = wp.constant(32)
 poly8 = wp.types.matrix(shape=(8, 3), dtype=float)
 
 
-class ContactBuffers:
-    """Per-env contact slots: `capacity` contacts per env."""
-
-    def __init__(self, num_envs: int, capacity: int, device):
-        self.capacity = capacity
-        self.count = wp.zeros(num_envs, dtype=wp.int32, device=device)   # may exceed capacity
-        self.geom = wp.zeros((num_envs, capacity), dtype=wp.vec2i, device=device)
-        self.pos = wp.zeros((num_envs, capacity), dtype=wp.vec3, device=device)
-        self.normal = wp.zeros((num_envs, capacity), dtype=wp.vec3, device=device)
-        self.dist = wp.zeros((num_envs, capacity), dtype=wp.float32, device=device)
-        # identity of a contact across substeps (pair index and feature, e.g. which box corner),
-        # for warm-starting the solver
-        self.key = wp.zeros((num_envs, capacity), dtype=wp.int32, device=device)
-
-
 @wp.func
 def _emit(e: int, pair: wp.vec2i, key: int, pos: wp.vec3, normal: wp.vec3, dist: float,
           margin: float, capacity: int, count: wp.array(dtype=wp.int32),

@@ -1,0 +1,54 @@
+"""`SimParams`: time stepping and solver settings, checked when made."""
+
+import dataclasses
+import math
+
+import numpy as np
+
+
+@dataclasses.dataclass(frozen=True)
+class SimParams:
+    """Time stepping and solver settings (PhysX/Isaac Gym names and defaults).
+
+    The contact and solver settings are read by the constraint solver.
+    """
+
+    dt: float = 1.0 / 60.0                # one step()
+    substeps: int = 2                     # step() = substeps × substep of dt / substeps
+    gravity: tuple | None = None          # None: the model's <option gravity> (default 0 0 -9.81)
+    solver: str = "tgs"                   # "tgs" or "pgs"
+    position_iterations: int = 4
+    velocity_iterations: int = 1
+    contact_offset: float = 0.02          # shapes closer than this generate contacts (m)
+    rest_offset: float = 0.0              # shapes come to rest at this separation (m)
+    bounce_threshold_velocity: float = 0.2    # no restitution below this approach speed (m/s)
+    max_depenetration_velocity: float = 10.0  # cap on the speed that resolves penetration (m/s)
+    max_joint_velocity: float = 100.0     # default per-dof speed cap (PhysX's default), rad/s or m/s
+    contacts_per_env: int = 64            # contact capacity of each env
+    constraints: bool = True              # False: smooth dynamics only (no contacts, no limits)
+    self_collisions: bool = True          # bodies of one articulation collide with each other
+
+    def __post_init__(self):
+        def bad(field, why):
+            raise ValueError(f"SimParams.{field}={getattr(self, field)!r}: {why}")
+
+        if not (isinstance(self.dt, (int, float)) and math.isfinite(self.dt) and self.dt > 0):
+            bad("dt", "must be a positive, finite number of seconds")
+        for name in ("substeps", "position_iterations"):
+            v = getattr(self, name)
+            if not isinstance(v, int) or isinstance(v, bool) or v < 1:
+                bad(name, "must be an integer >= 1")
+        for name in ("velocity_iterations", "contacts_per_env"):
+            v = getattr(self, name)
+            if not isinstance(v, int) or isinstance(v, bool) or v < 0:
+                bad(name, "must be an integer >= 0")
+        if self.solver not in ("tgs", "pgs"):
+            bad("solver", "must be 'tgs' or 'pgs'")
+        if self.gravity is not None and np.shape(self.gravity) != (3,):
+            bad("gravity", "must be three numbers (x, y, z) or None")
+        for name in ("contact_offset", "rest_offset", "bounce_threshold_velocity",
+                     "max_depenetration_velocity", "max_joint_velocity"):
+            if not math.isfinite(getattr(self, name)) or getattr(self, name) < 0:
+                bad(name, "must be a finite number >= 0")
+        if self.rest_offset > self.contact_offset:
+            bad("rest_offset", f"must not exceed contact_offset={self.contact_offset}")

@@ -1,0 +1,99 @@
+"""The per-env data is declared once (`myriad.physics.structs`): every declared field is allocated
+with its declared shape, every public one is the simulator's zero-copy view of it, and every one
+is split between CPU threads. The checks loop over the declarations, so a field added to one is
+checked here without another line of test."""
+
+import pytest
+import torch
+import warp as wp
+
+import myriad
+from myriad.physics import structs
+from myriad.physics.simulator import Simulator, _View
+
+
+@pytest.fixture(scope="module")
+def sim():
+    # the ant: actuators, joint limits, contacts; 7 envs on 3 threads: uneven shards
+    model = myriad.load(myriad.asset_path("ant.xml"))
+    sim = Simulator(model, num_envs=7, params=myriad.SimParams(contacts_per_env=16),
+                    cpu_threads=3)
+    sim.step()
+    return sim
+
+
+def declared_fields():
+    return [(struct, name, f) for struct in structs.STRUCTS for name, f in struct.fields.items()]
+
+
+def test_every_declared_field_is_allocated_with_its_shape(sim):
+    for struct, name, f in declared_fields():
+        array = getattr(sim._structs[struct], name)
+        assert array.shape == structs.field_shape(f, sim.num_envs, sim.sizes), name
+        assert array.dtype == f.dtype, name
+        assert array.device == sim.device, name
+
+
+def test_public_tensors_are_exactly_the_public_fields_and_share_their_memory(sim):
+    public = {}
+    for struct, name, f in declared_fields():
+        if f.public:
+            assert f.public not in public, f"two fields are public as {f.public}"
+            public[f.public] = f
+            array = getattr(sim._structs[struct], name)
+            view = getattr(sim, f.public)
+            if array.size:
+                assert view.data_ptr() == array.ptr, f.public          # zero copy
+            assert tuple(view.shape[:array.ndim]) == array.shape, f.public
+    descriptors = {n for n, v in vars(Simulator).items() if isinstance(v, _View)}
+    assert descriptors == set(public)
+    for name, f in public.items():
+        value = getattr(sim, name).clone()
+        if f.writable:
+            setattr(sim, name, value)             # a writable view takes a tensor of its shape
+        else:
+            with pytest.raises(AttributeError, match="read-only"):
+                setattr(sim, name, value)
+
+
+def test_every_field_is_split_between_cpu_threads(sim):
+    assert len(sim._shards) == 3
+    covered = 0
+    for lo, hi in sim._shards:
+        sim._shard_local.range = (lo, hi)
+        try:
+            for struct, name, f in declared_fields():
+                whole = getattr(sim._structs[struct], name)
+                part = getattr(sim._shard_of(sim._structs[struct]), name)
+                if whole.size == 0:
+                    continue
+                # the shard's rows of the same memory, reached from the struct or the array
+                assert part.shape == (hi - lo,) + whole.shape[1:], name
+                assert part.ptr == whole.ptr + lo * whole.strides[0], name
+                assert sim._shard_of(whole).ptr == part.ptr, name
+        finally:
+            sim._shard_local.range = None
+        covered += hi - lo
+    assert covered == sim.num_envs
+    # model-wide arrays are shared whole by every thread
+    sim._shard_local.range = sim._shards[1]
+    try:
+        assert sim._shard_of(sim._m) is sim._m
+        assert sim._shard_of(sim._geom_body) is sim._geom_body
+    finally:
+        sim._shard_local.range = None
+
+
+def test_a_shard_writes_only_its_envs(sim):
+    """A kernel launched on one shard's view of a declared field changes that shard's envs only."""
+    lo, hi = sim._shards[1]
+    q = sim.q.clone()
+    sim._shard_local.range = (lo, hi)
+    try:
+        sim._shard_of(sim._s.q).fill_(7.0)
+    finally:
+        sim._shard_local.range = None
+    changed = (sim.q != q).any(dim=1)
+    assert torch.equal(changed, (torch.arange(sim.num_envs) >= lo) & (torch.arange(sim.num_envs) < hi))
+    sim.q = q
+    wp.synchronize()
