@@ -1,12 +1,13 @@
-"""Stage 4, constraint rows in joint space: contacts (normal + two friction rows) and joint limits.
+"""Stage 4, constraint rows in joint space: contacts (normal + two friction rows), joint and
+tendon limits, tendon spring-dampers, and per-dof friction and speed caps.
 
-One thread per env. Each row r has a Jacobian J_r (a 1 x nv row: the rate of the constraint's
+One thread per env, one function per family of rows (`build_rows`). Each row r has a Jacobian J_r (a 1 x nv row: the rate of the constraint's
 coordinate per generalized velocity), the response M⁻¹J_rᵀ through the same LᵀDL factor as the
 unconstrained solve (so implicit damping and drives are part of it), and 1/(J M⁻¹ Jᵀ). Rows sit
 at fixed slots: contact slot k owns rows 3k (normal), 3k+1 and 3k+2 (friction), then each
 limited joint owns two rows (lower, upper), then each limited tendon. Unused slots are marked inactive and skipped.
 
-Rows are tree-sparse: each row records in `row_span` the dofs it can touch, as two [lo, hi)
+Rows are tree-sparse: each row records in `Rows.span` the dofs it can touch, as two [lo, hi)
 ranges (the dof trees of its one or two bodies, or of its dofs; the second range empty when
 there is one tree). J and M⁻¹Jᵀ are zero outside them (the mass matrix is block-diagonal over
 dof trees), so building, sweeping and reading a row costs its trees' size, not nv, and a row
@@ -23,7 +24,7 @@ import warp as wp
 
 from .dynamics import solve_span, solve_span3
 from .spatial import velocity_at
-from .structs import EnvParams, ModelArrays
+from .structs import Contacts, EnvParams, ModelArrays, Rows, State
 from .types import DOF, FRICTION, FRICTION2, INACTIVE, NORMAL, SOFT
 
 
@@ -34,6 +35,7 @@ class RowLayout:
     normal, two friction), joint limits (2 per limited joint: lower, upper), hard tendon limits
     (2 per limited tendon), tendon spring-dampers (1 per tendon), dofs (1 per dof: dry friction
     and speed cap; none without constraints)."""
+    contact_slots: int   # contacts an env holds (its rows: [0, 3 · contact_slots))
     joint_limits: int    # first joint-limit row
     tendon_limits: int   # first tendon-limit row
     springs: int         # first tendon spring-damper row
@@ -44,6 +46,7 @@ class RowLayout:
 def row_layout(contact_slots: int, limited_joints: int, limited_tendons: int, tendons: int,
                dof_rows: int) -> RowLayout:
     layout = RowLayout()
+    layout.contact_slots = contact_slots
     layout.joint_limits = 3 * contact_slots
     layout.tendon_limits = layout.joint_limits + 2 * limited_joints
     layout.springs = layout.tendon_limits + 2 * limited_tendons
@@ -153,18 +156,16 @@ def _solve_row(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
 
 
 @wp.func
-def _set_inv_mass(jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float), e: int, r: int,
-                  sp: wp.vec4i, row_inv_mass: wp.array2d(dtype=float),
-                  row_type: wp.array2d(dtype=wp.int32), kind: int):
+def _set_inv_mass(rows: Rows, e: int, r: int, sp: wp.vec4i, kind: int):
     """1/(J M⁻¹ Jᵀ) of row r, which becomes `kind`; a row that moves nothing (e.g. between two
     static shapes) is dropped."""
-    w = _row_norm(jac, minv_jt, e, r, sp)
+    w = _row_norm(rows.jac, rows.minv_jt, e, r, sp)
     if w > 1.0e-12:
-        row_inv_mass[e, r] = 1.0 / w
-        row_type[e, r] = kind
+        rows.inv_mass[e, r] = 1.0 / w
+        rows.type[e, r] = kind
     else:
-        row_inv_mass[e, r] = 0.0
-        row_type[e, r] = INACTIVE
+        rows.inv_mass[e, r] = 0.0
+        rows.type[e, r] = INACTIVE
 
 
 @wp.func
@@ -175,14 +176,12 @@ def _copy_row(src: wp.array3d(dtype=float), dst: wp.array3d(dtype=float), e: int
 
 
 @wp.func
-def _finish_row(m: ModelArrays, e: int, r: int, sp: wp.vec4i, jac: wp.array3d(dtype=float),
-                factor: wp.array2d(dtype=float), minv_jt: wp.array3d(dtype=float),
-                row_inv_mass: wp.array2d(dtype=float), row_type: wp.array2d(dtype=wp.int32),
-                kind: int):
+def _finish_row(m: ModelArrays, e: int, r: int, sp: wp.vec4i, factor: wp.array2d(dtype=float),
+                rows: Rows, kind: int):
     """Response M⁻¹J_rᵀ and 1/(J M⁻¹ Jᵀ) of row r from its J."""
-    _copy_row(jac, minv_jt, e, r, sp)
-    _solve_row(m, e, factor, minv_jt, r, sp)
-    _set_inv_mass(jac, minv_jt, e, r, sp, row_inv_mass, row_type, kind)
+    _copy_row(rows.jac, rows.minv_jt, e, r, sp)
+    _solve_row(m, e, factor, rows.minv_jt, r, sp)
+    _set_inv_mass(rows, e, r, sp, kind)
 
 
 @wp.func
@@ -197,43 +196,50 @@ def _tendon_span(m: ModelArrays, t: int):
     return wp.vec4i(lo, wp.max(lo, hi), 0, 0)
 
 
+@wp.func
+def tendon_length(m: ModelArrays, p: EnvParams, s: State, e: int, t: int):
+    """(length, rate of change) of fixed tendon t: offset + Σ coef · q over its joints."""
+    length = p.tendon_offset[e, t]
+    speed = float(0.0)
+    for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
+        j = m.wrap_jnt[w]
+        length = length + m.wrap_coef[w] * s.q[e, m.jnt_qposadr[j]]
+        speed = speed + m.wrap_coef[w] * s.qd[e, m.jnt_dofadr[j]]
+    return wp.vec2(length, speed)
+
+
 @wp.kernel
 def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float,
-               bounce_threshold: float,
-               geom_body: wp.array(dtype=wp.int32), geom_friction: wp.array2d(dtype=float),
-               geom_restitution: wp.array2d(dtype=float),
-               contact_capacity: int, contact_count: wp.array(dtype=wp.int32),
-               contact_geom: wp.array2d(dtype=wp.vec2i), contact_key: wp.array2d(dtype=wp.int32),
-               contact_pos: wp.array2d(dtype=wp.vec3),
-               contact_normal: wp.array2d(dtype=wp.vec3), contact_dist: wp.array2d(dtype=float),
-               # warm start: the last substep's contact keys and final impulses
-               prev_key: wp.array2d(dtype=wp.int32), prev_count: wp.array(dtype=wp.int32),
-               lam: wp.array2d(dtype=float),
-               limit_jnt: wp.array(dtype=wp.int32), joint_range: wp.array2d(dtype=wp.vec2),
-               limit_tendon: wp.array(dtype=wp.int32), params: EnvParams,
-               dof_frictionloss: wp.array2d(dtype=float),
-               dof_max_velocity: wp.array2d(dtype=float),
-               body_x: wp.array2d(dtype=wp.transform), cdof: wp.array2d(dtype=wp.spatial_vector),
-               q: wp.array2d(dtype=float), qd: wp.array2d(dtype=float),
-               qacc: wp.array2d(dtype=float), factor: wp.array2d(dtype=float),
-               # outputs
-               row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
-               row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
-               row_bounce: wp.array2d(dtype=float), row_dir: wp.array2d(dtype=wp.vec3),
-               row_k: wp.array2d(dtype=float), row_d: wp.array2d(dtype=float),
-               row_span: wp.array2d(dtype=wp.vec4i),
-               jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
-               lam_init: wp.array2d(dtype=float)):
+               bounce_threshold: float, geom_body: wp.array(dtype=wp.int32),
+               limit_jnt: wp.array(dtype=wp.int32), limit_tendon: wp.array(dtype=wp.int32),
+               p: EnvParams, s: State, factor: wp.array2d(dtype=float),
+               # in: contacts; out: the warm-start keys (prev_key, prev_count)
+               contacts: Contacts,
+               # in: the last substep's impulses (lam); out: everything else
+               rows: Rows):
+    """Every row of one env for this substep, family by family (`RowLayout`)."""
     e = wp.tid()
-    ncontact = wp.min(contact_count[e], contact_capacity)
-    # slots past the contact count are skipped by the solver: only the used ones are built
+    contact_rows(m, e, h, rest_offset, bounce_threshold, geom_body, p, s, factor, contacts, rows)
+    joint_limit_rows(m, e, layout.joint_limits, h, limit_jnt, p, s, factor, rows)
+    tendon_limit_rows(m, e, layout.tendon_limits, h, limit_tendon, p, s, factor, rows)
+    tendon_spring_rows(m, e, layout.springs, p, s, factor, rows)
+    dof_rows(m, e, layout.dofs, layout.end - layout.dofs, h, p, factor, rows)
+
+
+@wp.func
+def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_threshold: float,
+                 geom_body: wp.array(dtype=wp.int32), p: EnvParams, s: State,
+                 factor: wp.array2d(dtype=float), c: Contacts, rows: Rows):
+    """Contact slot k: rows 3k (normal), 3k+1, 3k+2 (friction). Slots past the contact count
+    are skipped by the solver: only the used ones are built."""
+    ncontact = wp.min(c.count[e], c.geom.shape[1])
     hint = int(0)
     for k in range(ncontact):
-        pair = contact_geom[e, k]
+        pair = c.geom[e, k]
         b1 = geom_body[pair[0]]
         b2 = geom_body[pair[1]]
-        n = contact_normal[e, k]
-        p = contact_pos[e, k]
+        n = c.normal[e, k]
+        pos = c.pos[e, k]
         # tangent basis: any orthonormal pair (the friction disk is isotropic)
         t1 = wp.cross(n, wp.vec3(1.0, 0.0, 0.0))
         if wp.length_sq(t1) < 1.0e-6:
@@ -248,223 +254,225 @@ def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float,
         if b2 >= 0:
             sp2 = m.body_tree_span[b2]
         sp = _spans(sp1, sp2)
-        mu = 0.5 * (geom_friction[e, pair[0]] + geom_friction[e, pair[1]])
-        restitution = 0.5 * (geom_restitution[e, pair[0]] + geom_restitution[e, pair[1]])
+        mu = 0.5 * (p.geom_friction[e, pair[0]] + p.geom_friction[e, pair[1]])
+        restitution = 0.5 * (p.geom_restitution[e, pair[0]] + p.geom_restitution[e, pair[1]])
         # the three rows together: normal (3k), then the two friction rows; J is the velocity
         # of body 2's point relative to body 1's, along each direction
         r0 = 3 * k
         for d in range(3):
-            row_span[e, r0 + d] = sp
-            _zero_row(jac, e, r0 + d, sp)
-        _add_contact_jacobian(m, e, b2, p, n, t1, t2, 1.0, body_x, cdof, jac, r0, sp)
-        _add_contact_jacobian(m, e, b1, p, n, t1, t2, -1.0, body_x, cdof, jac, r0, sp)
-        row_dir[e, r0] = n
-        row_dir[e, r0 + 1] = t1
-        row_dir[e, r0 + 2] = t2
+            rows.span[e, r0 + d] = sp
+            _zero_row(rows.jac, e, r0 + d, sp)
+        _add_contact_jacobian(m, e, b2, pos, n, t1, t2, 1.0, s.body_x, s.cdof, rows.jac, r0, sp)
+        _add_contact_jacobian(m, e, b1, pos, n, t1, t2, -1.0, s.body_x, s.cdof, rows.jac, r0, sp)
+        rows.dir[e, r0] = n
+        rows.dir[e, r0 + 1] = t1
+        rows.dir[e, r0 + 2] = t2
         for d in range(3):
-            row_type[e, r0 + d] = NORMAL + d      # NORMAL, FRICTION, FRICTION2
-            row_inv_mass[e, r0 + d] = 0.0         # response not built yet
-            row_mu[e, r0 + d] = mu
-            row_err[e, r0 + d] = 0.0
-            row_bounce[e, r0 + d] = 0.0
-            lam_init[e, r0 + d] = 0.0
-        row_err[e, r0] = contact_dist[e, k] - rest_offset
+            rows.type[e, r0 + d] = NORMAL + d      # NORMAL, FRICTION, FRICTION2
+            rows.inv_mass[e, r0 + d] = 0.0         # response not built yet
+            rows.mu[e, r0 + d] = mu
+            rows.err[e, r0 + d] = 0.0
+            rows.bounce[e, r0 + d] = 0.0
+            rows.lam_init[e, r0 + d] = 0.0
+        rows.err[e, r0] = c.dist[e, k] - rest_offset
         # approach speed before the solve (unconstrained velocity qd + h·qacc)
-        approach = _row_dot(jac, e, r0, qd, sp) + h * _row_dot(jac, e, r0, qacc, sp)
+        approach = _row_dot(rows.jac, e, r0, s.qd, sp) + h * _row_dot(rows.jac, e, r0, s.qacc, sp)
         if approach < -bounce_threshold:
-            row_bounce[e, r0] = -restitution * approach
+            rows.bounce[e, r0] = -restitution * approach
         # warm start from the same contact (same pair and feature) of the last substep
         # (contacts mostly come in the same order as in the last substep, so the search starts
         # after the last match and wraps around; in the rare case of two contacts of one pair
         # sharing a key, e.g. two box corners in one face quadrant, either impulse is a guess)
         same = int(-1)
-        npre = prev_count[e]
+        npre = c.prev_count[e]
         for jj in range(npre):
             j = (hint + jj) % npre
-            if prev_key[e, j] == contact_key[e, k]:
+            if c.prev_key[e, j] == c.key[e, k]:
                 same = j
                 hint = j + 1
                 break
         # the response is built now if the contact starts with an impulse, else by the solver
         # once the contact first pushes (most contacts in the contact offset never do)
         if same >= 0:
-            warm3 = wp.vec3(lam[e, 3 * same], lam[e, 3 * same + 1], lam[e, 3 * same + 2])
+            warm3 = wp.vec3(rows.lam[e, 3 * same], rows.lam[e, 3 * same + 1],
+                            rows.lam[e, 3 * same + 2])
             if warm3[0] != 0.0 or warm3[1] != 0.0 or warm3[2] != 0.0:
-                build_contact_rows(m, e, r0, sp, jac, factor, minv_jt, row_inv_mass, row_type)
+                build_contact_rows(m, e, r0, sp, factor, rows)
                 for d in range(3):
-                    if row_type[e, r0 + d] != INACTIVE:
-                        lam_init[e, r0 + d] = warm3[d]
+                    if rows.type[e, r0 + d] != INACTIVE:
+                        rows.lam_init[e, r0 + d] = warm3[d]
     for k in range(ncontact):
-        prev_key[e, k] = contact_key[e, k]
-    prev_count[e] = ncontact
+        c.prev_key[e, k] = c.key[e, k]
+    c.prev_count[e] = ncontact
 
-    base = layout.joint_limits
+
+@wp.func
+def joint_limit_rows(m: ModelArrays, e: int, base: int, h: float,
+                     limit_jnt: wp.array(dtype=wp.int32), p: EnvParams, s: State,
+                     factor: wp.array2d(dtype=float), rows: Rows):
+    """Two rows per limited joint (lower, upper), J = ±e_dof."""
     for li in range(limit_jnt.shape[0]):
         j = limit_jnt[li]
         dof = m.jnt_dofadr[j]
-        x = q[e, m.jnt_qposadr[j]]
-        reach = LIMIT_MARGIN + 2.0 * h * wp.abs(qd[e, dof])
+        x = s.q[e, m.jnt_qposadr[j]]
+        reach = LIMIT_MARGIN + 2.0 * h * wp.abs(s.qd[e, dof])
         for side in range(2):
             r = base + 2 * li + side
-            _limit_row(m, e, r, side, x, joint_range[e, j], reach, h, jac, factor, minv_jt,
-                       row_inv_mass, row_type, row_err, row_mu, row_bounce, lam, lam_init)
-            row_inv_mass[e, r] = 0.0     # response not built yet
+            _limit_row(e, r, side, x, p.joint_range[e, j], reach, rows)
+            rows.inv_mass[e, r] = 0.0     # response not built yet
             # built now if the limit starts with an impulse, else by the solver once it pushes
-            warm = lam[e, r]   # the same limit's impulse in the last substep (0 if inactive)
-            if row_type[e, r] != INACTIVE and warm != 0.0:
-                build_dof_row(m, e, r, dof, 1.0 - 2.0 * float(side), NORMAL, jac, factor,
-                              minv_jt, row_inv_mass, row_type, row_span)
-                if row_type[e, r] != INACTIVE:
-                    lam_init[e, r] = warm
-    # hard tendon limits (limit stiffness 0): J = coef on each tendon joint
-    base = layout.tendon_limits
+            warm = rows.lam[e, r]   # the same limit's impulse in the last substep (0 if inactive)
+            if rows.type[e, r] != INACTIVE and warm != 0.0:
+                build_dof_row(m, e, r, dof, 1.0 - 2.0 * float(side), NORMAL, factor, rows)
+                if rows.type[e, r] != INACTIVE:
+                    rows.lam_init[e, r] = warm
+
+
+@wp.func
+def tendon_limit_rows(m: ModelArrays, e: int, base: int, h: float,
+                      limit_tendon: wp.array(dtype=wp.int32), p: EnvParams, s: State,
+                      factor: wp.array2d(dtype=float), rows: Rows):
+    """Two rows per limited tendon with hard limits (limit stiffness 0): J = ±coef on each of
+    its joints."""
     for lt in range(limit_tendon.shape[0]):
         t = limit_tendon[lt]
         beg = m.tendon_adr[t]
-        length = params.tendon_offset[e, t]
-        speed = float(0.0)
-        for w in range(beg, beg + m.tendon_num[t]):
-            jj = m.wrap_jnt[w]
-            length = length + m.wrap_coef[w] * q[e, m.jnt_qposadr[jj]]
-            speed = speed + m.wrap_coef[w] * qd[e, m.jnt_dofadr[jj]]
-        reach = LIMIT_MARGIN + 2.0 * h * wp.abs(speed)
+        length_speed = tendon_length(m, p, s, e, t)
+        reach = LIMIT_MARGIN + 2.0 * h * wp.abs(length_speed[1])
         for side in range(2):
             r = base + 2 * lt + side
-            _limit_row(m, e, r, side, length, params.tendon_range[e, t], reach, h, jac, factor,
-                       minv_jt, row_inv_mass, row_type, row_err, row_mu, row_bounce, lam, lam_init)
-            if params.tendon_limit_stiffness[e, t] > 0.0:
-                row_type[e, r] = INACTIVE  # a limit spring (forces stage) instead
-                lam_init[e, r] = 0.0
-            if row_type[e, r] != INACTIVE:
+            _limit_row(e, r, side, length_speed[0], p.tendon_range[e, t], reach, rows)
+            if p.tendon_limit_stiffness[e, t] > 0.0:
+                rows.type[e, r] = INACTIVE  # a limit spring (tendon_spring_rows) instead
+                rows.lam_init[e, r] = 0.0
+            if rows.type[e, r] != INACTIVE:
                 sp = _tendon_span(m, t)
-                row_span[e, r] = sp
-                _zero_row(jac, e, r, sp)
+                rows.span[e, r] = sp
+                _zero_row(rows.jac, e, r, sp)
                 for w in range(beg, beg + m.tendon_num[t]):
-                    c = m.jnt_dofadr[m.wrap_jnt[w]] - sp[0]
-                    jac[e, r, c] = jac[e, r, c] + (1.0 - 2.0 * float(side)) * m.wrap_coef[w]
-                warm = lam[e, r]
-                _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, NORMAL)
-                if row_type[e, r] != INACTIVE:
-                    lam_init[e, r] = warm
-    # tendon spring-dampers (PhysX semantics): one soft row per tendon measuring L (J = coef) and
-    # pushing each joint with recip/N; the limit spring (limit stiffness > 0) joins outside
-    # [lower, upper]
-    base = layout.springs
+                    col = m.jnt_dofadr[m.wrap_jnt[w]] - sp[0]
+                    rows.jac[e, r, col] = (rows.jac[e, r, col]
+                                           + (1.0 - 2.0 * float(side)) * m.wrap_coef[w])
+                warm = rows.lam[e, r]
+                _finish_row(m, e, r, sp, factor, rows, NORMAL)
+                if rows.type[e, r] != INACTIVE:
+                    rows.lam_init[e, r] = warm
+
+
+@wp.func
+def tendon_spring_rows(m: ModelArrays, e: int, base: int, p: EnvParams, s: State,
+                       factor: wp.array2d(dtype=float), rows: Rows):
+    """One soft row per tendon (PhysX semantics): measures L (J = coef) and pushes each joint
+    with recip/N; the limit spring (limit stiffness > 0) joins outside [lower, upper]."""
     for t in range(m.ntendon):
         r = base + t
-        row_type[e, r] = INACTIVE
-        lam_init[e, r] = 0.0
+        rows.type[e, r] = INACTIVE
+        rows.lam_init[e, r] = 0.0
         beg = m.tendon_adr[t]
         count = float(m.tendon_num[t])
-        length = params.tendon_offset[e, t]
-        for wi in range(beg, beg + m.tendon_num[t]):
-            length = length + m.wrap_coef[wi] * q[e, m.jnt_qposadr[m.wrap_jnt[wi]]]
-        stiff = params.tendon_stiffness[e, t] / count
-        force = -stiff * (length - params.tendon_rest_length[e, t])
-        k_lim = params.tendon_limit_stiffness[e, t] / count
+        length = tendon_length(m, p, s, e, t)[0]
+        stiff = p.tendon_stiffness[e, t] / count
+        force = -stiff * (length - p.tendon_rest_length[e, t])
+        k_lim = p.tendon_limit_stiffness[e, t] / count
         if m.tendon_limited[t] != 0 and k_lim > 0.0:
-            lim = params.tendon_range[e, t]
+            lim = p.tendon_range[e, t]
             if length < lim[0]:
                 force = force - k_lim * (length - lim[0])
                 stiff = stiff + k_lim
             if length > lim[1]:
                 force = force - k_lim * (length - lim[1])
                 stiff = stiff + k_lim
-        damp = params.tendon_damping[e, t] / count
+        damp = p.tendon_damping[e, t] / count
         if stiff > 0.0 or damp > 0.0:
             sp = _tendon_span(m, t)
-            row_span[e, r] = sp
-            _zero_row(jac, e, r, sp)
-            _zero_row(minv_jt, e, r, sp)
+            rows.span[e, r] = sp
+            _zero_row(rows.jac, e, r, sp)
+            _zero_row(rows.minv_jt, e, r, sp)
             for wi in range(beg, beg + m.tendon_num[t]):
-                c = m.jnt_dofadr[m.wrap_jnt[wi]] - sp[0]
-                jac[e, r, c] = jac[e, r, c] + m.wrap_coef[wi]
-                minv_jt[e, r, c] = minv_jt[e, r, c] + m.wrap_recip[wi]
-            _solve_row(m, e, factor, minv_jt, r, sp)
-            w_eff = _row_norm(jac, minv_jt, e, r, sp)
+                col = m.jnt_dofadr[m.wrap_jnt[wi]] - sp[0]
+                rows.jac[e, r, col] = rows.jac[e, r, col] + m.wrap_coef[wi]
+                rows.minv_jt[e, r, col] = rows.minv_jt[e, r, col] + m.wrap_recip[wi]
+            _solve_row(m, e, factor, rows.minv_jt, r, sp)
+            w_eff = _row_norm(rows.jac, rows.minv_jt, e, r, sp)
             if w_eff > 1.0e-12:
-                row_type[e, r] = SOFT
-                row_inv_mass[e, r] = 1.0 / w_eff
-                row_k[e, r] = stiff
-                row_d[e, r] = damp
+                rows.type[e, r] = SOFT
+                rows.inv_mass[e, r] = 1.0 / w_eff
+                rows.k[e, r] = stiff
+                rows.d[e, r] = damp
                 # the spring's error, expressed as the length offset that stiff alone would hold
-                row_err[e, r] = 0.0
+                rows.err[e, r] = 0.0
                 if stiff > 0.0:
-                    row_err[e, r] = -force / stiff
-    # one row per dof, J = e_dof: dry friction (bounded impulse) and the maximum joint speed.
-    # Its response M⁻¹e_dof (a column of M⁻¹) is what costs; a dof without dry friction needs it
-    # only once the dof exceeds its cap, so it is left unbuilt here (row_inv_mass 0) and the
-    # solver builds it then (`build_dof_row`). Present always: impulses from other rows can push
-    # a dof past its cap within the solve (and a row only near the cap let a humanoid under
-    # random torques blow up: measured).
-    base = layout.dofs
-    for dof in range(layout.end - layout.dofs):
+                    rows.err[e, r] = -force / stiff
+
+
+@wp.func
+def dof_rows(m: ModelArrays, e: int, base: int, count: int, h: float, p: EnvParams,
+             factor: wp.array2d(dtype=float), rows: Rows):
+    """One row per dof, J = e_dof: dry friction (bounded impulse) and the maximum joint speed.
+
+    Its response M⁻¹e_dof (a column of M⁻¹) is what costs; a dof without dry friction needs it
+    only once the dof exceeds its cap, so it is left unbuilt here (inv_mass 0) and the solver
+    builds it then (`build_dof_row`). Present always: impulses from other rows can push a dof
+    past its cap within the solve (and a row only near the cap let a humanoid under random
+    torques blow up: measured).
+    """
+    for dof in range(count):
         r = base + dof
-        warm = lam[e, r]
-        bound = dof_frictionloss[e, dof] * h
-        cap = dof_max_velocity[e, dof]
-        row_type[e, r] = INACTIVE
-        lam_init[e, r] = 0.0
+        warm = rows.lam[e, r]
+        bound = p.dof_frictionloss[e, dof] * h
+        cap = p.dof_max_velocity[e, dof]
+        rows.type[e, r] = INACTIVE
+        rows.lam_init[e, r] = 0.0
         if cap > 0.0:
-            row_type[e, r] = DOF
-            row_inv_mass[e, r] = 0.0
-            row_mu[e, r] = bound
-            row_k[e, r] = cap
+            rows.type[e, r] = DOF
+            rows.inv_mass[e, r] = 0.0
+            rows.mu[e, r] = bound
+            rows.k[e, r] = cap
             if bound > 0.0:
-                build_dof_row(m, e, r, dof, 1.0, DOF, jac, factor, minv_jt, row_inv_mass,
-                              row_type, row_span)
-                if row_type[e, r] != INACTIVE:
-                    lam_init[e, r] = wp.clamp(warm, -bound, bound)
+                build_dof_row(m, e, r, dof, 1.0, DOF, factor, rows)
+                if rows.type[e, r] != INACTIVE:
+                    rows.lam_init[e, r] = wp.clamp(warm, -bound, bound)
 
 
 @wp.func
 def build_contact_rows(m: ModelArrays, e: int, r0: int, sp: wp.vec4i,
-                       jac: wp.array3d(dtype=float), factor: wp.array2d(dtype=float),
-                       minv_jt: wp.array3d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
-                       row_type: wp.array2d(dtype=wp.int32)):
+                       factor: wp.array2d(dtype=float), rows: Rows):
     """Responses M⁻¹Jᵀ and 1/(J M⁻¹ Jᵀ) of a contact's three rows r0 (normal), r0+1, r0+2
     (friction) from their J, in one walk of the factor; friction goes with its normal row."""
     for d in range(3):
-        _copy_row(jac, minv_jt, e, r0 + d, sp)
-    solve_span3(m, e, factor, minv_jt, r0, sp[0], sp[1], 0)
-    solve_span3(m, e, factor, minv_jt, r0, sp[2], sp[3], sp[1] - sp[0])
-    _set_inv_mass(jac, minv_jt, e, r0, sp, row_inv_mass, row_type, NORMAL)
-    _set_inv_mass(jac, minv_jt, e, r0 + 1, sp, row_inv_mass, row_type, FRICTION)
-    _set_inv_mass(jac, minv_jt, e, r0 + 2, sp, row_inv_mass, row_type, FRICTION2)
-    if row_type[e, r0] == INACTIVE:
-        row_type[e, r0 + 1] = INACTIVE
-        row_type[e, r0 + 2] = INACTIVE
+        _copy_row(rows.jac, rows.minv_jt, e, r0 + d, sp)
+    solve_span3(m, e, factor, rows.minv_jt, r0, sp[0], sp[1], 0)
+    solve_span3(m, e, factor, rows.minv_jt, r0, sp[2], sp[3], sp[1] - sp[0])
+    _set_inv_mass(rows, e, r0, sp, NORMAL)
+    _set_inv_mass(rows, e, r0 + 1, sp, FRICTION)
+    _set_inv_mass(rows, e, r0 + 2, sp, FRICTION2)
+    if rows.type[e, r0] == INACTIVE:
+        rows.type[e, r0 + 1] = INACTIVE
+        rows.type[e, r0 + 2] = INACTIVE
 
 
 @wp.func
 def build_dof_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, kind: int,
-                  jac: wp.array3d(dtype=float), factor: wp.array2d(dtype=float),
-                  minv_jt: wp.array3d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
-                  row_type: wp.array2d(dtype=wp.int32), row_span: wp.array2d(dtype=wp.vec4i)):
+                  factor: wp.array2d(dtype=float), rows: Rows):
     """Row r along one dof, J = sign·e_dof over its dof tree, as a `kind` row: its response and
     1/(J M⁻¹ Jᵀ). A joint limit (NORMAL; sign -1 for the upper side) or a dof row (DOF)."""
     sp = _spans(m.dof_tree_span[dof], wp.vec2i(0, 0))
-    row_span[e, r] = sp
-    _zero_row(jac, e, r, sp)
-    jac[e, r, dof - sp[0]] = sign
-    _finish_row(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type, kind)
+    rows.span[e, r] = sp
+    _zero_row(rows.jac, e, r, sp)
+    rows.jac[e, r, dof - sp[0]] = sign
+    _finish_row(m, e, r, sp, factor, rows, kind)
 
 
 @wp.func
-def _limit_row(m: ModelArrays, e: int, r: int, side: int, x: float, lim: wp.vec2, reach: float,
-               h: float, jac: wp.array3d(dtype=float), factor: wp.array2d(dtype=float),
-               minv_jt: wp.array3d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
-               row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
-               row_mu: wp.array2d(dtype=float), row_bounce: wp.array2d(dtype=float),
-               lam: wp.array2d(dtype=float), lam_init: wp.array2d(dtype=float)):
+def _limit_row(e: int, r: int, side: int, x: float, lim: wp.vec2, reach: float, rows: Rows):
     """Mark a lower (side 0) or upper (side 1) limit row active when within reach of its limit."""
     err = x - lim[0]
     if side == 1:
         err = lim[1] - x
-    row_type[e, r] = INACTIVE
-    lam_init[e, r] = 0.0
+    rows.type[e, r] = INACTIVE
+    rows.lam_init[e, r] = 0.0
     if err < reach:
-        row_type[e, r] = NORMAL
-        row_err[e, r] = err
-        row_mu[e, r] = 0.0
-        row_bounce[e, r] = 0.0
+        rows.type[e, r] = NORMAL
+        rows.err[e, r] = err
+        rows.mu[e, r] = 0.0
+        rows.bounce[e, r] = 0.0

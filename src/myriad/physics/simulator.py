@@ -346,25 +346,19 @@ class Simulator:
     def _constraint_rows(self) -> None:
         if self.nrow == 0:
             return
-        st, c, p, r, sp = self._s, self._contacts, self._p, self._rows, self.params
+        sp = self.params
         self._launch(constraints.build_rows, self.num_envs, [
             self._m, self._rows_at, self.h, sp.rest_offset, sp.bounce_threshold_velocity,
-            self._geom_body, p.geom_friction, p.geom_restitution, self.contact_capacity, c.count,
-            c.geom, c.key, c.pos, c.normal, c.dist, c.prev_key, c.prev_count, r.lam,
-            self._limit_jnt, p.joint_range, self._limit_tendon, p,
-            p.dof_frictionloss, p.dof_max_velocity, st.body_x, st.cdof,
-            st.q, st.qd, st.qacc, self._d.factor, r.type, r.err,
-            r.inv_mass, r.mu, r.bounce, r.dir, r.k,
-            r.d, r.span, r.jac, r.minv_jt, r.lam_init])
+            self._geom_body, self._limit_jnt, self._limit_tendon, self._p, self._s,
+            self._d.factor, self._contacts, self._rows])
 
     def _solve_constraints(self) -> None:
-        st, r, sp = self._s, self._rows, self.params
+        st, sp = self._s, self.params
         self._launch(solver_tgs.solve, self.num_envs, [
-            self._m, self._rows_at, self.contact_capacity, self._contacts.count,
-            self._limit_jnt, self.h, sp.position_iterations, sp.velocity_iterations,
-            int(sp.solver == "tgs"), sp.max_depenetration_velocity, r.type, r.err, r.inv_mass,
-            r.mu, r.bounce, r.k, r.d, r.span, self._d.factor, r.jac, r.minv_jt, r.lam_init,
-            st.qacc, st.qd, st.qd_before, st.dq, r.lam])
+            self._m, self._rows_at, self._contacts.count, self._limit_jnt, self.h,
+            sp.position_iterations, sp.velocity_iterations, int(sp.solver == "tgs"),
+            sp.max_depenetration_velocity, self._d.factor, st.qacc, self._rows, st.qd,
+            st.qd_before, st.dq])
 
     def _integrate(self) -> None:
         st = self._s
@@ -409,8 +403,7 @@ class Simulator:
     def _constraint_outputs(self) -> None:
         st, c, r = self._s, self._contacts, self._rows
         self._launch(solver_tgs.constraint_forces, self.num_envs, [
-            self._m, self._rows_at, self.h, self._geom_body, self.contact_capacity, c.count,
-            c.geom, r.dir, r.lam, r.type, r.span, r.jac, c.force, c.net_force, r.dof_force])
+            self._m, self._rows_at, self.h, self._geom_body, r, c])
         if self.sensor_sites:  # site poses are current: the final kinematics computed them
             self._launch(sensors.force_sensors, self.num_envs, [
                 self._m, self._p, self.h, st.body_x, st.body_com, st.body_iframe,

@@ -27,7 +27,7 @@ import warp as wp
 
 from .constraints import RowLayout, _row_dot, build_contact_rows, build_dof_row
 from .types import DOF, FRICTION, INACTIVE, NORMAL, SOFT
-from .structs import ModelArrays
+from .structs import Contacts, ModelArrays, Rows
 
 # fraction of the last substep's impulse a contact or limit row starts from: below 1 so that
 # the impulses of a configuration with no solution (a hand pressed into the head by an arm held
@@ -61,14 +61,12 @@ def _row_in_use(i: int, used: int, layout: RowLayout):
 @wp.func
 def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
            limit_jnt: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int, hs: float,
-           h: float,
-           max_depenetration: float, row_type: wp.array2d(dtype=wp.int32),
-           row_err: wp.array2d(dtype=float), row_inv_mass: wp.array2d(dtype=float),
-           row_mu: wp.array2d(dtype=float), row_bounce: wp.array2d(dtype=float),
-           row_k: wp.array2d(dtype=float), row_d: wp.array2d(dtype=float),
-           row_span: wp.array2d(dtype=wp.vec4i), factor: wp.array2d(dtype=float),
-           jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float),
-           v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float), lam: wp.array2d(dtype=float)):
+           h: float, max_depenetration: float, factor: wp.array2d(dtype=float), rows: Rows,
+           v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
+    """One Gauss-Seidel sweep over the rows in use, updating v and the impulses rows.lam."""
+    jac = rows.jac
+    minv_jt = rows.minv_jt
+    lam = rows.lam
     # normal rows first (the contacts', then joint and tendon limits), then the contacts'
     # friction rows, whose bounds then hold this sweep's normal impulses, tendon springs and dofs
     n_normal = ncontact + layout.springs - layout.joint_limits
@@ -81,12 +79,12 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
             r = layout.joint_limits + rr - ncontact
         elif rr < n_normal + ncontact:
             r = 3 * (rr - n_normal) + 1
-        t = row_type[e, r]
+        t = rows.type[e, r]
         if t == INACTIVE:
             continue
-        sp = row_span[e, r]
+        sp = rows.span[e, r]
         if t == NORMAL:
-            err = row_err[e, r]
+            err = rows.err[e, r]
             li = r - layout.joint_limits
             dof = int(-1)
             sign = float(0.0)
@@ -108,23 +106,22 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
                     target = -err / hs
             elif biased != 0:
                 target = wp.min(-err / hs, max_depenetration)
-            if row_bounce[e, r] > 0.0:  # restitution replaces the bias for a fast approach
-                target = wp.max(target, row_bounce[e, r])
-            if row_inv_mass[e, r] == 0.0:
+            if rows.bounce[e, r] > 0.0:  # restitution replaces the bias for a fast approach
+                target = wp.max(target, rows.bounce[e, r])
+            if rows.inv_mass[e, r] == 0.0:
                 # response not built yet (`constraints`): the row has had no impulse, and gets
                 # none while it does not push
                 if target - jv <= 0.0:
                     continue
                 if dof >= 0:
-                    build_dof_row(m, e, r, dof, sign, NORMAL, jac, factor, minv_jt, row_inv_mass,
-                                  row_type, row_span)
+                    build_dof_row(m, e, r, dof, sign, NORMAL, factor, rows)
                 else:
-                    build_contact_rows(m, e, r, sp, jac, factor, minv_jt, row_inv_mass, row_type)
-                if row_type[e, r] != NORMAL:
+                    build_contact_rows(m, e, r, sp, factor, rows)
+                if rows.type[e, r] != NORMAL:
                     continue
-                sp = row_span[e, r]
+                sp = rows.span[e, r]
             old = lam[e, r]
-            new = wp.max(old + (target - jv) * row_inv_mass[e, r], 0.0)
+            new = wp.max(old + (target - jv) * rows.inv_mass[e, r], 0.0)
             lam[e, r] = new
             _apply(e, r, new - old, minv_jt, v, sp)
         elif t == SOFT:
@@ -133,37 +130,36 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
             # sub-step instead, it would fight the once-per-substep external forces and leave a
             # spurious velocity at equilibrium.
             if first != 0:
-                k = row_k[e, r]
-                a = h * (h * k + row_d[e, r])
-                w = 1.0 / row_inv_mass[e, r]
-                dl = -(h * k * row_err[e, r] + a * _row_dot(jac, e, r, v, sp)) / (1.0 + a * w)
+                k = rows.k[e, r]
+                a = h * (h * k + rows.d[e, r])
+                w = 1.0 / rows.inv_mass[e, r]
+                dl = -(h * k * rows.err[e, r] + a * _row_dot(jac, e, r, v, sp)) / (1.0 + a * w)
                 lam[e, r] = lam[e, r] + dl
                 _apply(e, r, dl, minv_jt, v, sp)
         elif t == DOF:
             # J = e_dof (the dof rows come last, one per dof): J·v is the dof's own speed
             dof = r - layout.dofs
-            bound = row_mu[e, r]
+            bound = rows.mu[e, r]
             if bound > 0.0:
                 # joint friction: stop the dof, with at most frictionloss·h of impulse per substep
                 old = lam[e, r]
-                new = wp.clamp(old - v[e, dof] * row_inv_mass[e, r], -bound, bound)
+                new = wp.clamp(old - v[e, dof] * rows.inv_mass[e, r], -bound, bound)
                 lam[e, r] = new
                 _apply(e, r, new - old, minv_jt, v, sp)
             # maximum joint speed: a joint-space impulse brings it back inside
             jv = v[e, dof]
-            cap = row_k[e, r]
+            cap = rows.k[e, r]
             if wp.abs(jv) > cap:
-                if row_inv_mass[e, r] == 0.0:   # first time past the cap in this substep
-                    build_dof_row(m, e, r, dof, 1.0, DOF, jac, factor, minv_jt, row_inv_mass,
-                                  row_type, row_span)
-                    sp = row_span[e, r]
-                if row_type[e, r] == DOF:
-                    _apply(e, r, (wp.clamp(jv, -cap, cap) - jv) * row_inv_mass[e, r], minv_jt,
+                if rows.inv_mass[e, r] == 0.0:   # first time past the cap in this substep
+                    build_dof_row(m, e, r, dof, 1.0, DOF, factor, rows)
+                    sp = rows.span[e, r]
+                if rows.type[e, r] == DOF:
+                    _apply(e, r, (wp.clamp(jv, -cap, cap) - jv) * rows.inv_mass[e, r], minv_jt,
                            v, sp)
         elif t == FRICTION:
             old1 = lam[e, r]
             old2 = lam[e, r + 1]
-            limit = row_mu[e, r] * lam[e, r - 1]
+            limit = rows.mu[e, r] * lam[e, r - 1]
             if limit == 0.0 and old1 == 0.0 and old2 == 0.0:
                 continue   # no normal impulse, no friction: the projection below gives zero
             # static friction holds the contact point where it was at the start of the substep:
@@ -173,8 +169,8 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
                 target_t = -1.0 * _row_dot2(jac, e, r, dq, sp) / hs
             # both rows from the same velocity, then projection onto the friction disk
             jv_t = _row_dot2(jac, e, r, v, sp)
-            l1 = old1 + (target_t[0] - jv_t[0]) * row_inv_mass[e, r]
-            l2 = old2 + (target_t[1] - jv_t[1]) * row_inv_mass[e, r + 1]
+            l1 = old1 + (target_t[0] - jv_t[0]) * rows.inv_mass[e, r]
+            l2 = old2 + (target_t[1] - jv_t[1]) * rows.inv_mass[e, r + 1]
             norm = wp.sqrt(l1 * l1 + l2 * l2)
             if norm > limit:
                 scale = float(0.0)
@@ -218,44 +214,40 @@ def _apply2(e: int, r: int, dl1: float, dl2: float, minv_jt: wp.array3d(dtype=fl
 
 
 @wp.kernel
-def solve(m: ModelArrays, layout: RowLayout, contact_capacity: int,
-          contact_count: wp.array(dtype=wp.int32), limit_jnt: wp.array(dtype=wp.int32),
-          h: float, position_iterations: int,
+def solve(m: ModelArrays, layout: RowLayout, contact_count: wp.array(dtype=wp.int32),
+          limit_jnt: wp.array(dtype=wp.int32), h: float, position_iterations: int,
           velocity_iterations: int, tgs: int, max_depenetration: float,
-          row_type: wp.array2d(dtype=wp.int32), row_err: wp.array2d(dtype=float),
-          row_inv_mass: wp.array2d(dtype=float), row_mu: wp.array2d(dtype=float),
-          row_bounce: wp.array2d(dtype=float), row_k: wp.array2d(dtype=float),
-          row_d: wp.array2d(dtype=float), row_span: wp.array2d(dtype=wp.vec4i),
-          factor: wp.array2d(dtype=float), jac: wp.array3d(dtype=float),
-          minv_jt: wp.array3d(dtype=float), lam_init: wp.array2d(dtype=float),
-          qacc: wp.array2d(dtype=float),
-          qd: wp.array2d(dtype=float), qd_before: wp.array2d(dtype=float),
-          dq: wp.array2d(dtype=float), lam: wp.array2d(dtype=float)):
+          factor: wp.array2d(dtype=float), qacc: wp.array2d(dtype=float),
+          # in: rows as built; out: their impulses (lam), and responses built on demand
+          rows: Rows,
+          # in: the velocity at the start of the substep; out: the new one
+          qd: wp.array2d(dtype=float),
+          # out
+          qd_before: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
     """On exit qd holds the new velocity (qd_before the old), dq the displacement to integrate,
-    lam the impulses."""
+    rows.lam the impulses."""
     e = wp.tid()
     nv = m.nv
     for i in range(nv):
         qd_before[e, i] = qd[e, i]
         qd[e, i] = qd[e, i] + h * qacc[e, i]
         dq[e, i] = 0.0
-    ncontact = wp.min(contact_count[e], contact_capacity)
+    ncontact = wp.min(contact_count[e], layout.contact_slots)
     used = 3 * ncontact     # rows in use: the contacts' [0, used), and all from the limits on
     for i in range(used + layout.end - layout.joint_limits):
         r = _row_in_use(i, used, layout)
-        lam[e, r] = 0.0
-        if row_type[e, r] >= 0:
-            lam[e, r] = lam_init[e, r]
-            if row_type[e, r] == NORMAL:
-                lam[e, r] = WARM * lam_init[e, r]
-            _apply(e, r, lam[e, r], minv_jt, qd, row_span[e, r])
+        rows.lam[e, r] = 0.0
+        if rows.type[e, r] >= 0:
+            rows.lam[e, r] = rows.lam_init[e, r]
+            if rows.type[e, r] == NORMAL:
+                rows.lam[e, r] = WARM * rows.lam_init[e, r]
+            _apply(e, r, rows.lam[e, r], rows.minv_jt, qd, rows.span[e, r])
     hs = h
     if tgs != 0:
         hs = h / float(position_iterations)
     for it in range(position_iterations):
         _sweep(m, e, layout, ncontact, limit_jnt, int(it == 0), 1, tgs, hs, h,
-               max_depenetration, row_type, row_err, row_inv_mass,
-               row_mu, row_bounce, row_k, row_d, row_span, factor, jac, minv_jt, qd, dq, lam)
+               max_depenetration, factor, rows, qd, dq)
         if tgs != 0:
             for i in range(nv):
                 dq[e, i] = dq[e, i] + hs * qd[e, i]
@@ -264,49 +256,43 @@ def solve(m: ModelArrays, layout: RowLayout, contact_capacity: int,
             dq[e, i] = h * qd[e, i]
     for it in range(velocity_iterations):
         _sweep(m, e, layout, ncontact, limit_jnt, 0, 0, tgs, hs, h,
-               max_depenetration, row_type, row_err, row_inv_mass,
-               row_mu, row_bounce, row_k, row_d, row_span, factor, jac, minv_jt, qd, dq, lam)
+               max_depenetration, factor, rows, qd, dq)
 
 
 @wp.kernel
 def constraint_forces(m: ModelArrays, layout: RowLayout, h: float,
-                      geom_body: wp.array(dtype=wp.int32),
-                      contact_capacity: int, contact_count: wp.array(dtype=wp.int32),
-                      contact_geom: wp.array2d(dtype=wp.vec2i),
-                      row_dir: wp.array2d(dtype=wp.vec3), lam: wp.array2d(dtype=float),
-                      row_type: wp.array2d(dtype=wp.int32), row_span: wp.array2d(dtype=wp.vec4i),
-                      jac: wp.array3d(dtype=float), contact_force: wp.array2d(dtype=wp.vec3),
-                      net_contact_force: wp.array2d(dtype=wp.vec3),
-                      dof_constraint_force: wp.array2d(dtype=float)):
+                      geom_body: wp.array(dtype=wp.int32), rows: Rows,
+                      # in: the contacts; out: their forces (force, net_force)
+                      c: Contacts):
     """Forces of the last substep: per contact (on geom 2, world), net per body, per dof."""
     e = wp.tid()
     for b in range(m.nbody):
-        net_contact_force[e, b] = wp.vec3()
-    ncontact = wp.min(contact_count[e], contact_capacity)
-    for k in range(contact_capacity):
+        c.net_force[e, b] = wp.vec3()
+    ncontact = wp.min(c.count[e], layout.contact_slots)
+    for k in range(layout.contact_slots):
         f = wp.vec3()
         if k < ncontact:
             for d in range(3):
-                f = f + row_dir[e, 3 * k + d] * lam[e, 3 * k + d]
+                f = f + rows.dir[e, 3 * k + d] * rows.lam[e, 3 * k + d]
             f = f / h
-            pair = contact_geom[e, k]
+            pair = c.geom[e, k]
             b1 = geom_body[pair[0]]
             b2 = geom_body[pair[1]]
             if b2 >= 0:
-                net_contact_force[e, b2] = net_contact_force[e, b2] + f
+                c.net_force[e, b2] = c.net_force[e, b2] + f
             if b1 >= 0:
-                net_contact_force[e, b1] = net_contact_force[e, b1] - f
-        contact_force[e, k] = f
+                c.net_force[e, b1] = c.net_force[e, b1] - f
+        c.force[e, k] = f
     used = 3 * ncontact
     for i in range(m.nv):
-        dof_constraint_force[e, i] = 0.0
+        rows.dof_force[e, i] = 0.0
     for rr in range(used + layout.end - layout.joint_limits):
         r = _row_in_use(rr, used, layout)
-        if row_type[e, r] >= 0 and lam[e, r] != 0.0:   # (an unbuilt dof row has no impulse)
-            sp = row_span[e, r]
-            force = lam[e, r] / h
+        if rows.type[e, r] >= 0 and rows.lam[e, r] != 0.0:   # (an unbuilt dof row has no impulse)
+            sp = rows.span[e, r]
+            force = rows.lam[e, r] / h
             o = sp[1] - sp[0] - sp[2]
             for i in range(sp[0], sp[1]):
-                dof_constraint_force[e, i] = dof_constraint_force[e, i] + jac[e, r, i - sp[0]] * force
+                rows.dof_force[e, i] = rows.dof_force[e, i] + rows.jac[e, r, i - sp[0]] * force
             for i in range(sp[2], sp[3]):
-                dof_constraint_force[e, i] = dof_constraint_force[e, i] + jac[e, r, o + i] * force
+                rows.dof_force[e, i] = rows.dof_force[e, i] + rows.jac[e, r, o + i] * force
