@@ -99,11 +99,13 @@ def recording_syncs():
     ("if", lambda x, m: 1 if m.any() else 0),
     ("tolist", lambda x, m: x.tolist()),
     ("numpy", lambda x, m: x.numpy()),
+    ("cpu", lambda x, m: x.cpu()),
     ("nonzero", lambda x, m: m.nonzero()),
     ("mask index", lambda x, m: x[m]),
     ("mask write", lambda x, m: x.__setitem__(m, x[:2].clone())),
     ("len of a mask's ids", lambda x, m: len(torch.where(m)[0])),
     ("host data", lambda x, m: x + torch.tensor([1.0, 2.0, 3.0, 4.0])),
+    ("list index", lambda x, m: x[[0, 2]]),
     ("unique", lambda x, m: x.unique()),
 ])
 def test_the_recorder_sees_each_kind_of_read_back(name, read):
