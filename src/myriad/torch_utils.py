@@ -33,12 +33,35 @@ def euler_xyz(q: torch.Tensor):
 def heading_up_and_angles(quat: torch.Tensor, to_target: torch.Tensor):
     """Up projection, heading projection, roll, yaw and angle to the target of a torso whose
     forward axis is +x and up axis +z; `to_target` is the horizontal offset to the target."""
-    up = quat_rotate(quat, torch.tensor([0.0, 0.0, 1.0], device=quat.device).expand_as(to_target))
-    heading = quat_rotate(quat, torch.tensor([1.0, 0.0, 0.0], device=quat.device).expand_as(to_target))
+    up = quat_rotate(quat, unit_axis(to_target, 2))
+    heading = quat_rotate(quat, unit_axis(to_target, 0))
     direction = torch.nn.functional.normalize(to_target, dim=-1)
     roll, _, yaw = euler_xyz(quat)
     angle_to_target = wrap_angle(torch.atan2(to_target[:, 1], to_target[:, 0]) - yaw)
     return up[:, 2], (heading * direction).sum(-1), roll, yaw, angle_to_target
+
+
+def unit_axis(like: torch.Tensor, axis: int) -> torch.Tensor:
+    """Unit vectors along x, y or z (axis 0, 1, 2) shaped like `like` [..., 3], filled on its
+    device: `torch.tensor([0, 0, 1])` would copy from the host, which waits for a GPU."""
+    e = torch.zeros_like(like)
+    e[..., axis] = 1.0
+    return e
+
+
+def env_mask(env_ids: torch.Tensor, num_envs: int) -> torch.Tensor:
+    """[num_envs] bool: the envs `env_ids` names, a bool mask (returned as is) or indices."""
+    if env_ids.dtype == torch.bool:
+        return env_ids
+    mask = torch.zeros(num_envs, dtype=torch.bool, device=env_ids.device)
+    return mask.index_fill_(0, env_ids.long(), True)
+
+
+def where_rows(mask: torch.Tensor, new: torch.Tensor, old: torch.Tensor) -> torch.Tensor:
+    """`new` in the rows (envs, dim 0) where `mask` [N] is true, `old` elsewhere. Both are
+    computed for every env, so nothing depends on how many are selected and no mask is read
+    back to the host (x[mask] would)."""
+    return torch.where(mask.view(-1, *[1] * (new.dim() - 1)), new, old)
 
 
 def unscale(x: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
@@ -47,4 +70,4 @@ def unscale(x: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -> torch.
 
 
 __all__ = ["quat_rotate", "quat_rotate_inverse", "wrap_angle", "euler_xyz",
-           "heading_up_and_angles", "unscale"]
+           "heading_up_and_angles", "env_mask", "unit_axis", "unscale", "where_rows"]

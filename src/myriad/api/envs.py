@@ -12,12 +12,18 @@ State tensors are buffers on the simulation device, shaped per env, refreshed by
     force_sensors      [N, sensors, 6]  force, torque from the parent, in the sensor site frame
     dof_forces         [N, dofs]        effort + drive + joint-limit/friction force on each dof
 
-Writers take tensors on the simulation device, float32, of the exact shape they document (or a
-subset of envs with `env_ids`: a bool mask [N], or a 1-D int32/int64 tensor of distinct ids in
-[0, N), checked with one read-back from the device); anything else raises `ValueError` naming
-the writer, the expected and the given shape, dtype and device. State writes take effect at
-once: `forward()` is run for you, so the tensors above already show the new state (pass
-forward=False to all but the last of several writes in a row to run it once).
+Writers take tensors on the simulation device, float32, of the exact shape they document.
+`env_ids` picks the envs a state writer changes:
+  - a bool mask [N] with values for every env [N, ...]: only the masked rows are written, and
+    nothing is read back from the device (the form for code inside a step: a task's resets);
+  - a bool mask [N] with values for the selected envs only, in order (counting them reads the
+    device back once);
+  - a 1-D int32/int64 tensor of distinct ids in [0, N) with one value row per id (checked with
+    one read-back from the device).
+Anything else raises `ValueError` naming the writer, the expected and the given shape, dtype and
+device. State writes take effect at once: `forward()` is run for you, so the tensors above
+already show the new state (pass forward=False to all but the last of several writes in a row
+to run it once).
 """
 
 from __future__ import annotations
@@ -27,7 +33,7 @@ import torch
 
 from ..physics import Model, SimParams, Simulator
 from ..physics.types import JointType
-from ..torch_utils import quat_rotate, quat_rotate_inverse
+from ..torch_utils import quat_rotate, quat_rotate_inverse, where_rows
 
 
 class Envs:
@@ -170,14 +176,15 @@ class Envs:
             raise ValueError(f"{writer}: the tensor has " + ", ".join(problems))
         return value
 
-    def _env_ids(self, writer: str, env_ids) -> torch.Tensor | slice:
-        """None -> all envs; a bool mask [N], or a 1-D int32/int64 tensor of distinct env indices
+    def _env_ids(self, writer: str, env_ids, values=None) -> torch.Tensor | slice:
+        """None -> all envs; a bool mask [N] -> the mask itself when `values` has a row for every
+        env (a masked write), else its indices; a 1-D int32/int64 tensor of distinct env indices
         in [0, N) -> index tensor. Anything else (an id out of range, negative ones included, an
         id given twice, another dtype) raises ValueError naming the writer.
 
-        Cost: one read-back from the device per call, which waits for the work queued before it:
-        a mask's `nonzero()`, or for indices one small tensor holding their min, max and number
-        of repeats, reduced together on the device.
+        Cost: a masked write reads nothing back. The others read the device back once, which
+        waits for the work queued before it: a mask's `nonzero()`, or for indices one small
+        tensor holding their min, max and number of repeats, reduced together on the device.
         """
         if env_ids is None:
             return slice(None)
@@ -190,6 +197,8 @@ class Envs:
             if env_ids.shape != (self.num_envs,):
                 raise ValueError(f"{writer}: a boolean env_ids mask must have shape "
                                  f"({self.num_envs},), not {tuple(env_ids.shape)}")
+            if isinstance(values, torch.Tensor) and values.dim() and len(values) == self.num_envs:
+                return env_ids
             return env_ids.nonzero().flatten()
         if env_ids.dtype not in (torch.int32, torch.int64) or env_ids.dim() != 1:
             raise ValueError(f"{writer}: env_ids must be a 1-D integer tensor (int32 or int64) "
@@ -214,38 +223,46 @@ class Envs:
         return ids
 
     def _count(self, ids) -> int:
-        return self.num_envs if isinstance(ids, slice) else len(ids)
+        """Rows the values of a write have: one per env for all envs or a mask, else per id."""
+        return len(ids) if isinstance(ids, torch.Tensor) and ids.dtype != torch.bool \
+            else self.num_envs
+
+    def _write(self, target: torch.Tensor, cols: torch.Tensor, values: torch.Tensor, ids) -> None:
+        """target[env, cols] = values for the envs `ids` selects (from `_env_ids`)."""
+        if isinstance(ids, torch.Tensor) and ids.dtype == torch.bool:
+            target[:, cols] = where_rows(ids, values, target[:, cols])
+        else:
+            rows = torch.arange(self.num_envs, device=self.device)[ids]
+            target[rows.view(-1, *[1] * cols.dim()), cols] = values
 
     def set_root_states(self, states: torch.Tensor, env_ids=None, forward: bool = True) -> None:
-        """Teleport actors: states [len(env_ids) or N, actors, 13] as in `root_states`.
+        """Teleport actors: states [N or len(env_ids), actors, 13] as in `root_states`.
 
         Rows of fixed-base actors are ignored: their base is welded to the world.
         forward=False leaves the derived tensors stale, for a caller that writes more state
         right after (the last write recomputes them once).
         """
-        ids = self._env_ids("set_root_states", env_ids)
+        ids = self._env_ids("set_root_states", env_ids, states)
         states = self._check("set_root_states", states,
                              (self._count(ids), self.num_actors, 13))[:, self._free_actors]
         quat = torch.nn.functional.normalize(states[..., 3:7], dim=-1)
         pose = torch.cat((states[..., :3], quat), dim=-1)
         velocity = torch.cat((states[..., 7:10], quat_rotate_inverse(quat, states[..., 10:13])),
                              dim=-1)                       # a free joint's ω is in its body frame
-        rows = torch.arange(self.num_envs, device=self.device)[ids][:, None, None]
-        self.sim.q[rows, self._root_q_cols] = pose
-        self.sim.qd[rows, self._root_v_cols] = velocity
+        self._write(self.sim.q, self._root_q_cols, pose, ids)
+        self._write(self.sim.qd, self._root_v_cols, velocity, ids)
         if forward:
             self.forward()
 
     def set_dof_state(self, pos: torch.Tensor, vel: torch.Tensor, env_ids=None,
                       forward: bool = True) -> None:
-        """Set DOF positions and velocities [len(env_ids) or N, dofs] (forward as above)."""
-        ids = self._env_ids("set_dof_state", env_ids)
+        """Set DOF positions and velocities [N or len(env_ids), dofs] (forward as above)."""
+        ids = self._env_ids("set_dof_state", env_ids, pos)
         shape = (self._count(ids), self.num_dofs)
         pos = self._check("set_dof_state (pos)", pos, shape)
         vel = self._check("set_dof_state (vel)", vel, shape)
-        rows = torch.arange(self.num_envs, device=self.device)[ids][:, None]
-        self.sim.q[rows, self._dof_q] = pos
-        self.sim.qd[rows, self.dof_columns] = vel
+        self._write(self.sim.q, self._dof_q, pos, ids)
+        self._write(self.sim.qd, self.dof_columns, vel, ids)
         if forward:
             self.forward()
 

@@ -56,6 +56,8 @@ import math
 
 import torch
 
+from ..torch_utils import env_mask, where_rows
+
 DISTRIBUTIONS = ("uniform", "loguniform", "gaussian")
 OPERATIONS = ("scaling", "additive")
 SPEC_KEYS = {"range", "range_correlated", "operation", "distribution", "setup_only", "schedule",
@@ -132,9 +134,10 @@ class _Param:
         self.original = (view if cols is None else view[:, cols]).clone()
         self.inertia_view = inertia_view               # body mass: inertia scales along
 
-    def write(self, sim, env_ids, ramp):
+    def write(self, sim, due, ramp):
+        """New samples in the envs of the bool mask `due` [N] (drawn for every env)."""
         view = getattr(sim, self.view_name)
-        base = self.original[env_ids]
+        base = self.original
         draw = sample(self.spec, base.shape[:2] if base.dim() >= 2 else base.shape,
                       base.device, ramp=ramp)
         while draw.dim() < base.dim():
@@ -147,14 +150,14 @@ class _Param:
             value = value.clamp_min(0.0)               # physical quantities stay non-negative
         if self.view_name == "geom_restitution":
             value = value.clamp(0.0, 1.0)
-        rows = env_ids[:, None]
         if self.cols is None:
-            view[env_ids] = value
+            view.copy_(where_rows(due, value, view))
         else:
-            view[rows, self.cols] = value
+            view[:, self.cols] = where_rows(due, value, view[:, self.cols])
         if self.inertia_view is not None:             # inertia scales with mass
-            ratio = (value / self.original[env_ids].clamp_min(1e-12))[..., None]
-            self.inertia_view[rows, self.cols] = self.inertia_original[env_ids] * ratio
+            ratio = (value / self.original.clamp_min(1e-12))[..., None]
+            self.inertia_view[:, self.cols] = where_rows(due, self.inertia_original * ratio,
+                                                         self.inertia_view[:, self.cols])
 
 
 # the keys of a task's `randomization` section
@@ -209,8 +212,7 @@ class Randomizer:
         if cfg.get("random_forces"):
             self._setup_random_forces(cfg["random_forces"])
 
-        everything = torch.arange(N, device=dev)
-        self.resample(everything, setup=True)
+        self.resample(torch.ones(N, dtype=torch.bool, device=dev), setup=True)
 
     # ------------------------------------------------------------------ parsing
     def _noise_spec(self, key):
@@ -337,25 +339,25 @@ class Randomizer:
         return min(self.env_steps, steps) / steps
 
     def resample(self, env_ids: torch.Tensor, setup: bool = False) -> None:
-        """New parameter samples for `env_ids` (setup: also the setup_only parameters)."""
-        if len(env_ids) == 0:
-            return
-        sim = self.task.envs.sim
+        """New parameter samples for the envs `env_ids` names, a bool mask [N] or indices
+        (setup: also the setup_only parameters). Samples are drawn for every env and kept in
+        the named ones: nothing is read back from the device."""
+        due, sim = env_mask(env_ids, self.task.num_envs), self.task.envs.sim
         for param in self.params:
             if param.spec.get("setup_only") and not setup:
                 continue
-            param.write(sim, env_ids, self.ramp(param.spec))
+            param.write(sim, due, self.ramp(param.spec))
         for spec, buf in ((self.obs_spec, self.obs_correlated),
                           (self.action_spec, self.action_correlated)):
             if spec is not None and "range_correlated" in spec:
-                buf[env_ids] = sample(spec, (len(env_ids), buf.shape[1]), buf.device,
-                                      "range_correlated", self.ramp(spec))
+                buf.copy_(where_rows(due, sample(spec, buf.shape, buf.device, "range_correlated",
+                                                 self.ramp(spec)), buf))
         if self.forces is not None:
             lo, hi = self.force_probability_range
-            self.force_probability[env_ids] = torch.exp(
-                torch.rand(len(env_ids), device=self.task.device) * (math.log(hi) - math.log(lo))
-                + math.log(lo))
-        self.steps_since_sample[env_ids] = 0
+            drawn = torch.exp(torch.rand(self.task.num_envs, device=self.task.device)
+                              * (math.log(hi) - math.log(lo)) + math.log(lo))
+            self.force_probability.copy_(torch.where(due, drawn, self.force_probability))
+        self.steps_since_sample.masked_fill_(due, 0)
 
     def on_step(self) -> None:
         """Count one env step for every env."""
@@ -363,8 +365,9 @@ class Randomizer:
         self.steps_since_sample += 1
 
     def on_reset(self, env_ids: torch.Tensor) -> None:
-        """Envs about to be reset: re-sample those whose last sample is `frequency` steps old."""
-        due = env_ids[self.steps_since_sample[env_ids] >= self.frequency]
+        """Envs about to be reset (a bool mask [N] or indices): re-sample those whose last
+        sample is `frequency` steps old."""
+        due = env_mask(env_ids, self.task.num_envs) & (self.steps_since_sample >= self.frequency)
         self.resample(due)
 
     @staticmethod
@@ -412,11 +415,12 @@ class _RangeSide(_Param):
         self.original = view[:, self.cols, self.side].clone()
         self.inertia_view = None
 
-    def write(self, sim, env_ids, ramp):
-        base = self.original[env_ids]
+    def write(self, sim, due, ramp):
+        base = self.original
         draw = sample(self.spec, base.shape, base.device, ramp=ramp)
         value = base + draw if self.spec["operation"] == "additive" else base * draw
-        getattr(sim, self.view_name)[env_ids[:, None], self.cols, self.side] = value
+        view = getattr(sim, self.view_name)
+        view[:, self.cols, self.side] = where_rows(due, value, view[:, self.cols, self.side])
 
 
 __all__ = ["Randomizer", "RandomizationError", "sample", "DISTRIBUTIONS", "OPERATIONS"]

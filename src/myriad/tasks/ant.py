@@ -32,7 +32,7 @@ import torch
 from .. import asset_path
 from ..api import Scene
 from .base import VecTask
-from ..torch_utils import heading_up_and_angles, quat_rotate_inverse, unscale
+from ..torch_utils import env_mask, heading_up_and_angles, quat_rotate_inverse, unscale
 
 
 def dof_gears(envs) -> torch.Tensor:
@@ -103,17 +103,18 @@ class Ant(VecTask):
             self.actions, self.dt)
 
     def reset_idx(self, env_ids):
-        n, dev = len(env_ids), self.device
+        done, n, dev = env_mask(env_ids, self.num_envs), self.num_envs, self.device
         noise_pos = torch.empty(n, self.num_actions, device=dev).uniform_(-0.2, 0.2)
         noise_vel = torch.empty(n, self.num_actions, device=dev).uniform_(-0.1, 0.1)
         pos = torch.clamp(self.initial_dof_pos + noise_pos, self.dof_lower, self.dof_upper)
-        self.envs.set_root_states(self.initial_root_states[env_ids], env_ids, forward=False)
-        self.envs.set_dof_state(pos, noise_vel, env_ids)
-        self.actions[env_ids] = 0.0
-        to_target = self.targets[env_ids] - self.initial_root_states[env_ids, 0, :3]
+        self.envs.set_root_states(self.initial_root_states, done, forward=False)
+        self.envs.set_dof_state(pos, noise_vel, done)
+        self.actions.masked_fill_(done[:, None], 0.0)
+        to_target = self.targets - self.initial_root_states[:, 0, :3]
         to_target[:, 2] = 0.0
-        self.potentials[env_ids] = -torch.norm(to_target, dim=-1) / self.dt
-        self.progress_buf[env_ids] = 0
+        self.potentials[:] = torch.where(done, -torch.norm(to_target, dim=-1) / self.dt,
+                                         self.potentials)
+        self.progress_buf.masked_fill_(done, 0)
 
 
 def torso_observations(torso_state, targets, dt, angular_velocity_scale=1.0):

@@ -39,7 +39,7 @@ import torch
 from ..api import Scene
 from ..physics import ModelError
 from .base import VecTask
-from ..torch_utils import quat_rotate_inverse
+from ..torch_utils import env_mask, quat_rotate_inverse, where_rows
 
 URDF = "share/example-robot-data/robots/anymal_c_simple_description/urdf/anymal.urdf"
 
@@ -160,16 +160,17 @@ class Anymal(VecTask):
             self.ang_vel_scale, self.dof_pos_scale, self.dof_vel_scale)
 
     def reset_idx(self, env_ids):
-        n, dev = len(env_ids), self.device
+        done, n, dev = env_mask(env_ids, self.num_envs), self.num_envs, self.device
         pos = self.default_dof_pos * torch.empty(n, self.num_actions, device=dev).uniform_(0.5, 1.5)
         vel = torch.empty(n, self.num_actions, device=dev).uniform_(-0.1, 0.1)
-        self.envs.set_root_states(self.initial_root_states[env_ids], env_ids, forward=False)
-        self.envs.set_dof_state(pos, vel, env_ids)
+        self.envs.set_root_states(self.initial_root_states, done, forward=False)
+        self.envs.set_dof_state(pos, vel, done)
         r = self.command_ranges
-        for k, key in enumerate(("linear_x", "linear_y", "yaw")):
-            self.commands[env_ids, k] = torch.empty(n, device=dev).uniform_(*r[key])
-        self.actions[env_ids] = 0.0
-        self.progress_buf[env_ids] = 0
+        commands = torch.stack([torch.empty(n, device=dev).uniform_(*r[key])
+                                for key in ("linear_x", "linear_y", "yaw")], dim=-1)
+        self.commands[:] = where_rows(done, commands, self.commands)
+        self.actions.masked_fill_(done[:, None], 0.0)
+        self.progress_buf.masked_fill_(done, 0)
 
 
 def compute_anymal_observations(base_state, commands_scaled, dof_pos, default_dof_pos, dof_vel,

@@ -7,7 +7,11 @@ One `step(actions)`:
   4. envs that terminated or reached `episodeLength` steps are reset (`reset_idx`), and their
      observations recomputed, so the returned observation of a finished env is the first of its
      next episode (rl_games' convention); `extras["time_outs"]` marks episodes cut by the time
-     limit, apart from terminations
+     limit, apart from terminations. The reset is masked: every env's reset values are drawn
+     and only the finished envs' kept, so that no step waits to learn from the device which
+     envs finished (the whole step, physics and task code, could run as one CUDA graph). On a
+     CPU, where asking costs nothing, steps in which no env finished skip it
+     (`skip_idle_resets`)
   5. returns `({"obs": clipped observations[, "states": ...]}, rewards, resets, extras)`
 
 A NaN or infinite action is never passed on: its env steps with a zero action, gets reward 0,
@@ -84,6 +88,10 @@ class VecTask:
         self.nonfinite_action_count = torch.zeros(N, dtype=torch.long, device=dev)
         self.extras: dict = {}
         self.obs_dict: dict = {}
+        # A masked reset in a step where no env finished changes nothing but still runs
+        # forward() and the observations for every env. On a CPU, learning that no env finished
+        # waits for nothing, so such steps skip it; on a GPU the step never asks.
+        self.skip_idle_resets = self.device.type == "cpu"
 
         self.observation_space = gym.spaces.Box(-self.clip_obs, self.clip_obs, (self.num_obs,),
                                                 np.float32)
@@ -107,6 +115,10 @@ class VecTask:
         raise NotImplementedError
 
     def reset_idx(self, env_ids: torch.Tensor) -> None:
+        """Start new episodes in the envs `env_ids` names: a bool mask [N] or indices. Compute
+        every env's reset values and write them under `torch_utils.env_mask(env_ids, N)`
+        (torch.where, masked_fill_, the `Envs` writers given a mask): nothing here may read the
+        device back."""
         raise NotImplementedError
 
     # ------------------------------------------------------------------ the loop
@@ -140,18 +152,18 @@ class VecTask:
         self.rew_buf[:] = torch.where(torch.isfinite(self.rew_buf) & ~bad_action, self.rew_buf, 0.0)
         self.reset_buf[:] = (self.reset_buf.bool() | timeout | broken).long()
         self.extras["time_outs"] = self.timeout_buf.clone()
-        done = self.reset_buf.nonzero().flatten()
-        if len(done):
+        done = self.reset_buf.bool()
+        if not self.skip_idle_resets or bool(done.any()):
             if dr is not None:
                 dr.on_reset(done)       # new physical parameters before the new episode starts
             self.reset_idx(done)
-            self.envs.sim.nonfinite[done] = 0
+            self.envs.sim.nonfinite.masked_fill_(done, 0)
             self.compute_observations()
         return self._obs(), self.rew_buf, self.reset_buf, self.extras
 
     def reset(self) -> dict:
         """Reset every env; returns the observation dict."""
-        self.reset_idx(torch.arange(self.num_envs, device=self.device))
+        self.reset_idx(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
         self.compute_observations()
         return self._obs()
 

@@ -30,7 +30,7 @@ import torch
 from .. import asset_path
 from ..api import Scene
 from .base import VecTask
-from ..torch_utils import quat_rotate
+from ..torch_utils import env_mask, quat_rotate, unit_axis, where_rows
 
 
 class Ingenuity(VecTask):
@@ -63,18 +63,18 @@ class Ingenuity(VecTask):
         return scene.build(self.num_envs, self.device, self.sim_params)
 
     def new_targets(self, env_ids):
-        n = len(env_ids)
-        self.targets[env_ids, 0:2] = torch.rand(n, 2, device=self.device) * 5.0 - 2.5
-        self.targets[env_ids, 2] = torch.rand(n, device=self.device) + 1.0
+        n = self.num_envs
+        xy = torch.rand(n, 2, device=self.device) * 5.0 - 2.5
+        z = torch.rand(n, 1, device=self.device) + 1.0
+        new = torch.cat((xy, z), dim=-1)
+        self.targets[:] = where_rows(env_mask(env_ids, self.num_envs), new, self.targets)
 
     def pre_physics_step(self, actions):
-        due = ((self.progress_buf % self.target_interval == 0) & (self.progress_buf > 0)).nonzero()
-        if len(due):
-            self.new_targets(due.flatten())
-        vertical = self.thrust_scale * torch.clamp(actions[:, [2, 5]] * self.thrust_action_scale,
+        self.new_targets((self.progress_buf % self.target_interval == 0) & (self.progress_buf > 0))
+        per_rotor = actions.reshape(-1, 2, 3)     # slices: a list index is copied from the host
+        vertical = self.thrust_scale * torch.clamp(per_rotor[..., 2] * self.thrust_action_scale,
                                                    -self.thrust_limit, self.thrust_limit)
-        lateral = torch.clamp(actions[:, [0, 1, 3, 4]].view(-1, 2, 2), -self.lateral_fraction,
-                              self.lateral_fraction)
+        lateral = torch.clamp(per_rotor[..., 0:2], -self.lateral_fraction, self.lateral_fraction)
         self.forces[:, self.rotors, 2] = vertical
         self.forces[:, self.rotors, 0:2] = vertical[..., None] * lateral
         self.envs.apply_body_forces(forces=self.forces, frame="local")
@@ -95,14 +95,14 @@ class Ingenuity(VecTask):
         self.obs_buf[:, 10:13] = root[:, 10:13] / math.pi
 
     def reset_idx(self, env_ids):
-        n = len(env_ids)
-        self.new_targets(env_ids)
-        root = self.initial_root_states[env_ids].clone()
-        offset = torch.rand(n, 3, device=self.device)
+        done = env_mask(env_ids, self.num_envs)
+        self.new_targets(done)
+        root = self.initial_root_states.clone()
+        offset = torch.rand(self.num_envs, 3, device=self.device)
         root[:, 0, 0:2] += offset[:, 0:2] * 3.0 - 1.5
         root[:, 0, 2] += offset[:, 2] * 1.7 - 0.2
-        self.envs.set_root_states(root, env_ids)
-        self.progress_buf[env_ids] = 0
+        self.envs.set_root_states(root, done)
+        self.progress_buf.masked_fill_(done, 0)
 
 
 def compute_ingenuity_reward(pos, targets, quat, angvel, upright_weight, max_target_distance,
@@ -110,7 +110,7 @@ def compute_ingenuity_reward(pos, targets, quat, angvel, upright_weight, max_tar
     """A.2.2 reward; returns (reward, terminated)."""
     distance = torch.norm(targets - pos, dim=-1)
     pos_reward = 1.0 / (1.0 + distance**2)
-    up_z = quat_rotate(quat, torch.tensor([0.0, 0.0, 1.0], device=pos.device).expand_as(pos))[:, 2]
+    up_z = quat_rotate(quat, unit_axis(pos, 2))[:, 2]
     tilt = 1.0 - up_z
     upright_reward = upright_weight / (1.0 + tilt**2)
     spin_reward = 1.0 / (1.0 + angvel[:, 2]**2)
