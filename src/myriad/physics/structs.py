@@ -35,15 +35,17 @@ class Field(NamedTuple):
     writable: bool            # the view may be assigned (sim.q = ...)
 
 
-def per_env(*dims, dtype=wp.float32, doc: str = "", public: str | None = None,
+def per_env(*dims, dtype=wp.float32, doc: str = "", public: str | bool | None = None,
             writable: bool = False) -> Field:
+    """public: the view's name, or True for the field's own name."""
     return Field(dims, dtype, doc, public, writable)
 
 
 def declared(cls):
     """A wp.struct of per-env arrays from a class of `name = per_env(...)` fields; the
     declarations stay on it as `.fields`, in order."""
-    fields = {name: f for name, f in vars(cls).items() if isinstance(f, Field)}
+    fields = {name: f._replace(public=name) if f.public is True else f
+              for name, f in vars(cls).items() if isinstance(f, Field)}
     arrays = type(cls.__name__, (), {
         "__doc__": cls.__doc__, "__module__": cls.__module__, "__qualname__": cls.__qualname__,
         "__annotations__": {name: wp.array(dtype=f.dtype, ndim=1 + len(f.dims))
@@ -201,51 +203,51 @@ def model_arrays(model, device) -> ModelArrays:
 class EnvParams:
     """Physical parameters of each env, initialized from the model; domain randomization and
     users write them between steps."""
-    body_mass = per_env("nbody", doc="mass (kg)", public="body_mass", writable=True)
+    body_mass = per_env("nbody", doc="mass (kg)", public=True, writable=True)
     body_inertia = per_env("nbody", dtype=wp.vec3, doc="principal moments of inertia about the "
-                          "center of mass (kg·m²)", public="body_inertia", writable=True)
+                           "center of mass (kg·m²)", public=True, writable=True)
     geom_friction = per_env("ngeom", doc="sliding friction coefficient; a contact uses its two "
-                           "geoms' average", public="geom_friction", writable=True)
+                            "geoms' average", public=True, writable=True)
     geom_restitution = per_env("ngeom", doc="restitution coefficient; a contact uses the two "
-                              "geoms' average", public="geom_restitution", writable=True)
+                               "geoms' average", public=True, writable=True)
     geom_size = per_env("ngeom", dtype=wp.vec3, doc="MuJoCo's size parameters (m), primitives",
-                       public="geom_size", writable=True)
+                        public=True, writable=True)
     geom_pos = per_env("ngeom", dtype=wp.vec3, doc="position in the body frame (m)",
-                      public="geom_pos", writable=True)
+                       public=True, writable=True)
     site_pos = per_env("nsite", dtype=wp.vec3, doc="position in the body frame (m)")
     joint_stiffness = per_env("njnt", doc="spring stiffness toward the spring reference "
-                             "(N·m/rad or N/m)", public="joint_stiffness", writable=True)
+                              "(N·m/rad or N/m)", public=True, writable=True)
     joint_range = per_env("njnt", dtype=wp.vec2, doc="lower, upper limit (rad or m) of a "
-                         "limited joint", public="joint_range", writable=True)
-    dof_damping = per_env("nv", doc="viscous damping (N·m·s/rad or N·s/m)", public="dof_damping",
-                         writable=True)
+                          "limited joint", public=True, writable=True)
+    dof_damping = per_env("nv", doc="viscous damping (N·m·s/rad or N·s/m)", public=True,
+                          writable=True)
     dof_armature = per_env("nv", doc="rotor inertia added to the mass matrix diagonal",
-                          public="dof_armature", writable=True)
+                           public=True, writable=True)
     dof_frictionloss = per_env("nv", doc="joint (dry) friction, force or torque",
-                              public="dof_frictionloss", writable=True)
+                               public=True, writable=True)
     dof_max_velocity = per_env("nv", doc="maximum joint speed (rad/s or m/s)",
-                              public="dof_max_velocity", writable=True)
-    actuator_gear = per_env("nu", doc="transmission ratio", public="actuator_gear", writable=True)
-    actuator_gain = per_env("nu", doc="motors: force per unit ctrl", public="actuator_gain",
-                           writable=True)
-    actuator_kp = per_env("nu", doc="position actuators: stiffness", public="actuator_kp",
-                         writable=True)
+                               public=True, writable=True)
+    actuator_gear = per_env("nu", doc="transmission ratio", public=True, writable=True)
+    actuator_gain = per_env("nu", doc="motors: force per unit ctrl", public=True,
+                            writable=True)
+    actuator_kp = per_env("nu", doc="position actuators: stiffness", public=True,
+                          writable=True)
     actuator_kv = per_env("nu", doc="position and velocity actuators: damping",
-                         public="actuator_kv", writable=True)
+                          public=True, writable=True)
     tendon_stiffness = per_env("ntendon", doc="spring stiffness along the tendon length",
-                              public="tendon_stiffness", writable=True)
+                               public=True, writable=True)
     tendon_damping = per_env("ntendon", doc="damping along the tendon length",
-                            public="tendon_damping", writable=True)
+                             public=True, writable=True)
     tendon_range = per_env("ntendon", dtype=wp.vec2, doc="lower, upper length limits",
-                          public="tendon_range", writable=True)
+                           public=True, writable=True)
     tendon_limit_stiffness = per_env("ntendon", doc="0: hard length limits; > 0: a limit spring",
-                                    public="tendon_limit_stiffness", writable=True)
-    tendon_rest_length = per_env("ntendon", doc="spring rest length", public="tendon_rest_length",
-                                writable=True)
-    tendon_offset = per_env("ntendon", doc="length at q = 0", public="tendon_offset",
-                           writable=True)
+                                     public=True, writable=True)
+    tendon_rest_length = per_env("ntendon", doc="spring rest length", public=True,
+                                 writable=True)
+    tendon_offset = per_env("ntendon", doc="length at q = 0", public=True,
+                            writable=True)
     gravity = per_env(dtype=wp.vec3, doc="gravitational acceleration, world (m/s²)",
-                     public="gravity", writable=True)
+                      public=True, writable=True)
 
 
 @declared
@@ -253,54 +255,54 @@ class State:
     """The generalized state and what kinematics derives from it. World frame unless noted;
     the motion subspaces `c*` are taken at each tree's root (see `spatial`)."""
     q = per_env("nq", doc="generalized positions (free and ball joints: quaternions xyzw)",
-               public="q", writable=True)
-    qd = per_env("nv", doc="generalized velocities", public="qd", writable=True)
-    qacc = per_env("nv", doc="unconstrained acceleration of the last substep", public="qacc")
+                public=True, writable=True)
+    qd = per_env("nv", doc="generalized velocities", public=True, writable=True)
+    qacc = per_env("nv", doc="unconstrained acceleration of the last substep", public=True)
     qd_before = per_env("nv", doc="qd at the start of the last substep")
     dq = per_env("nv", doc="the solver's displacement of the substep, integrated into q")
     body_x = per_env("nbody", dtype=wp.transform, doc="pose of the body frame: position, "
-                    "quaternion xyzw", public="body_pose")
-    body_com = per_env("nbody", dtype=wp.vec3, doc="center of mass (m)", public="body_com")
+                     "quaternion xyzw", public="body_pose")
+    body_com = per_env("nbody", dtype=wp.vec3, doc="center of mass (m)", public=True)
     body_iframe = per_env("nbody", dtype=wp.quat, doc="orientation of the principal axes")
     body_vel = per_env("nbody", dtype=wp.spatial_vector, doc="linear velocity of the body origin, "
-                      "then angular velocity", public="body_vel")
+                       "then angular velocity", public=True)
     site_x = per_env("nsite", dtype=wp.transform, doc="pose of each site", public="site_pose")
     geom_x = per_env("ngeom", dtype=wp.transform, doc="pose of each geom, as of the last "
-                    "collision stage", public="geom_pose")
+                     "collision stage", public="geom_pose")
     jnt_anchor = per_env("njnt", dtype=wp.vec3, doc="joint anchor point")
     jnt_xaxis = per_env("njnt", dtype=wp.vec3, doc="joint axis")
     cvel = per_env("nbody", dtype=wp.spatial_vector, doc="spatial velocity at the tree root")
     cdof = per_env("nv", dtype=wp.spatial_vector, doc="motion subspace of each dof")
     cdof_dot = per_env("nv", dtype=wp.spatial_vector, doc="its time derivative")
     sensor_wrench = per_env("nsensor", dtype=wp.spatial_vector, doc="force then torque that each "
-                           "sensor site's body receives from its parent, site frame (MuJoCo's "
-                           "force/torque sensors)", public="sensor_wrench")
+                            "sensor site's body receives from its parent, site frame (MuJoCo's "
+                            "force/torque sensors)", public=True)
     nonfinite = per_env(dtype=wp.int32, doc="1 once the env's state or input went non-finite "
-                       "(its state is then NaN); the task resets it", public="nonfinite",
-                       writable=True)
+                        "(its state is then NaN); the task resets it", public=True,
+                        writable=True)
 
 
 @declared
 class Control:
     """Inputs applied during the next step (held through its substeps)."""
-    ctrl = per_env("nu", doc="actuator inputs", public="ctrl", writable=True)
-    joint_force = per_env("nv", doc="generalized force", public="joint_force", writable=True)
+    ctrl = per_env("nu", doc="actuator inputs", public=True, writable=True)
+    joint_force = per_env("nv", doc="generalized force", public=True, writable=True)
     body_force = per_env("nbody", dtype=wp.spatial_vector, doc="force at the center of mass, then "
-                        "torque, world axes (N, N·m)", public="body_force", writable=True)
+                         "torque, world axes (N, N·m)", public=True, writable=True)
 
 
 @declared
 class Dynamics:
     """Terms of the equation of motion of the current substep."""
     qm = per_env("nmass", doc="mass matrix with armature, one square block per dof tree "
-                "(`mass_matrix_layout`)")
+                 "(`mass_matrix_layout`)")
     factor = per_env("nmass", doc="Lᵀ D L factor of qm + implicit_diag, same layout")
     bias = per_env("nv", doc="C(q, qd)·qd + g(q)", public="bias_force")
     qfrc = per_env("nv", doc="explicit generalized force minus bias")
     qfrc_applied = per_env("nv", doc="generalized force of joint_force and body_force")
     qfrc_actuator = per_env("nv", doc="generalized actuator force", public="dof_actuator_force")
     implicit_diag = per_env("nv", doc="h·d + h²·k of implicit dampers and drives, added to M's "
-                           "diagonal in the solve")
+                            "diagonal in the solve")
     wrench = per_env("nbody", dtype=wp.spatial_vector, doc="body_force at the tree root")
     cacc = per_env("nbody", dtype=wp.spatial_vector, doc="RNEA: spatial acceleration")
     cfrc = per_env("nbody", dtype=wp.spatial_vector, doc="RNEA: subtree force")
@@ -313,19 +315,19 @@ class Dynamics:
 class Contacts:
     """Contacts of the last collision stage, in `ncontact` slots per env, and their forces."""
     count = per_env(dtype=wp.int32, doc="contacts found; above the capacity: overflow (the rest "
-                   "were dropped)", public="contact_count")
+                    "were dropped)", public="contact_count")
     geom = per_env("ncontact", dtype=wp.vec2i, doc="geom 1, geom 2", public="contact_geom")
     key = per_env("ncontact", dtype=wp.int32, doc="identity across substeps (pair and feature, "
-                 "e.g. which box corner), for warm starts")
+                  "e.g. which box corner), for warm starts")
     pos = per_env("ncontact", dtype=wp.vec3, doc="midpoint between the surfaces",
-                 public="contact_pos")
+                  public="contact_pos")
     normal = per_env("ncontact", dtype=wp.vec3, doc="from geom 1 to geom 2",
-                    public="contact_normal")
+                     public="contact_normal")
     dist = per_env("ncontact", doc="signed distance, < 0: penetration (m)", public="contact_dist")
     force = per_env("ncontact", dtype=wp.vec3, doc="force on geom 2 in the last substep, world (N)",
-                   public="contact_force")
+                    public="contact_force")
     net_force = per_env("nbody", dtype=wp.vec3, doc="sum of the contact forces on each body (N)",
-                       public="net_contact_force")
+                        public="net_contact_force")
     prev_key = per_env("ncontact", dtype=wp.int32, doc="the last substep's keys (warm start)")
     prev_count = per_env(dtype=wp.int32, doc="the last substep's contacts in use")
 
@@ -348,7 +350,7 @@ class Rows:
     lam = per_env("nrow", doc="impulse of the last substep (N·s or N·m·s)")
     lam_init = per_env("nrow", doc="starting impulse of the substep (warm start)")
     dof_force = per_env("nv", doc="generalized force of all rows in the last substep",
-                       public="dof_constraint_force")
+                        public="dof_constraint_force")
 
 
 STRUCTS = (EnvParams, State, Control, Dynamics, Contacts, Rows)
