@@ -22,7 +22,8 @@ resting contact then starts converged instead of being rebuilt from zero by a fe
 
 import warp as wp
 
-from .dynamics import solve_span, solve_span3
+from . import dense
+from .dynamics import solve_span
 from .spatial import velocity_at
 from .structs import Contacts, EnvParams, ModelArrays, Rows, State
 from .types import DOF, FRICTION, FRICTION2, INACTIVE, NORMAL, SOFT
@@ -98,14 +99,17 @@ def _add_contact_jacobian(m: ModelArrays, e: int, body: int, point: wp.vec3, n: 
     if body < 0:
         return
     ref = wp.transform_get_translation(body_x[e, m.body_root[body]])
-    j = m.body_last_dof[body]
-    while j >= 0:
+    last = m.body_last_dof[body]
+    if last < 0:
+        return
+    chain = m.dof_madr[last]      # the mass matrix row of `last` lists it and its ancestors
+    for a in range(chain, chain + m.dof_mnum[last]):
+        j = m.mass_col[a]
         u = sign * velocity_at(cdof[e, j], point - ref)
         c = _col(sp, j)
         jac[e, r, c] = jac[e, r, c] + wp.dot(n, u)
         jac[e, r + 1, c] = jac[e, r + 1, c] + wp.dot(t1, u)
         jac[e, r + 2, c] = jac[e, r + 2, c] + wp.dot(t2, u)
-        j = m.dof_parent[j]
 
 
 @wp.func
@@ -121,31 +125,24 @@ def _spans(a: wp.vec2i, b: wp.vec2i):
 
 @wp.func
 def _zero_row(a: wp.array3d(dtype=float), e: int, r: int, sp: wp.vec4i):
-    for c in range(_width(sp)):
-        a[e, r, c] = 0.0
+    dense.fill(a[e, r], 0, 0.0, _width(sp))
 
 
 @wp.func
 def _row_dot(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
              sp: wp.vec4i):
     """a[e, r] · v[e] over the row's span."""
-    s = float(0.0)
-    o = sp[1] - sp[0] - sp[2]     # column of dof i in the second range: o + i
-    for i in range(sp[0], sp[1]):
-        s = s + a[e, r, i - sp[0]] * v[e, i]
-    for i in range(sp[2], sp[3]):
-        s = s + a[e, r, o + i] * v[e, i]
-    return s
+    row = a[e, r]
+    ve = v[e]
+    n1 = sp[1] - sp[0]
+    return dense.dot(dense.dot(0.0, row, 0, ve, sp[0], n1), row, n1, ve, sp[2], sp[3] - sp[2])
 
 
 @wp.func
 def _row_norm(jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float), e: int, r: int,
               sp: wp.vec4i):
     """J_r M⁻¹ J_rᵀ over the row's span."""
-    s = float(0.0)
-    for c in range(_width(sp)):
-        s = s + jac[e, r, c] * minv_jt[e, r, c]
-    return s
+    return dense.dot(0.0, jac[e, r], 0, minv_jt[e, r], 0, _width(sp))
 
 
 @wp.func
@@ -171,8 +168,7 @@ def _set_inv_mass(rows: Rows, e: int, r: int, sp: wp.vec4i, kind: int):
 @wp.func
 def _copy_row(src: wp.array3d(dtype=float), dst: wp.array3d(dtype=float), e: int, r: int,
               sp: wp.vec4i):
-    for c in range(_width(sp)):
-        dst[e, r, c] = src[e, r, c]
+    dense.copy(dst[e, r], 0, src[e, r], 0, _width(sp))
 
 
 @wp.func
@@ -438,11 +434,10 @@ def dof_rows(m: ModelArrays, e: int, base: int, count: int, h: float, p: EnvPara
 def build_contact_rows(m: ModelArrays, e: int, r0: int, sp: wp.vec4i,
                        factor: wp.array2d(dtype=float), rows: Rows):
     """Responses M⁻¹Jᵀ and 1/(J M⁻¹ Jᵀ) of a contact's three rows r0 (normal), r0+1, r0+2
-    (friction) from their J, in one walk of the factor; friction goes with its normal row."""
+    (friction) from their J; friction goes with its normal row."""
     for d in range(3):
         _copy_row(rows.jac, rows.minv_jt, e, r0 + d, sp)
-    solve_span3(m, e, factor, rows.minv_jt, r0, sp[0], sp[1], 0)
-    solve_span3(m, e, factor, rows.minv_jt, r0, sp[2], sp[3], sp[1] - sp[0])
+        _solve_row(m, e, factor, rows.minv_jt, r0 + d, sp)
     _set_inv_mass(rows, e, r0, sp, NORMAL)
     _set_inv_mass(rows, e, r0 + 1, sp, FRICTION)
     _set_inv_mass(rows, e, r0 + 2, sp, FRICTION2)

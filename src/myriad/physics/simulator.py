@@ -139,7 +139,7 @@ class Simulator:
         dof_span = structs.tree_spans(model)[0]
         tendon_dofs = [m.jnt_dofadr[m.wrap_jnt[a:a + k]] for a, k in zip(m.tendon_adr, m.tendon_num)]
         self.row_width = constraints.row_width(dof_span, tendon_dofs)
-        madr, nmass = structs.mass_matrix_layout(dof_span)
+        madr, mnum, mass_col = structs.mass_matrix_layout(m.dof_parent)
 
         # force/torque sensors: one 6D wrench per site that carries a force or torque sensor
         self.sensor_sites = list(dict.fromkeys(int(s) for s in m.sensor_site))
@@ -155,7 +155,7 @@ class Simulator:
         self.sizes = dict(nq=m.nq, nv=m.nv, nbody=m.nbody, njnt=m.njnt, nu=m.nu,
                           ntendon=m.ntendon, ngeom=m.ngeom, nsite=m.nsite,
                           nsensor=len(self.sensor_sites), ncontact=self.contact_capacity,
-                          nrow=self.nrow, row_width=self.row_width, nmass=nmass)
+                          nrow=self.nrow, row_width=self.row_width, nmass=len(mass_col))
         gravity = m.gravity if params.gravity is None else np.asarray(params.gravity)
         initial = {
             EnvParams: dict(
@@ -183,12 +183,12 @@ class Simulator:
                        for struct in structs.STRUCTS for name, f in struct.fields.items()
                        if f.public}
 
-        # where the mass matrix blocks' entries go in a dense [nv, nv] matrix (`mass_matrix`)
-        blocks = [(i, j) for i in range(m.nv) for j in range(*dof_span[i])]
-        self._qm_dense_at = torch.as_tensor(np.asarray(blocks, np.int64).reshape(-1, 2).T,
-                                            device=self.torch_device)
-        self._qm_block_at = torch.as_tensor(np.asarray([madr[i] + j for i, j in blocks], np.int64),
-                                            device=self.torch_device)
+        # where each stored entry (i, j) of the mass matrix goes in a dense [nv, nv] matrix, and
+        # its mirror (j, i) (`mass_matrix`)
+        entry_row = np.repeat(np.arange(m.nv), mnum)
+        self._qm_dense_at = torch.as_tensor(np.stack([np.concatenate([entry_row, mass_col]),
+                                                      np.concatenate([mass_col, entry_row])]),
+                                            dtype=torch.int64, device=self.torch_device)
 
         self._setup_cpu_shards(cpu_threads)
         self.forward()
@@ -384,13 +384,13 @@ class Simulator:
     def mass_matrix(self) -> torch.Tensor:
         """[N, nv, nv] joint-space mass matrix with armature, of the current kinematics.
 
-        A new dense tensor built from the stored blocks (one per dof tree) on each read: zero
-        between dofs of different trees.
+        A new dense tensor built from the stored entries (each dof with its ancestors) on each
+        read: zero between dofs of which neither is an ancestor of the other.
         """
         n, nv = self.num_envs, self.model.nv
         dense = torch.zeros(n, nv, nv, device=self.torch_device)
         rows, cols = self._qm_dense_at
-        dense[:, rows, cols] = wp.to_torch(self._d.qm)[:, self._qm_block_at]
+        dense[:, rows, cols] = wp.to_torch(self._d.qm).repeat(1, 2)
         return dense
 
     @property

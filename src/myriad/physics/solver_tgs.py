@@ -25,6 +25,7 @@ targets a separation speed of e times its approach speed.
 
 import warp as wp
 
+from . import dense
 from .constraints import RowLayout, _row_dot, build_contact_rows, build_dof_row
 from .types import DOF, FRICTION, INACTIVE, NORMAL, SOFT
 from .structs import Contacts, ModelArrays, Rows
@@ -42,11 +43,11 @@ def _apply(e: int, r: int, dl: float, minv_jt: wp.array3d(dtype=float), v: wp.ar
     """v += M⁻¹J_rᵀ·dl over the row's span (the response is zero outside it)."""
     if dl == 0.0:
         return
-    o = sp[1] - sp[0] - sp[2]     # column of dof i in the second range: o + i
-    for i in range(sp[0], sp[1]):
-        v[e, i] = v[e, i] + minv_jt[e, r, i - sp[0]] * dl
-    for i in range(sp[2], sp[3]):
-        v[e, i] = v[e, i] + minv_jt[e, r, o + i] * dl
+    row = minv_jt[e, r]
+    ve = v[e]
+    n1 = sp[1] - sp[0]
+    dense.axpy(ve, sp[0], dl, row, 0, n1)
+    dense.axpy(ve, sp[2], dl, row, n1, sp[3] - sp[2])
 
 
 @wp.func
@@ -187,15 +188,22 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
 def _row_dot2(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
               sp: wp.vec4i):
     """(a[e, r] · v[e], a[e, r + 1] · v[e]) over the rows' span, in one pass."""
+    row1 = a[e, r]
+    row2 = a[e, r + 1]
+    ve = v[e]
     s1 = float(0.0)
     s2 = float(0.0)
+    i = sp[0]
+    while i < sp[1]:
+        s1 = s1 + row1[i - sp[0]] * ve[i]
+        s2 = s2 + row2[i - sp[0]] * ve[i]
+        i += 1
     o = sp[1] - sp[0] - sp[2]
-    for i in range(sp[0], sp[1]):
-        s1 = s1 + a[e, r, i - sp[0]] * v[e, i]
-        s2 = s2 + a[e, r + 1, i - sp[0]] * v[e, i]
-    for i in range(sp[2], sp[3]):
-        s1 = s1 + a[e, r, o + i] * v[e, i]
-        s2 = s2 + a[e, r + 1, o + i] * v[e, i]
+    i = sp[2]
+    while i < sp[3]:
+        s1 = s1 + row1[o + i] * ve[i]
+        s2 = s2 + row2[o + i] * ve[i]
+        i += 1
     return wp.vec2(s1, s2)
 
 
@@ -205,12 +213,19 @@ def _apply2(e: int, r: int, dl1: float, dl2: float, minv_jt: wp.array3d(dtype=fl
     """v += M⁻¹J_rᵀ·dl1 + M⁻¹J_{r+1}ᵀ·dl2 over the rows' span, in one pass."""
     if dl1 == 0.0 and dl2 == 0.0:
         return
-    o = sp[1] - sp[0] - sp[2]
-    for i in range(sp[0], sp[1]):
+    row1 = minv_jt[e, r]
+    row2 = minv_jt[e, r + 1]
+    ve = v[e]
+    i = sp[0]
+    while i < sp[1]:
         c = i - sp[0]
-        v[e, i] = v[e, i] + minv_jt[e, r, c] * dl1 + minv_jt[e, r + 1, c] * dl2
-    for i in range(sp[2], sp[3]):
-        v[e, i] = v[e, i] + minv_jt[e, r, o + i] * dl1 + minv_jt[e, r + 1, o + i] * dl2
+        ve[i] = ve[i] + row1[c] * dl1 + row2[c] * dl2
+        i += 1
+    o = sp[1] - sp[0] - sp[2]
+    i = sp[2]
+    while i < sp[3]:
+        ve[i] = ve[i] + row1[o + i] * dl1 + row2[o + i] * dl2
+        i += 1
 
 
 @wp.kernel

@@ -119,9 +119,12 @@ class ModelArrays:
     # mass matrix is block-diagonal over these trees, so a row's response stays inside them
     dof_tree_span: wp.array(dtype=wp.vec2i)
     body_tree_span: wp.array(dtype=wp.vec2i)   # of the dofs that move a body; (0, 0) if none
-    # entry (i, j) of the mass matrix and its factor (i, j in one dof tree) sits at
-    # dof_madr[i] + j of an env's block-diagonal storage (`mass_matrix_layout`)
+    # the mass matrix and its factor keep, per dof i, one contiguous row of entries: (i, i)
+    # at dof_madr[i], then (i, j) for each ancestor j of i, nearest first (`mass_matrix_layout`);
+    # mass_col holds each entry's column j. The row of an ancestor is a tail of i's row.
     dof_madr: wp.array(dtype=wp.int32)
+    dof_mnum: wp.array(dtype=wp.int32)     # entries in dof i's row: 1 + its ancestors
+    mass_col: wp.array(dtype=wp.int32)
 
     site_body: wp.array(dtype=wp.int32)
     site_pos: wp.array(dtype=wp.vec3)
@@ -164,24 +167,36 @@ def tree_spans(model) -> tuple[np.ndarray, np.ndarray]:
     return dof_span, body_span
 
 
-def mass_matrix_layout(dof_tree_span: np.ndarray) -> tuple[np.ndarray, int]:
-    """(dof_madr [nv], size): entry (i, j) of M, i and j in the same dof tree [lo, hi), sits at
-    dof_madr[i] + j of a per-env array of `size` floats, the trees' square blocks in order."""
-    madr = np.zeros(len(dof_tree_span), np.int32)
-    size = 0
-    for i, (lo, hi) in enumerate(dof_tree_span):
-        if i == lo:                       # a tree starts: its block follows the last one
-            start, size = size, size + (hi - lo) ** 2
-        madr[i] = start + (i - lo) * (hi - lo) - lo
-    return madr, size
+def mass_matrix_layout(dof_parent: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(dof_madr [nv], dof_mnum [nv], mass_col [nmass]): where the entries of M that can be
+    nonzero sit in a per-env array of nmass floats (MuJoCo's sparse mass matrix, lower half).
+
+    M(i, j) is nonzero only for j = i or an ancestor of i on its `dof_parent` chain. Dof i's row
+    holds those entries contiguously from dof_madr[i]: (i, i), then (i, parent), (i,
+    grandparent), ... (dof_mnum[i] of them); mass_col gives each entry's column. Since the
+    ancestors of an ancestor j are the rest of i's chain, j's row and the tail of i's row from
+    (i, j) on have the same columns in the same order: the factorization and the solves run
+    over contiguous entries instead of walking `dof_parent`.
+    """
+    cols = []
+    for i in range(len(dof_parent)):
+        chain = [i]
+        while dof_parent[chain[-1]] >= 0:
+            chain.append(int(dof_parent[chain[-1]]))
+        cols.append(chain)
+    mnum = np.asarray([len(c) for c in cols], np.int32)
+    madr = (np.cumsum(mnum) - mnum).astype(np.int32)
+    mass_col = np.asarray([j for c in cols for j in c], np.int32)
+    return madr, mnum, mass_col
 
 
 def model_arrays(model, device) -> ModelArrays:
     """`model` on the device: each field of ModelArrays is the Model's attribute of the same
     name, except the few derived here."""
     dof_span, body_span = tree_spans(model)
+    madr, mnum, mass_col = mass_matrix_layout(model.dof_parent)
     derived = dict(dof_tree_span=dof_span, body_tree_span=body_span,
-                   dof_madr=mass_matrix_layout(dof_span)[0],
+                   dof_madr=madr, dof_mnum=mnum, mass_col=mass_col,
                    actuator_qposadr=model.jnt_qposadr[model.dof_jnt[model.actuator_dof]])
     out = ModelArrays()
     for name, var in ModelArrays.vars.items():
@@ -294,8 +309,8 @@ class Control:
 @declared
 class Dynamics:
     """Terms of the equation of motion of the current substep."""
-    qm = per_env("nmass", doc="mass matrix with armature, one square block per dof tree "
-                 "(`mass_matrix_layout`)")
+    qm = per_env("nmass", doc="mass matrix with armature: each dof's row over itself and its "
+                 "ancestors (`mass_matrix_layout`)")
     factor = per_env("nmass", doc="Lᵀ D L factor of qm + implicit_diag, same layout")
     bias = per_env("nv", doc="C(q, qd)·qd + g(q)", public="bias_force")
     qfrc = per_env("nv", doc="explicit generalized force minus bias")

@@ -1,0 +1,95 @@
+"""Loops over contiguous runs of floats: a constraint row's columns, a dof's row of the factor.
+
+Every row-sized loop of the engine (J·v, v += M⁻¹Jᵀ·λ, the LᵀDL factorization and solves)
+goes through these few functions. They are native code (`wp.func_native`, compiled by Warp for
+the CPU and for CUDA alike) because a Warp array index wraps negative indices and multiplies by
+the stride on every access, and a `range` loop with runtime bounds keeps a generic iterator: in
+these loops that overhead, not the arithmetic, was the cost on a CPU (the factorization ran 3×
+its arithmetic). Here each loop walks plain pointers from one checked start.
+
+Arguments are 1D views (`a[e, r]`, `v[e]`), contiguous in their last dimension as every
+engine array is (allocated whole by `structs.allocate`; a CPU shard is a range of envs); `*_at`
+is the offset of the run's first element in its view, `n` the run's length (nothing happens
+for n <= 0). Sums run in index order, one term after the other, so results do not depend on how
+a loop is compiled.
+"""
+
+import warp as wp
+
+
+@wp.func_native("""
+    float s = init;
+    if (n <= 0) return s;
+    const float* ap = wp::address(a, a_at);
+    const float* bp = wp::address(b, b_at);
+    for (int i = 0; i < n; ++i) s += ap[i] * bp[i];
+    return s;
+""")
+def dot(init: float, a: wp.array(dtype=float), a_at: int, b: wp.array(dtype=float), b_at: int,
+        n: int) -> float:
+    """init + Σ a[a_at + i] · b[b_at + i]."""
+    ...
+
+
+@wp.func_native("""
+    if (n <= 0) return;
+    float* yp = wp::address(y, y_at);
+    const float* xp = wp::address(x, x_at);
+    for (int i = 0; i < n; ++i) yp[i] += alpha * xp[i];
+""")
+def axpy(y: wp.array(dtype=float), y_at: int, alpha: float, x: wp.array(dtype=float), x_at: int,
+         n: int):
+    """y[y_at + i] += alpha · x[x_at + i]."""
+    ...
+
+
+@wp.func_native("""
+    if (n <= 0) return;
+    float* yp = wp::address(y, y_at);
+    const float* xp = wp::address(x, x_at);
+    for (int i = 0; i < n; ++i) yp[i] = xp[i];
+""")
+def copy(y: wp.array(dtype=float), y_at: int, x: wp.array(dtype=float), x_at: int, n: int):
+    """y[y_at + i] = x[x_at + i]."""
+    ...
+
+
+@wp.func_native("""
+    if (n <= 0) return;
+    float* yp = wp::address(y, y_at);
+    for (int i = 0; i < n; ++i) yp[i] = value;
+""")
+def fill(y: wp.array(dtype=float), y_at: int, value: float, n: int):
+    """y[y_at + i] = value."""
+    ...
+
+
+@wp.func_native("""
+    float s = init;
+    if (n <= 0) return s;
+    const float* ap = wp::address(a, a_at);
+    const int* cp = wp::address(cols, a_at);
+    float* xp = wp::address(x, 0);
+    for (int i = 0; i < n; ++i) s -= ap[i] * xp[x_at + cp[i]];
+    return s;
+""")
+def dot_sub_gather(init: float, a: wp.array(dtype=float), a_at: int,
+                   cols: wp.array(dtype=wp.int32), x: wp.array(dtype=float), x_at: int,
+                   n: int) -> float:
+    """init - Σ a[a_at + i] · x[x_at + cols[a_at + i]]: a factor row against the entries of x
+    its columns name."""
+    ...
+
+
+@wp.func_native("""
+    if (n <= 0) return;
+    const float* ap = wp::address(a, a_at);
+    const int* cp = wp::address(cols, a_at);
+    float* yp = wp::address(y, 0);
+    for (int i = 0; i < n; ++i) yp[y_at + cp[i]] += alpha * ap[i];
+""")
+def axpy_scatter(y: wp.array(dtype=float), y_at: int, cols: wp.array(dtype=wp.int32),
+                 alpha: float, a: wp.array(dtype=float), a_at: int, n: int):
+    """y[y_at + cols[a_at + i]] += alpha · a[a_at + i]: a factor row into the entries of y its
+    columns name."""
+    ...
