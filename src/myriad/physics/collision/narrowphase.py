@@ -525,12 +525,18 @@ def _pair(e: int, p: int, pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(d
     s1 = geom_size[e, g1]
     s2 = geom_size[e, g2]
     # broadphase: shapes whose bounding spheres are farther apart than the contact offset
-    # cannot touch (pairs are ordered by type: planes and height fields come first). The pair
-    # tests are in a function of their own, so that a skipped pair costs only these few locals.
-    if t1 != PLANE and t1 != HFIELD:
+    # cannot touch, nor can a shape whose bounding sphere lies farther above a plane (pairs are
+    # ordered by type: planes and height fields come first). The pair tests are in a function
+    # of their own, so that a skipped pair costs only these few locals.
+    offset = wp.transform_get_translation(x2) - wp.transform_get_translation(x1)
+    if t1 == PLANE:
+        if t2 != PLANE and t2 != HFIELD:
+            up = wp.quat_rotate(wp.transform_get_rotation(x1), wp.vec3(0.0, 0.0, 1.0))
+            if wp.dot(offset, up) > bounding_radius(t2, s2, geom_dataid[g2], meshes) + margin:
+                return
+    elif t1 != HFIELD:
         reach = (bounding_radius(t1, s1, geom_dataid[g1], meshes)
                  + bounding_radius(t2, s2, geom_dataid[g2], meshes) + margin)
-        offset = wp.transform_get_translation(x2) - wp.transform_get_translation(x1)
         if wp.length_sq(offset) > reach * reach:
             return
     _collide_pair(e, p, pair, t1, t2, x1, x2, s1, s2, geom_dataid, meshes, hfields, margin,
