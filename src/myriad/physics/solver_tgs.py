@@ -40,7 +40,8 @@ WARM = wp.constant(0.9)
 @wp.func
 def _apply(e: int, r: int, dl: float, minv_jt: wp.array3d(dtype=float), v: wp.array2d(dtype=float),
            sp: wp.vec4i):
-    """v += M⁻¹J_rᵀ·dl over the row's span (the response is zero outside it)."""
+    """v[e] += minv_jt[e, r]·dl over the row's span: a row's response M⁻¹J_rᵀ (zero outside
+    its span) applied to the velocity; or, given J, a row's generalized force."""
     if dl == 0.0:
         return
     row = minv_jt[e, r]
@@ -64,168 +65,171 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
            limit_jnt: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int, hs: float,
            h: float, max_depenetration: float, factor: wp.array2d(dtype=float), rows: Rows,
            v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
-    """One Gauss-Seidel sweep over the rows in use, updating v and the impulses rows.lam."""
-    jac = rows.jac
-    minv_jt = rows.minv_jt
-    lam = rows.lam
-    # normal rows first (the contacts', then joint and tendon limits), then the contacts'
-    # friction rows, whose bounds then hold this sweep's normal impulses, tendon springs and dofs
-    n_normal = ncontact + layout.springs - layout.joint_limits
-    n_rest = ncontact + layout.end - layout.springs
-    for rr in range(n_normal + n_rest):
-        r = layout.springs + rr - n_normal - ncontact
-        if rr < ncontact:
-            r = 3 * rr
-        elif rr < n_normal:
-            r = layout.joint_limits + rr - ncontact
-        elif rr < n_normal + ncontact:
-            r = 3 * (rr - n_normal) + 1
-        t = rows.type[e, r]
-        if t == INACTIVE:
-            continue
+    """One Gauss-Seidel sweep over the rows in use, updating v and the impulses rows.lam.
+
+    Normal rows first (the contacts', then joint and tendon limits), then the contacts'
+    friction rows, whose bounds then hold this sweep's normal impulses, then tendon springs and
+    dofs."""
+    for k in range(ncontact):
+        _normal_row(m, e, 3 * k, -1, 0.0, biased, tgs, hs, h, max_depenetration, factor, rows,
+                    v, dq)
+    for li in range(layout.tendon_limits - layout.joint_limits):
+        # a joint limit row: J = ±e_dof (lower, upper side), so J·v is ± the dof's own speed
+        _normal_row(m, e, layout.joint_limits + li, m.jnt_dofadr[limit_jnt[li / 2]],
+                    1.0 - 2.0 * float(li % 2), biased, tgs, hs, h, max_depenetration, factor,
+                    rows, v, dq)
+    for r in range(layout.tendon_limits, layout.springs):
+        _normal_row(m, e, r, -1, 0.0, biased, tgs, hs, h, max_depenetration, factor, rows, v,
+                    dq)
+    for k in range(ncontact):
+        _friction_rows(e, 3 * k + 1, biased, tgs, hs, rows, v, dq)
+    if first != 0:
+        for r in range(layout.springs, layout.dofs):
+            _spring_row(e, r, h, rows, v)
+    for dof in range(layout.end - layout.dofs):
+        _dof_row(m, e, layout.dofs + dof, dof, factor, rows, v)
+
+
+@wp.func
+def _normal_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, biased: int, tgs: int,
+                hs: float, h: float, max_depenetration: float, factor: wp.array2d(dtype=float),
+                rows: Rows, v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
+    """A non-negative impulse along row r (a contact normal, or a limit: along ±e_dof for a
+    joint limit, dof >= 0) that removes the approach, and in biased (position) sweeps the
+    penetration."""
+    if rows.type[e, r] != NORMAL:
+        return
+    sp = rows.span[e, r]
+    err = rows.err[e, r]
+    jv = float(0.0)
+    if dof >= 0:
+        jv = sign * v[e, dof]
+        if tgs != 0:
+            err = err + sign * dq[e, dof]
+    else:
+        jv = _row_dot(rows.jac, e, r, v, sp)
+        if tgs != 0:
+            err = err + _row_dot(rows.jac, e, r, dq, sp)
+    target = float(0.0)
+    if err >= 0.0:
+        target = -err / h          # may close the gap, no more
+        if biased != 0:
+            target = -err / hs
+    elif biased != 0:
+        target = wp.min(-err / hs, max_depenetration)
+    if rows.bounce[e, r] > 0.0:  # restitution replaces the bias for a fast approach
+        target = wp.max(target, rows.bounce[e, r])
+    if rows.inv_mass[e, r] == 0.0:
+        # response not built yet (`constraints`): the row has had no impulse, and gets none
+        # while it does not push
+        if target - jv <= 0.0:
+            return
+        if dof >= 0:
+            build_dof_row(m, e, r, dof, sign, NORMAL, factor, rows)
+        else:
+            build_contact_rows(m, e, r, sp, factor, rows)
+        if rows.type[e, r] != NORMAL:
+            return
         sp = rows.span[e, r]
-        if t == NORMAL:
-            err = rows.err[e, r]
-            li = r - layout.joint_limits
-            dof = int(-1)
-            sign = float(0.0)
-            if li >= 0 and r < layout.tendon_limits:
-                # a joint limit row: J = ±e_dof, so J·v is the dof's own speed
-                dof = m.jnt_dofadr[limit_jnt[li / 2]]
-                sign = 1.0 - 2.0 * float(li % 2)
-                jv = sign * v[e, dof]
-                if tgs != 0:
-                    err = err + sign * dq[e, dof]
-            else:
-                jv = _row_dot(jac, e, r, v, sp)
-                if tgs != 0:
-                    err = err + _row_dot(jac, e, r, dq, sp)
-            target = float(0.0)
-            if err >= 0.0:
-                target = -err / h          # may close the gap, no more
-                if biased != 0:
-                    target = -err / hs
-            elif biased != 0:
-                target = wp.min(-err / hs, max_depenetration)
-            if rows.bounce[e, r] > 0.0:  # restitution replaces the bias for a fast approach
-                target = wp.max(target, rows.bounce[e, r])
-            if rows.inv_mass[e, r] == 0.0:
-                # response not built yet (`constraints`): the row has had no impulse, and gets
-                # none while it does not push
-                if target - jv <= 0.0:
-                    continue
-                if dof >= 0:
-                    build_dof_row(m, e, r, dof, sign, NORMAL, factor, rows)
-                else:
-                    build_contact_rows(m, e, r, sp, factor, rows)
-                if rows.type[e, r] != NORMAL:
-                    continue
-                sp = rows.span[e, r]
-            old = lam[e, r]
-            new = wp.max(old + (target - jv) * rows.inv_mass[e, r], 0.0)
-            lam[e, r] = new
-            _apply(e, r, new - old, minv_jt, v, sp)
-        elif t == SOFT:
-            # implicit spring-damper over the whole substep, once (first sweep), like the other
-            # forces: impulse = -(h·k·err + a·J·v) / (1 + a·w), a = h·(h·k + d). Applied per TGS
-            # sub-step instead, it would fight the once-per-substep external forces and leave a
-            # spurious velocity at equilibrium.
-            if first != 0:
-                k = rows.k[e, r]
-                a = h * (h * k + rows.d[e, r])
-                w = 1.0 / rows.inv_mass[e, r]
-                dl = -(h * k * rows.err[e, r] + a * _row_dot(jac, e, r, v, sp)) / (1.0 + a * w)
-                lam[e, r] = lam[e, r] + dl
-                _apply(e, r, dl, minv_jt, v, sp)
-        elif t == DOF:
-            # J = e_dof (the dof rows come last, one per dof): J·v is the dof's own speed
-            dof = r - layout.dofs
-            bound = rows.mu[e, r]
-            if bound > 0.0:
-                # joint friction: stop the dof, with at most frictionloss·h of impulse per substep
-                old = lam[e, r]
-                new = wp.clamp(old - v[e, dof] * rows.inv_mass[e, r], -bound, bound)
-                lam[e, r] = new
-                _apply(e, r, new - old, minv_jt, v, sp)
-            # maximum joint speed: a joint-space impulse brings it back inside
-            jv = v[e, dof]
-            cap = rows.k[e, r]
-            if wp.abs(jv) > cap:
-                if rows.inv_mass[e, r] == 0.0:   # first time past the cap in this substep
-                    build_dof_row(m, e, r, dof, 1.0, DOF, factor, rows)
-                    sp = rows.span[e, r]
-                if rows.type[e, r] == DOF:
-                    _apply(e, r, (wp.clamp(jv, -cap, cap) - jv) * rows.inv_mass[e, r], minv_jt,
-                           v, sp)
-        elif t == FRICTION:
-            old1 = lam[e, r]
-            old2 = lam[e, r + 1]
-            limit = rows.mu[e, r] * lam[e, r - 1]
-            if limit == 0.0 and old1 == 0.0 and old2 == 0.0:
-                continue   # no normal impulse, no friction: the projection below gives zero
-            # static friction holds the contact point where it was at the start of the substep:
-            # in TGS position sweeps the target undoes the slip accumulated so far, -J_t·dq / hs
-            target_t = wp.vec2(0.0, 0.0)
-            if tgs != 0 and biased != 0:
-                target_t = -1.0 * _row_dot2(jac, e, r, dq, sp) / hs
-            # both rows from the same velocity, then projection onto the friction disk
-            jv_t = _row_dot2(jac, e, r, v, sp)
-            l1 = old1 + (target_t[0] - jv_t[0]) * rows.inv_mass[e, r]
-            l2 = old2 + (target_t[1] - jv_t[1]) * rows.inv_mass[e, r + 1]
-            norm = wp.sqrt(l1 * l1 + l2 * l2)
-            if norm > limit:
-                scale = float(0.0)
-                if norm > 0.0:
-                    scale = limit / norm
-                l1 = l1 * scale
-                l2 = l2 * scale
-            lam[e, r] = l1
-            lam[e, r + 1] = l2
-            _apply2(e, r, l1 - old1, l2 - old2, minv_jt, v, sp)
+    old = rows.lam[e, r]
+    new = wp.max(old + (target - jv) * rows.inv_mass[e, r], 0.0)
+    rows.lam[e, r] = new
+    _apply(e, r, new - old, rows.minv_jt, v, sp)
+
+
+@wp.func
+def _friction_rows(e: int, r: int, biased: int, tgs: int, hs: float, rows: Rows,
+                   v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
+    """A contact's two friction rows r, r + 1 together, their impulse projected onto the disk
+    of radius mu · the normal row's impulse (row r - 1)."""
+    if rows.type[e, r] != FRICTION:
+        return
+    old1 = rows.lam[e, r]
+    old2 = rows.lam[e, r + 1]
+    limit = rows.mu[e, r] * rows.lam[e, r - 1]
+    if limit == 0.0 and old1 == 0.0 and old2 == 0.0:
+        return     # no normal impulse, no friction: the projection below gives zero
+    sp = rows.span[e, r]
+    # static friction holds the contact point where it was at the start of the substep: in TGS
+    # position sweeps the target undoes the slip accumulated so far, -J_t·dq / hs
+    target_t = wp.vec2(0.0, 0.0)
+    if tgs != 0 and biased != 0:
+        target_t = -1.0 * _row_dot2(rows.jac, e, r, dq, sp) / hs
+    # both rows from the same velocity, then projection onto the friction disk
+    jv_t = _row_dot2(rows.jac, e, r, v, sp)
+    l1 = old1 + (target_t[0] - jv_t[0]) * rows.inv_mass[e, r]
+    l2 = old2 + (target_t[1] - jv_t[1]) * rows.inv_mass[e, r + 1]
+    norm = wp.sqrt(l1 * l1 + l2 * l2)
+    if norm > limit:
+        scale = float(0.0)
+        if norm > 0.0:
+            scale = limit / norm
+        l1 = l1 * scale
+        l2 = l2 * scale
+    rows.lam[e, r] = l1
+    rows.lam[e, r + 1] = l2
+    _apply2(e, r, l1 - old1, l2 - old2, rows.minv_jt, v, sp)
+
+
+@wp.func
+def _spring_row(e: int, r: int, h: float, rows: Rows, v: wp.array2d(dtype=float)):
+    """A tendon's implicit spring-damper over the whole substep, applied once (first sweep) like
+    the other forces: impulse = -(h·k·err + a·J·v) / (1 + a·w), a = h·(h·k + d). Applied per TGS
+    sub-step instead, it would fight the once-per-substep external forces and leave a spurious
+    velocity at equilibrium."""
+    if rows.type[e, r] != SOFT:
+        return
+    sp = rows.span[e, r]
+    k = rows.k[e, r]
+    a = h * (h * k + rows.d[e, r])
+    w = 1.0 / rows.inv_mass[e, r]
+    dl = -(h * k * rows.err[e, r] + a * _row_dot(rows.jac, e, r, v, sp)) / (1.0 + a * w)
+    rows.lam[e, r] = rows.lam[e, r] + dl
+    _apply(e, r, dl, rows.minv_jt, v, sp)
+
+
+@wp.func
+def _dof_row(m: ModelArrays, e: int, r: int, dof: int, factor: wp.array2d(dtype=float),
+             rows: Rows, v: wp.array2d(dtype=float)):
+    """Row r along one dof, J = e_dof (J·v is the dof's own speed): its dry friction, then its
+    maximum speed."""
+    if rows.type[e, r] != DOF:
+        return
+    sp = rows.span[e, r]
+    bound = rows.mu[e, r]
+    if bound > 0.0:
+        # joint friction: stop the dof, with at most frictionloss·h of impulse per substep
+        old = rows.lam[e, r]
+        new = wp.clamp(old - v[e, dof] * rows.inv_mass[e, r], -bound, bound)
+        rows.lam[e, r] = new
+        _apply(e, r, new - old, rows.minv_jt, v, sp)
+    # maximum joint speed: a joint-space impulse brings it back inside
+    jv = v[e, dof]
+    cap = rows.k[e, r]
+    if wp.abs(jv) > cap:
+        if rows.inv_mass[e, r] == 0.0:   # first time past the cap in this substep
+            build_dof_row(m, e, r, dof, 1.0, DOF, factor, rows)
+            sp = rows.span[e, r]
+        if rows.type[e, r] == DOF:
+            _apply(e, r, (wp.clamp(jv, -cap, cap) - jv) * rows.inv_mass[e, r], rows.minv_jt, v,
+                   sp)
 
 
 @wp.func
 def _row_dot2(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
               sp: wp.vec4i):
-    """(a[e, r] · v[e], a[e, r + 1] · v[e]) over the rows' span, in one pass."""
-    row1 = a[e, r]
-    row2 = a[e, r + 1]
-    ve = v[e]
-    s1 = float(0.0)
-    s2 = float(0.0)
-    i = sp[0]
-    while i < sp[1]:
-        s1 = s1 + row1[i - sp[0]] * ve[i]
-        s2 = s2 + row2[i - sp[0]] * ve[i]
-        i += 1
-    o = sp[1] - sp[0] - sp[2]
-    i = sp[2]
-    while i < sp[3]:
-        s1 = s1 + row1[o + i] * ve[i]
-        s2 = s2 + row2[o + i] * ve[i]
-        i += 1
-    return wp.vec2(s1, s2)
+    """(a[e, r] · v[e], a[e, r + 1] · v[e]) over the rows' span."""
+    return wp.vec2(_row_dot(a, e, r, v, sp), _row_dot(a, e, r + 1, v, sp))
 
 
 @wp.func
 def _apply2(e: int, r: int, dl1: float, dl2: float, minv_jt: wp.array3d(dtype=float),
             v: wp.array2d(dtype=float), sp: wp.vec4i):
-    """v += M⁻¹J_rᵀ·dl1 + M⁻¹J_{r+1}ᵀ·dl2 over the rows' span, in one pass."""
+    """v += M⁻¹J_rᵀ·dl1 + M⁻¹J_{r+1}ᵀ·dl2 over the rows' span."""
     if dl1 == 0.0 and dl2 == 0.0:
         return
-    row1 = minv_jt[e, r]
-    row2 = minv_jt[e, r + 1]
-    ve = v[e]
-    i = sp[0]
-    while i < sp[1]:
-        c = i - sp[0]
-        ve[i] = ve[i] + row1[c] * dl1 + row2[c] * dl2
-        i += 1
-    o = sp[1] - sp[0] - sp[2]
-    i = sp[2]
-    while i < sp[3]:
-        ve[i] = ve[i] + row1[o + i] * dl1 + row2[o + i] * dl2
-        i += 1
+    _apply(e, r, dl1, minv_jt, v, sp)
+    _apply(e, r + 1, dl2, minv_jt, v, sp)
 
 
 @wp.kernel
@@ -304,10 +308,4 @@ def constraint_forces(m: ModelArrays, layout: RowLayout, h: float,
     for rr in range(used + layout.end - layout.joint_limits):
         r = _row_in_use(rr, used, layout)
         if rows.type[e, r] >= 0 and rows.lam[e, r] != 0.0:   # (an unbuilt dof row has no impulse)
-            sp = rows.span[e, r]
-            force = rows.lam[e, r] / h
-            o = sp[1] - sp[0] - sp[2]
-            for i in range(sp[0], sp[1]):
-                rows.dof_force[e, i] = rows.dof_force[e, i] + rows.jac[e, r, i - sp[0]] * force
-            for i in range(sp[2], sp[3]):
-                rows.dof_force[e, i] = rows.dof_force[e, i] + rows.jac[e, r, o + i] * force
+            _apply(e, r, rows.lam[e, r] / h, rows.jac, rows.dof_force, rows.span[e, r])
