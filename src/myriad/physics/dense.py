@@ -10,11 +10,22 @@ its arithmetic). Here each loop walks plain pointers from one checked start.
 Arguments are 1D views (`a[e, r]`, `v[e]`), contiguous in their last dimension as every
 engine array is (allocated whole by `structs.allocate`; a CPU shard is a range of envs); `*_at`
 is the offset of the run's first element in its view, `n` the run's length (nothing happens
-for n <= 0). Sums run in index order, one term after the other, so results do not depend on how
-a loop is compiled.
+for n <= 0).
+
+On a CPU the contiguous loops are vectorized 8 floats wide (`VECTOR_LOOP`: clang's default
+width here, 16 floats × 4, never runs for rows of 6 to 30 floats); sums are then accumulated in
+8 lanes and added at the end, a different rounding order from one term after the other. The
+gather/scatter loops along a factor row stay one element at a time. CUDA compiles each loop as
+written, one term after the other.
 """
 
 import warp as wp
+
+VECTOR_LOOP = """
+#if defined(__clang__) && !defined(__CUDA_ARCH__)
+#pragma clang loop vectorize_width(8) interleave_count(1)
+#endif
+"""
 
 
 @wp.func_native("""
@@ -22,6 +33,7 @@ import warp as wp
     if (n <= 0) return s;
     const float* ap = wp::address(a, a_at);
     const float* bp = wp::address(b, b_at);
+""" + VECTOR_LOOP + """
     for (int i = 0; i < n; ++i) s += ap[i] * bp[i];
     return s;
 """)
@@ -35,6 +47,7 @@ def dot(init: float, a: wp.array(dtype=float), a_at: int, b: wp.array(dtype=floa
     if (n <= 0) return;
     float* yp = wp::address(y, y_at);
     const float* xp = wp::address(x, x_at);
+""" + VECTOR_LOOP + """
     for (int i = 0; i < n; ++i) yp[i] += alpha * xp[i];
 """)
 def axpy(y: wp.array(dtype=float), y_at: int, alpha: float, x: wp.array(dtype=float), x_at: int,
@@ -47,6 +60,7 @@ def axpy(y: wp.array(dtype=float), y_at: int, alpha: float, x: wp.array(dtype=fl
     if (n <= 0) return;
     float* yp = wp::address(y, y_at);
     const float* xp = wp::address(x, x_at);
+""" + VECTOR_LOOP + """
     for (int i = 0; i < n; ++i) yp[i] = xp[i];
 """)
 def copy(y: wp.array(dtype=float), y_at: int, x: wp.array(dtype=float), x_at: int, n: int):
@@ -57,6 +71,7 @@ def copy(y: wp.array(dtype=float), y_at: int, x: wp.array(dtype=float), x_at: in
 @wp.func_native("""
     if (n <= 0) return;
     float* yp = wp::address(y, y_at);
+""" + VECTOR_LOOP + """
     for (int i = 0; i < n; ++i) yp[i] = value;
 """)
 def fill(y: wp.array(dtype=float), y_at: int, value: float, n: int):
