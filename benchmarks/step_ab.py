@@ -1,0 +1,78 @@
+"""`Simulator.step` of an older git revision against this tree and MuJoCo C, in one process.
+
+    python benchmarks/step_ab.py --old 11f1754 [--models ant humanoid] [--envs 1024] [--rounds 60]
+
+Both trees' simulators (the old one imported as `myriad_old`, as in `task_step_ab.py`) and
+MuJoCo (one `MjData`, two 1/120 s steps per env step, its own solver) take turns in short
+rounds: each round, one step of 1024 envs per tree and 1024 env-steps of MuJoCo, the first in
+turn changing every round. A shared machine's drifting speed then falls on all three alike, so
+the ratios are comparable between runs even where the absolute rates are not. One CPU thread
+each, Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on), the same fresh random
+controls for both trees every step, after a 60-step settle from the model's initial state.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import mujoco
+import numpy as np
+import torch
+import warp as wp
+
+import myriad
+from task_step_ab import import_old
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--old", required=True, help="git revision to compare against")
+    ap.add_argument("--models", nargs="+", default=["ant", "humanoid"])
+    ap.add_argument("--envs", type=int, default=1024)
+    ap.add_argument("--rounds", type=int, default=60)
+    args = ap.parse_args()
+    wp.config.log_level = wp.LOG_WARNING
+    torch.set_num_threads(1)
+    old = import_old(args.old)
+    n = args.envs
+    print(f"env-steps/s, one thread, {n} envs, {args.rounds} rounds; ratio to MuJoCo C in brackets")
+    print("| model | old | new | MuJoCo C | new / old |\n|---|---|---|---|---|")
+    for name in args.models:
+        sims = {}
+        for variant, package in (("old", old), ("new", myriad)):
+            model = package.load(package.asset_path(f"{name}.xml"))
+            params = package.SimParams(dt=1 / 60, substeps=2, position_iterations=4,
+                                       velocity_iterations=0)
+            sims[variant] = package.Simulator(model, num_envs=n, params=params, cpu_threads=1)
+        mj = model.mj_model
+        mj.opt.timestep = 1 / 120
+        data = mujoco.MjData(mj)
+        rng = np.random.default_rng(0)
+        gen = torch.Generator().manual_seed(0)
+
+        def step_mujoco():
+            for _ in range(n):
+                data.ctrl[:] = rng.uniform(-1, 1, mj.nu)
+                mujoco.mj_step(mj, data, nstep=2)
+        spent = {"old": 0.0, "new": 0.0, "mujoco": 0.0}
+        order = list(spent)
+        for i in range(60 + args.rounds):
+            ctrl = torch.rand(n, mj.nu, generator=gen) * 2 - 1
+            for variant in order[i % 3:] + order[:i % 3]:
+                start = time.perf_counter()
+                if variant == "mujoco":
+                    step_mujoco()
+                else:
+                    sims[variant].ctrl = ctrl
+                    sims[variant].step()
+                if i >= 60:
+                    spent[variant] += time.perf_counter() - start
+        rate = {v: n * args.rounds / t for v, t in spent.items()}
+        print(f"| {name} | {rate['old']:,.0f} ({rate['old'] / rate['mujoco']:.2f}) | "
+              f"{rate['new']:,.0f} ({rate['new'] / rate['mujoco']:.2f}) | {rate['mujoco']:,.0f} | "
+              f"{rate['new'] / rate['old']:.3f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
