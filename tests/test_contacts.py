@@ -189,10 +189,14 @@ def test_convex_shapes_come_to_rest_on_the_floor(geom, rest_height, device):
       <geom name="floor" type="plane" size="20 20 0.1"/>
       <body pos="0.1 0.2 0.4"><freejoint/><geom {geom} mass="1"/></body></worldbody></mujoco>""", "drop")
     sim = myriad.Simulator(model, num_envs=1, device=device, params=ISAAC)
+    speed = []
     for _ in range(300):
         sim.step()
+        speed.append(sim.qd[0].abs().max())
     assert sim.q[0, 2].item() == pytest.approx(rest_height, abs=2e-3)
-    assert sim.qd[0].abs().max().item() < 1e-2
+    # at rest over the last 100 steps, not only at the last one (a cylinder on its cap once
+    # kept rocking at up to 0.4 m/s or rad/s and passed only when the last step fell still)
+    assert torch.stack(speed[200:]).max().item() < 1e-2
     np.testing.assert_allclose(sim.q[0, 3:7].abs().cpu().numpy(), [0, 0, 0, 1], atol=1e-2)  # upright
 
 

@@ -395,14 +395,21 @@ def _plane_cylinder(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x
                     c_pos: wp.array2d(dtype=wp.vec3), c_normal: wp.array2d(dtype=wp.vec3),
                     c_dist: wp.array2d(dtype=float)):
     """The lower cap's rim at four points a quarter turn apart, starting from its lowest point,
-    and the other cap's lowest rim point: a cylinder standing or lying gets a stable support."""
+    and the other cap's lowest rim point: a cylinder standing or lying gets a stable support.
+
+    Standing on a cap within 0.01 rad of upright, the rim points are fixed to the body instead
+    (its x axis first): there the direction of the lowest point is noise, and rim points that
+    turned with it from substep to substep took their warm starts to other places on the rim
+    and kept a resting cylinder rocking. The rim then lies within 0.01 · radius of the plane
+    all round."""
     rot = wp.transform_get_rotation(x2)
     axis = wp.quat_rotate(rot, wp.vec3(0.0, 0.0, 1.0))
     center = wp.transform_get_translation(x2)
-    # direction, in the cap plane, toward the plane (down the normal)
+    # direction, in the cap plane, toward the plane (down the normal); its length is the sine
+    # of the tilt
     down = -n - axis * wp.dot(-n, axis)
-    if wp.length_sq(down) < 1.0e-12:
-        down = wp.quat_rotate(rot, wp.vec3(1.0, 0.0, 0.0))  # standing upright: any rim direction
+    if wp.length_sq(down) < 1.0e-4:
+        down = wp.quat_rotate(rot, wp.vec3(1.0, 0.0, 0.0))
     down = wp.normalize(down)
     side = wp.cross(axis, down)
     lower = 1.0
