@@ -125,7 +125,8 @@ def factor_matrix(m: ModelArrays, e: int, qm: wp.array2d(dtype=float),
 
     `implicit_diag` holds the joint-space damping and stiffness of implicit terms (h·d + h²·k):
     on M's diagonal they make joint damping and PD drives unconditionally stable. `factor`
-    keeps L (unit, strictly lower part, on the ancestor pattern) and D (its diagonal).
+    keeps L (unit, strictly lower part, on the ancestor pattern) and D⁻¹ (on its diagonal: the
+    solves multiply by it).
     """
     f = factor[e]
     dense.copy(f, 0, qm[e], 0, qm.shape[1])
@@ -136,36 +137,64 @@ def factor_matrix(m: ModelArrays, e: int, qm: wp.array2d(dtype=float),
         k = m.nv - 1 - kk
         ak = m.dof_madr[k]
         end = ak + m.dof_mnum[k]
-        dk = f[ak]
+        inv_dk = 1.0 / f[ak]       # final: every descendant of k is eliminated
         t = ak + 1
         while t < end:
             # ancestor i = mass_col[t]: its row holds the columns of k's row from t on
-            lki = f[t] / dk
+            lki = f[t] * inv_dk
             ai = m.dof_madr[m.mass_col[t]] - t
             dense.axpy(f, ai + t, -lki, f, t, end - t)
             f[t] = lki
             t += 1
+        f[ak] = inv_dk
 
 
-@wp.func
+@wp.func_native("""
+    if (hi <= lo) return;
+    const float* F = wp::address(factor, e, 0);
+    const int* adr = wp::address(m.dof_madr, 0);
+    const int* num = wp::address(m.dof_mnum, 0);
+    const int* cols = wp::address(m.mass_col, 0);
+    float* X = wp::address(x, e, r, 0);
+    const int o = col - lo;                 // dof k sits at X[o + k]
+    for (int k = hi - 1; k >= lo; --k) {    // x <- L⁻ᵀ x, leaves first
+        const float xk = X[o + k];
+        if (xk == 0.0f) continue;           // a row's J is zero off its bodies' chains
+        const float* fk = F + adr[k];
+        const int* ck = cols + adr[k];
+        for (int t = 1; t < num[k]; ++t) X[o + ck[t]] -= fk[t] * xk;
+    }
+    for (int k = lo; k < hi; ++k) X[o + k] *= F[adr[k]];    // D⁻¹
+    for (int k = lo; k < hi; ++k) {         // x <- L⁻¹ x, root first: four partial sums
+        const float* fk = F + adr[k];
+        const int* ck = cols + adr[k];
+        const int n = num[k];
+        float s0 = X[o + k], s1 = 0.0f, s2 = 0.0f, s3 = 0.0f;
+        int t = 1;
+        for (; t + 3 < n; t += 4) {
+            s0 -= fk[t] * X[o + ck[t]];
+            s1 -= fk[t + 1] * X[o + ck[t + 1]];
+            s2 -= fk[t + 2] * X[o + ck[t + 2]];
+            s3 -= fk[t + 3] * X[o + ck[t + 3]];
+        }
+        for (; t < n; ++t) s0 -= fk[t] * X[o + ck[t]];
+        X[o + k] = (s0 + s1) + (s2 + s3);
+    }
+""")
 def solve_span(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
                x: wp.array3d(dtype=float), r: int, lo: int, hi: int, col: int):
     """x[e, r] <- (Lᵀ D L)⁻¹ x[e, r] over the dofs [lo, hi), a whole number of dof trees (the
-    factor never couples two trees), over each dof's ancestor row only. Dof lo sits in column
-    `col` of x (rows store only the dofs they touch: `constraints`), dof i in col + i - lo."""
-    f = factor[e]
-    xr = x[e, r]
-    o = col - lo
-    for kk in range(lo, hi):
-        k = hi - 1 - (kk - lo)
-        xk = xr[o + k]
-        if xk != 0.0:      # a row's J is often zero off its bodies' ancestor chains
-            dense.axpy_scatter(xr, o, m.mass_col, -xk, f, m.dof_madr[k] + 1, m.dof_mnum[k] - 1)
-    for k in range(lo, hi):
-        xr[o + k] = xr[o + k] / f[m.dof_madr[k]]
-    for k in range(lo, hi):
-        xr[o + k] = dense.dot_sub_gather(xr[o + k], f, m.dof_madr[k] + 1, m.mass_col, xr, o,
-                                         m.dof_mnum[k] - 1)
+    factor never couples two trees); dof lo sits in column `col` of x (rows store only the
+    dofs they touch: `constraints`), dof i in col + i - lo.
+
+    MuJoCo's `mj_solveM` on the sparse rows: x <- L⁻ᵀ x (each dof, leaves first, subtracts
+    its multiple of its row from its ancestors), x <- D⁻¹ x, x <- L⁻¹ x (each dof, root first,
+    subtracts its row's dot product with its ancestors' entries). Native code: this is the
+    engine's hottest loop (every constraint row built is one solve), and Warp's indexing
+    costs more than its arithmetic; the dot products keep four partial sums, since one sum's
+    chain of dependent adds bounds a CPU.
+    """
+    ...
 
 
 @wp.func
