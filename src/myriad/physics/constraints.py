@@ -146,10 +146,11 @@ def _row_norm(jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float), e:
 
 
 @wp.func
-def _solve_row(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
-               x: wp.array3d(dtype=float), r: int, sp: wp.vec4i):
-    solve_span(m, e, factor, x, r, sp[0], sp[1], 0)
-    solve_span(m, e, factor, x, r, sp[2], sp[3], sp[1] - sp[0])
+def _solve_rows(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
+                x: wp.array3d(dtype=float), r: int, nrows: int, sp: wp.vec4i):
+    """x[e, r + d] <- M⁻¹ x[e, r + d] for the nrows rows from r, of span sp."""
+    solve_span(m, e, factor, x, r, nrows, sp[0], sp[1], 0)
+    solve_span(m, e, factor, x, r, nrows, sp[2], sp[3], sp[1] - sp[0])
 
 
 @wp.func
@@ -176,7 +177,7 @@ def _finish_row(m: ModelArrays, e: int, r: int, sp: wp.vec4i, factor: wp.array2d
                 rows: Rows, kind: int):
     """Response M⁻¹J_rᵀ and 1/(J M⁻¹ Jᵀ) of row r from its J."""
     _copy_row(rows.jac, rows.minv_jt, e, r, sp)
-    _solve_row(m, e, factor, rows.minv_jt, r, sp)
+    _solve_rows(m, e, factor, rows.minv_jt, r, 1, sp)
     _set_inv_mass(rows, e, r, sp, kind)
 
 
@@ -388,7 +389,7 @@ def tendon_spring_rows(m: ModelArrays, e: int, base: int, p: EnvParams, s: State
                 col = m.jnt_dofadr[m.wrap_jnt[wi]] - sp[0]
                 rows.jac[e, r, col] = rows.jac[e, r, col] + m.wrap_coef[wi]
                 rows.minv_jt[e, r, col] = rows.minv_jt[e, r, col] + m.wrap_recip[wi]
-            _solve_row(m, e, factor, rows.minv_jt, r, sp)
+            _solve_rows(m, e, factor, rows.minv_jt, r, 1, sp)
             w_eff = _row_norm(rows.jac, rows.minv_jt, e, r, sp)
             if w_eff > 1.0e-12:
                 rows.type[e, r] = SOFT
@@ -437,7 +438,7 @@ def build_contact_rows(m: ModelArrays, e: int, r0: int, sp: wp.vec4i,
     (friction) from their J; friction goes with its normal row."""
     for d in range(3):
         _copy_row(rows.jac, rows.minv_jt, e, r0 + d, sp)
-        _solve_row(m, e, factor, rows.minv_jt, r0 + d, sp)
+    _solve_rows(m, e, factor, rows.minv_jt, r0, 3, sp)
     _set_inv_mass(rows, e, r0, sp, NORMAL)
     _set_inv_mass(rows, e, r0 + 1, sp, FRICTION)
     _set_inv_mass(rows, e, r0 + 2, sp, FRICTION2)

@@ -155,43 +155,50 @@ def factor_matrix(m: ModelArrays, e: int, qm: wp.array2d(dtype=float),
     const int* adr = wp::address(m.dof_madr, 0);
     const int* num = wp::address(m.dof_mnum, 0);
     const int* cols = wp::address(m.mass_col, 0);
-    float* X = wp::address(x, e, r, 0);
-    const int o = col - lo;                 // dof k sits at X[o + k]
+    const int o = col - lo;                 // dof k of row d sits at X[d][o + k]
+    float* X[3];
+    for (int d = 0; d < nrows; ++d) X[d] = wp::address(x, e, r + d, 0);
     for (int k = hi - 1; k >= lo; --k) {    // x <- L⁻ᵀ x, leaves first
-        const float xk = X[o + k];
-        if (xk == 0.0f) continue;           // a row's J is zero off its bodies' chains
         const float* fk = F + adr[k];
         const int* ck = cols + adr[k];
-        for (int t = 1; t < num[k]; ++t) X[o + ck[t]] -= fk[t] * xk;
+        for (int d = 0; d < nrows; ++d) {
+            const float xk = X[d][o + k];
+            if (xk == 0.0f) continue;       // a row's J is zero off its bodies' chains
+            for (int t = 1; t < num[k]; ++t) X[d][o + ck[t]] -= fk[t] * xk;
+        }
     }
-    for (int k = lo; k < hi; ++k) X[o + k] *= F[adr[k]];    // D⁻¹
-    for (int k = lo; k < hi; ++k) {         // x <- L⁻¹ x, root first: four partial sums
+    for (int k = lo; k < hi; ++k)           // D⁻¹
+        for (int d = 0; d < nrows; ++d) X[d][o + k] *= F[adr[k]];
+    for (int k = lo; k < hi; ++k) {         // x <- L⁻¹ x, root first: two partial sums a row
         const float* fk = F + adr[k];
         const int* ck = cols + adr[k];
         const int n = num[k];
-        float s0 = X[o + k], s1 = 0.0f, s2 = 0.0f, s3 = 0.0f;
-        int t = 1;
-        for (; t + 3 < n; t += 4) {
-            s0 -= fk[t] * X[o + ck[t]];
-            s1 -= fk[t + 1] * X[o + ck[t + 1]];
-            s2 -= fk[t + 2] * X[o + ck[t + 2]];
-            s3 -= fk[t + 3] * X[o + ck[t + 3]];
+        for (int d = 0; d < nrows; ++d) {
+            float* Xd = X[d] + o;
+            float s0 = Xd[k], s1 = 0.0f;
+            int t = 1;
+            for (; t + 1 < n; t += 2) {
+                s0 -= fk[t] * Xd[ck[t]];
+                s1 -= fk[t + 1] * Xd[ck[t + 1]];
+            }
+            if (t < n) s0 -= fk[t] * Xd[ck[t]];
+            Xd[k] = s0 + s1;
         }
-        for (; t < n; ++t) s0 -= fk[t] * X[o + ck[t]];
-        X[o + k] = (s0 + s1) + (s2 + s3);
     }
 """)
 def solve_span(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
-               x: wp.array3d(dtype=float), r: int, lo: int, hi: int, col: int):
-    """x[e, r] <- (Lᵀ D L)⁻¹ x[e, r] over the dofs [lo, hi), a whole number of dof trees (the
-    factor never couples two trees); dof lo sits in column `col` of x (rows store only the
-    dofs they touch: `constraints`), dof i in col + i - lo.
+               x: wp.array3d(dtype=float), r: int, nrows: int, lo: int, hi: int, col: int):
+    """x[e, r + d] <- (Lᵀ D L)⁻¹ x[e, r + d] for the nrows (1 to 3) rows from r, over the dofs
+    [lo, hi), a whole number of dof trees (the factor never couples two trees); dof lo sits in
+    column `col` of x (rows store only the dofs they touch: `constraints`), dof i in
+    col + i - lo.
 
     MuJoCo's `mj_solveM` on the sparse rows: x <- L⁻ᵀ x (each dof, leaves first, subtracts
     its multiple of its row from its ancestors), x <- D⁻¹ x, x <- L⁻¹ x (each dof, root first,
     subtracts its row's dot product with its ancestors' entries). Native code: this is the
     engine's hottest loop (every constraint row built is one solve), and Warp's indexing
-    costs more than its arithmetic; the dot products keep four partial sums, since one sum's
+    costs more than its arithmetic. A contact's three rows go together, reading each dof's
+    factor row once for all three; the dot products keep two partial sums, since one sum's
     chain of dependent adds bounds a CPU.
     """
     ...
@@ -201,7 +208,7 @@ def solve_span(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
 def solve_in_place(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
                    x: wp.array3d(dtype=float), r: int):
     """x[e, r, :] <- (Lᵀ D L)⁻¹ x[e, r, :]."""
-    solve_span(m, e, factor, x, r, 0, m.nv, 0)
+    solve_span(m, e, factor, x, r, 1, 0, m.nv, 0)
 
 
 @wp.kernel
