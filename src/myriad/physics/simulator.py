@@ -229,8 +229,10 @@ class Simulator:
         n, m, c, st = self.num_envs, self.model, self._contacts, self._s
         if self.contact_capacity == 0:
             return
-        self._launch(kinematics.attached_frames, (n, m.ngeom), [
-            self._geom_body, self._p.geom_pos, self._geom_quat, st.body_x, st.geom_x])
+        self._launch(collision.geom_frames, (n, m.ngeom), [
+            self._geom_body, self._p.geom_pos, self._geom_quat, self._geom_type,
+            self._p.geom_size, self._geom_dataid, self._meshes, st.body_x, st.geom_x,
+            st.geom_bound])
         self._shard_of(c.count).zero_()
         if len(self._pairs):
             # a GPU runs a thread per (env, pair); a CPU thread per env walks its pairs
@@ -238,8 +240,8 @@ class Simulator:
                            else (collision.narrowphase_per_env, n))
             self._launch(kernel, dim, [
                 self._pairs, self._geom_type, self._p.geom_size, self._geom_dataid, self._meshes,
-                self._hfields, st.geom_x, self.params.contact_offset, self.contact_capacity,
-                c.count, c.geom, c.key, c.pos, c.normal, c.dist])
+                self._hfields, st.geom_x, st.geom_bound, self.params.contact_offset,
+                self.contact_capacity, c.count, c.geom, c.key, c.pos, c.normal, c.dist])
 
     def _launch(self, kernel, dim, inputs) -> None:
         shard = getattr(self._shard_local, "range", None)

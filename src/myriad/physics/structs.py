@@ -284,6 +284,9 @@ class State:
     site_x = per_env("nsite", dtype=wp.transform, doc="pose of each site", public="site_pose")
     geom_x = per_env("ngeom", dtype=wp.transform, doc="pose of each geom, as of the last "
                      "collision stage", public="geom_pose")
+    geom_bound = per_env("ngeom", dtype=wp.vec4, doc="bounding sphere of each geom as of the last "
+                         "collision stage: world center, radius (m); 0 for planes and height "
+                         "fields")
     jnt_anchor = per_env("njnt", dtype=wp.vec3, doc="joint anchor point")
     jnt_xaxis = per_env("njnt", dtype=wp.vec3, doc="joint axis")
     cvel = per_env("nbody", dtype=wp.spatial_vector, doc="spatial velocity at the tree root")

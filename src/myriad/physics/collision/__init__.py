@@ -6,10 +6,10 @@ import warp as wp
 
 from .convex import Meshes
 from .heightfield import HFields
-from .narrowphase import narrowphase, narrowphase_per_env
+from .narrowphase import geom_frames, narrowphase, narrowphase_per_env
 from .pairs import candidate_pairs
 
-__all__ = ["HFields", "Meshes", "candidate_pairs", "narrowphase", "narrowphase_per_env",
+__all__ = ["HFields", "Meshes", "candidate_pairs", "geom_frames", "narrowphase", "narrowphase_per_env",
            "shape_data"]
 
 

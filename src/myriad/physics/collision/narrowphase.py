@@ -484,24 +484,49 @@ def _plane_mesh(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x2: w
 
 
 @wp.kernel
+def geom_frames(geom_body: wp.array(dtype=wp.int32), geom_pos: wp.array2d(dtype=wp.vec3),
+                geom_quat: wp.array(dtype=wp.quat), geom_type: wp.array(dtype=wp.int32),
+                geom_size: wp.array2d(dtype=wp.vec3), geom_dataid: wp.array(dtype=wp.int32),
+                meshes: Meshes, body_x: wp.array2d(dtype=wp.transform),
+                # out
+                geom_x: wp.array2d(dtype=wp.transform), geom_bound: wp.array2d(dtype=wp.vec4)):
+    """Each geom's pose in the world, and its bounding sphere for the broadphase (the pair test
+    then reads 4 floats per geom instead of a pose, a size and a shape's radius)."""
+    e, g = wp.tid()
+    x = wp.transform(geom_pos[e, g], geom_quat[g])
+    b = geom_body[g]
+    if b >= 0:
+        x = body_x[e, b] * x
+    geom_x[e, g] = x
+    t = geom_type[g]
+    radius = float(0.0)
+    if t != PLANE and t != HFIELD:
+        radius = bounding_radius(t, geom_size[e, g], geom_dataid[g], meshes)
+    c = wp.transform_get_translation(x)
+    geom_bound[e, g] = wp.vec4(c[0], c[1], c[2], radius)
+
+
+@wp.kernel
 def narrowphase(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.int32),
                 geom_size: wp.array2d(dtype=wp.vec3), geom_dataid: wp.array(dtype=wp.int32),
                 meshes: Meshes, hfields: HFields, geom_x: wp.array2d(dtype=wp.transform),
+                geom_bound: wp.array2d(dtype=wp.vec4),
                 margin: float, capacity: int, count: wp.array(dtype=wp.int32),
                 c_geom: wp.array2d(dtype=wp.vec2i), c_key: wp.array2d(dtype=wp.int32),
                 c_pos: wp.array2d(dtype=wp.vec3),
                 c_normal: wp.array2d(dtype=wp.vec3), c_dist: wp.array2d(dtype=float)):
     """One thread per (env, candidate pair): the launch for a GPU."""
     e, p = wp.tid()
-    _pair(e, p, pairs, geom_type, geom_size, geom_dataid, meshes, hfields, geom_x, margin,
-          capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
+    _pair(e, p, pairs, geom_type, geom_size, geom_dataid, meshes, hfields, geom_x, geom_bound,
+          margin, capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
 
 
 @wp.kernel
 def narrowphase_per_env(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.int32),
                         geom_size: wp.array2d(dtype=wp.vec3),
                         geom_dataid: wp.array(dtype=wp.int32), meshes: Meshes, hfields: HFields,
-                        geom_x: wp.array2d(dtype=wp.transform), margin: float, capacity: int,
+                        geom_x: wp.array2d(dtype=wp.transform),
+                        geom_bound: wp.array2d(dtype=wp.vec4), margin: float, capacity: int,
                         count: wp.array(dtype=wp.int32), c_geom: wp.array2d(dtype=wp.vec2i),
                         c_key: wp.array2d(dtype=wp.int32), c_pos: wp.array2d(dtype=wp.vec3),
                         c_normal: wp.array2d(dtype=wp.vec3), c_dist: wp.array2d(dtype=float)):
@@ -510,44 +535,42 @@ def narrowphase_per_env(pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dty
     Contacts land in the same slots as with `narrowphase` run on a CPU."""
     e = wp.tid()
     for p in range(pairs.shape[0]):
-        _pair(e, p, pairs, geom_type, geom_size, geom_dataid, meshes, hfields, geom_x, margin,
-              capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
+        _pair(e, p, pairs, geom_type, geom_size, geom_dataid, meshes, hfields, geom_x,
+              geom_bound, margin, capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
 
 
 @wp.func
 def _pair(e: int, p: int, pairs: wp.array(dtype=wp.vec2i), geom_type: wp.array(dtype=wp.int32),
           geom_size: wp.array2d(dtype=wp.vec3), geom_dataid: wp.array(dtype=wp.int32),
           meshes: Meshes, hfields: HFields, geom_x: wp.array2d(dtype=wp.transform),
-          margin: float, capacity: int, count: wp.array(dtype=wp.int32),
-          c_geom: wp.array2d(dtype=wp.vec2i), c_key: wp.array2d(dtype=wp.int32),
-          c_pos: wp.array2d(dtype=wp.vec3), c_normal: wp.array2d(dtype=wp.vec3),
-          c_dist: wp.array2d(dtype=float)):
+          geom_bound: wp.array2d(dtype=wp.vec4), margin: float, capacity: int,
+          count: wp.array(dtype=wp.int32), c_geom: wp.array2d(dtype=wp.vec2i),
+          c_key: wp.array2d(dtype=wp.int32), c_pos: wp.array2d(dtype=wp.vec3),
+          c_normal: wp.array2d(dtype=wp.vec3), c_dist: wp.array2d(dtype=float)):
     pair = pairs[p]
     g1 = pair[0]
     g2 = pair[1]
     t1 = geom_type[g1]
     t2 = geom_type[g2]
-    x1 = geom_x[e, g1]
-    x2 = geom_x[e, g2]
-    s1 = geom_size[e, g1]
-    s2 = geom_size[e, g2]
     # broadphase: shapes whose bounding spheres are farther apart than the contact offset
     # cannot touch, nor can a shape whose bounding sphere lies farther above a plane (pairs are
     # ordered by type: planes and height fields come first). The pair tests are in a function
     # of their own, so that a skipped pair costs only these few locals.
-    offset = wp.transform_get_translation(x2) - wp.transform_get_translation(x1)
+    b1 = geom_bound[e, g1]
+    b2 = geom_bound[e, g2]
+    offset = wp.vec3(b2[0] - b1[0], b2[1] - b1[1], b2[2] - b1[2])
     if t1 == PLANE:
         if t2 != PLANE and t2 != HFIELD:
-            up = wp.quat_rotate(wp.transform_get_rotation(x1), wp.vec3(0.0, 0.0, 1.0))
-            if wp.dot(offset, up) > bounding_radius(t2, s2, geom_dataid[g2], meshes) + margin:
+            up = wp.quat_rotate(wp.transform_get_rotation(geom_x[e, g1]), wp.vec3(0.0, 0.0, 1.0))
+            if wp.dot(offset, up) > b2[3] + margin:
                 return
     elif t1 != HFIELD:
-        reach = (bounding_radius(t1, s1, geom_dataid[g1], meshes)
-                 + bounding_radius(t2, s2, geom_dataid[g2], meshes) + margin)
+        reach = b1[3] + b2[3] + margin
         if wp.length_sq(offset) > reach * reach:
             return
-    _collide_pair(e, p, pair, t1, t2, x1, x2, s1, s2, geom_dataid, meshes, hfields, margin,
-                  capacity, count, c_geom, c_key, c_pos, c_normal, c_dist)
+    _collide_pair(e, p, pair, t1, t2, geom_x[e, g1], geom_x[e, g2], geom_size[e, g1],
+                  geom_size[e, g2], geom_dataid, meshes, hfields, margin, capacity, count, c_geom,
+                  c_key, c_pos, c_normal, c_dist)
 
 
 @wp.func
