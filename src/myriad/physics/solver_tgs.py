@@ -99,7 +99,6 @@ def _normal_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, biased: i
     penetration."""
     if rows.type[e, r] != NORMAL:
         return
-    sp = rows.span[e, r]
     err = rows.err[e, r]
     jv = float(0.0)
     if dof >= 0:
@@ -107,6 +106,7 @@ def _normal_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, biased: i
         if tgs != 0:
             err = err + sign * dq[e, dof]
     else:
+        sp = rows.span[e, r]
         jv = _row_dot(rows.jac, e, r, v, sp)
         if tgs != 0:
             err = err + _row_dot(rows.jac, e, r, dq, sp)
@@ -127,14 +127,13 @@ def _normal_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, biased: i
         if dof >= 0:
             build_dof_row(m, e, r, dof, sign, NORMAL, factor, rows)
         else:
-            build_contact_rows(m, e, r, sp, factor, rows)
+            build_contact_rows(m, e, r, rows.span[e, r], factor, rows)
         if rows.type[e, r] != NORMAL:
             return
-        sp = rows.span[e, r]
     old = rows.lam[e, r]
     new = wp.max(old + (target - jv) * rows.inv_mass[e, r], 0.0)
     rows.lam[e, r] = new
-    _apply(e, r, new - old, rows.minv_jt, v, sp)
+    _apply(e, r, new - old, rows.minv_jt, v, rows.span[e, r])
 
 
 @wp.func
@@ -195,24 +194,22 @@ def _dof_row(m: ModelArrays, e: int, r: int, dof: int, factor: wp.array2d(dtype=
     maximum speed."""
     if rows.type[e, r] != DOF:
         return
-    sp = rows.span[e, r]
     bound = rows.mu[e, r]
     if bound > 0.0:
         # joint friction: stop the dof, with at most frictionloss·h of impulse per substep
         old = rows.lam[e, r]
         new = wp.clamp(old - v[e, dof] * rows.inv_mass[e, r], -bound, bound)
         rows.lam[e, r] = new
-        _apply(e, r, new - old, rows.minv_jt, v, sp)
+        _apply(e, r, new - old, rows.minv_jt, v, rows.span[e, r])
     # maximum joint speed: a joint-space impulse brings it back inside
     jv = v[e, dof]
     cap = rows.k[e, r]
     if wp.abs(jv) > cap:
         if rows.inv_mass[e, r] == 0.0:   # first time past the cap in this substep
             build_dof_row(m, e, r, dof, 1.0, DOF, factor, rows)
-            sp = rows.span[e, r]
         if rows.type[e, r] == DOF:
             _apply(e, r, (wp.clamp(jv, -cap, cap) - jv) * rows.inv_mass[e, r], rows.minv_jt, v,
-                   sp)
+                   rows.span[e, r])
 
 
 @wp.func
