@@ -124,28 +124,6 @@ def _spans(a: wp.vec2i, b: wp.vec2i):
 
 
 @wp.func
-def _zero_row(a: wp.array3d(dtype=float), e: int, r: int, sp: wp.vec4i):
-    dense.fill(a[e, r], 0, 0.0, _width(sp))
-
-
-@wp.func
-def _row_dot(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
-             sp: wp.vec4i):
-    """a[e, r] · v[e] over the row's span."""
-    row = a[e, r]
-    ve = v[e]
-    n1 = sp[1] - sp[0]
-    return dense.dot(dense.dot(0.0, row, 0, ve, sp[0], n1), row, n1, ve, sp[2], sp[3] - sp[2])
-
-
-@wp.func
-def _row_norm(jac: wp.array3d(dtype=float), minv_jt: wp.array3d(dtype=float), e: int, r: int,
-              sp: wp.vec4i):
-    """J_r M⁻¹ J_rᵀ over the row's span."""
-    return dense.dot(0.0, jac[e, r], 0, minv_jt[e, r], 0, _width(sp))
-
-
-@wp.func
 def _solve_rows(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
                 x: wp.array3d(dtype=float), r: int, nrows: int, sp: wp.vec4i):
     """x[e, r + d] <- M⁻¹ x[e, r + d] for the nrows rows from r, of span sp."""
@@ -157,7 +135,7 @@ def _solve_rows(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
 def _set_inv_mass(rows: Rows, e: int, r: int, sp: wp.vec4i, kind: int):
     """1/(J M⁻¹ Jᵀ) of row r, which becomes `kind`; a row that moves nothing (e.g. between two
     static shapes) is dropped."""
-    w = _row_norm(rows.jac, rows.minv_jt, e, r, sp)
+    w = dense.row_norm(rows.jac, rows.minv_jt, e, r, _width(sp))
     if w > 1.0e-12:
         rows.inv_mass[e, r] = 1.0 / w
         rows.type[e, r] = kind
@@ -167,16 +145,10 @@ def _set_inv_mass(rows: Rows, e: int, r: int, sp: wp.vec4i, kind: int):
 
 
 @wp.func
-def _copy_row(src: wp.array3d(dtype=float), dst: wp.array3d(dtype=float), e: int, r: int,
-              sp: wp.vec4i):
-    dense.copy(dst[e, r], 0, src[e, r], 0, _width(sp))
-
-
-@wp.func
 def _finish_row(m: ModelArrays, e: int, r: int, sp: wp.vec4i, factor: wp.array2d(dtype=float),
                 rows: Rows, kind: int):
     """Response M⁻¹J_rᵀ and 1/(J M⁻¹ Jᵀ) of row r from its J."""
-    _copy_row(rows.jac, rows.minv_jt, e, r, sp)
+    dense.row_copy(rows.minv_jt, rows.jac, e, r, _width(sp))
     _solve_rows(m, e, factor, rows.minv_jt, r, 1, sp)
     _set_inv_mass(rows, e, r, sp, kind)
 
@@ -258,7 +230,7 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
         r0 = 3 * k
         for d in range(3):
             rows.span[e, r0 + d] = sp
-            _zero_row(rows.jac, e, r0 + d, sp)
+            dense.row_fill(rows.jac, e, r0 + d, 0.0, _width(sp))
         _add_contact_jacobian(m, e, b2, pos, n, t1, t2, 1.0, s.body_x, s.cdof, rows.jac, r0, sp)
         _add_contact_jacobian(m, e, b1, pos, n, t1, t2, -1.0, s.body_x, s.cdof, rows.jac, r0, sp)
         rows.dir[e, r0] = n
@@ -273,7 +245,8 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
             rows.lam_init[e, r0 + d] = 0.0
         rows.err[e, r0] = c.dist[e, k] - rest_offset
         # approach speed before the solve (unconstrained velocity qd + h·qacc)
-        approach = _row_dot(rows.jac, e, r0, s.qd, sp) + h * _row_dot(rows.jac, e, r0, s.qacc, sp)
+        approach = (dense.row_dot(rows.jac, e, r0, s.qd, sp)
+                    + h * dense.row_dot(rows.jac, e, r0, s.qacc, sp))
         if approach < -bounce_threshold:
             rows.bounce[e, r0] = -restitution * approach
         # warm start from the same contact (same pair and feature) of the last substep
@@ -345,7 +318,7 @@ def tendon_limit_rows(m: ModelArrays, e: int, base: int, h: float,
             if rows.type[e, r] != INACTIVE:
                 sp = _tendon_span(m, t)
                 rows.span[e, r] = sp
-                _zero_row(rows.jac, e, r, sp)
+                dense.row_fill(rows.jac, e, r, 0.0, _width(sp))
                 for w in range(beg, beg + m.tendon_num[t]):
                     col = m.jnt_dofadr[m.wrap_jnt[w]] - sp[0]
                     rows.jac[e, r, col] = (rows.jac[e, r, col]
@@ -383,14 +356,14 @@ def tendon_spring_rows(m: ModelArrays, e: int, base: int, p: EnvParams, s: State
         if stiff > 0.0 or damp > 0.0:
             sp = _tendon_span(m, t)
             rows.span[e, r] = sp
-            _zero_row(rows.jac, e, r, sp)
-            _zero_row(rows.minv_jt, e, r, sp)
+            dense.row_fill(rows.jac, e, r, 0.0, _width(sp))
+            dense.row_fill(rows.minv_jt, e, r, 0.0, _width(sp))
             for wi in range(beg, beg + m.tendon_num[t]):
                 col = m.jnt_dofadr[m.wrap_jnt[wi]] - sp[0]
                 rows.jac[e, r, col] = rows.jac[e, r, col] + m.wrap_coef[wi]
                 rows.minv_jt[e, r, col] = rows.minv_jt[e, r, col] + m.wrap_recip[wi]
             _solve_rows(m, e, factor, rows.minv_jt, r, 1, sp)
-            w_eff = _row_norm(rows.jac, rows.minv_jt, e, r, sp)
+            w_eff = dense.row_norm(rows.jac, rows.minv_jt, e, r, _width(sp))
             if w_eff > 1.0e-12:
                 rows.type[e, r] = SOFT
                 rows.inv_mass[e, r] = 1.0 / w_eff
@@ -437,7 +410,7 @@ def build_contact_rows(m: ModelArrays, e: int, r0: int, sp: wp.vec4i,
     """Responses M⁻¹Jᵀ and 1/(J M⁻¹ Jᵀ) of a contact's three rows r0 (normal), r0+1, r0+2
     (friction) from their J; friction goes with its normal row."""
     for d in range(3):
-        _copy_row(rows.jac, rows.minv_jt, e, r0 + d, sp)
+        dense.row_copy(rows.minv_jt, rows.jac, e, r0 + d, _width(sp))
     _solve_rows(m, e, factor, rows.minv_jt, r0, 3, sp)
     _set_inv_mass(rows, e, r0, sp, NORMAL)
     _set_inv_mass(rows, e, r0 + 1, sp, FRICTION)
@@ -454,7 +427,7 @@ def build_dof_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, kind: i
     1/(J M⁻¹ Jᵀ). A joint limit (NORMAL; sign -1 for the upper side) or a dof row (DOF)."""
     sp = _spans(m.dof_tree_span[dof], wp.vec2i(0, 0))
     rows.span[e, r] = sp
-    _zero_row(rows.jac, e, r, sp)
+    dense.row_fill(rows.jac, e, r, 0.0, _width(sp))
     rows.jac[e, r, dof - sp[0]] = sign
     _finish_row(m, e, r, sp, factor, rows, kind)
 

@@ -1,17 +1,19 @@
 """Loops over contiguous runs of floats: a constraint row's columns, a dof's row of the factor.
 
-Every row-sized loop of the engine (J·v, v += M⁻¹Jᵀ·λ, the LᵀDL factorization) goes through
-these few functions. They are native code (`wp.func_native`, compiled by Warp for
-the CPU and for CUDA alike) because a Warp array index wraps negative indices and multiplies by
-the stride on every access, and a `range` loop with runtime bounds keeps a generic iterator: in
-these loops that overhead, not the arithmetic, was the cost on a CPU (moving the
-factorization's inner loop here took the humanoid's unconstrained-solve stage from 4.8 to 3.7 ms
-per step at 1024 envs, one thread). Here each loop walks plain pointers from one checked start.
+Every row-sized loop of the engine goes through these few functions: J·v and v += M⁻¹Jᵀ·λ over
+a row's span (`row_dot`, `row_apply`), building rows (`row_fill`, `row_copy`, `row_norm`) and
+the LᵀDL factorization (`axpy`, `copy`). They are native code (`wp.func_native`, compiled by
+Warp for the CPU and for CUDA alike) because a Warp array index wraps negative indices and
+multiplies by the stride on every access, a `range` loop with runtime bounds keeps a generic
+iterator, and a 1D view of a row is a struct built on each call: in these loops that
+overhead, not the arithmetic, was the cost on a CPU (moving the factorization's inner loop here
+took the humanoid's unconstrained-solve stage from 4.8 to 3.7 ms per step at 1024 envs, one
+thread). Here each loop walks plain pointers from one address.
 
-Arguments are 1D views (`a[e, r]`, `v[e]`), contiguous in their last dimension as every
-engine array is (allocated whole by `structs.allocate`; a CPU shard is a range of envs); `*_at`
-is the offset of the run's first element in its view, `n` the run's length (nothing happens
-for n <= 0).
+Rows: `a[e, r]` of an [env, row, column] array, holding the dofs of its span `sp` (two dof
+ranges [sp[0], sp[1]) and [sp[2], sp[3]), stored one after the other: `constraints`);
+velocities `v[e]` of an [env, dof] array. Every engine array is contiguous (allocated whole by
+`structs.allocate`; a CPU shard is a range of envs). Nothing happens for an empty run.
 
 On a CPU the contiguous loops are vectorized 8 floats wide (`VECTOR_LOOP`: clang's default
 width here, 16 floats × 4, never runs for rows of 6 to 30 floats); sums are then accumulated in
@@ -30,17 +32,77 @@ VECTOR_LOOP = """
 
 
 @wp.func_native("""
-    float s = init;
-    if (n <= 0) return s;
-    const float* ap = wp::address(a, a_at);
-    const float* bp = wp::address(b, b_at);
+    const float* row = wp::address(a, e, r, 0);
+    const float* ve = wp::address(v, e, 0);
+    float s = 0.0f;
+    const int n1 = sp[1] - sp[0];
+    const float* v1 = ve + sp[0];
+""" + VECTOR_LOOP + """
+    for (int i = 0; i < n1; ++i) s += row[i] * v1[i];
+    const int n2 = sp[3] - sp[2];
+    const float* v2 = ve + sp[2];
+""" + VECTOR_LOOP + """
+    for (int i = 0; i < n2; ++i) s += row[n1 + i] * v2[i];
+    return s;
+""")
+def row_dot(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
+            sp: wp.vec4i) -> float:
+    """a[e, r] · v[e] over the row's span."""
+    ...
+
+
+@wp.func_native("""
+    if (dl == 0.0f) return;
+    const float* row = wp::address(a, e, r, 0);
+    float* ve = wp::address(v, e, 0);
+    const int n1 = sp[1] - sp[0];
+    float* v1 = ve + sp[0];
+""" + VECTOR_LOOP + """
+    for (int i = 0; i < n1; ++i) v1[i] += dl * row[i];
+    const int n2 = sp[3] - sp[2];
+    float* v2 = ve + sp[2];
+""" + VECTOR_LOOP + """
+    for (int i = 0; i < n2; ++i) v2[i] += dl * row[n1 + i];
+""")
+def row_apply(v: wp.array2d(dtype=float), e: int, dl: float, a: wp.array3d(dtype=float), r: int,
+              sp: wp.vec4i):
+    """v[e] += dl · a[e, r] over the row's span: a row's response M⁻¹J_rᵀ applied to the
+    velocity, or, given J, a row's generalized force."""
+    ...
+
+
+@wp.func_native("""
+    const float* ap = wp::address(a, e, r, 0);
+    const float* bp = wp::address(b, e, r, 0);
+    float s = 0.0f;
 """ + VECTOR_LOOP + """
     for (int i = 0; i < n; ++i) s += ap[i] * bp[i];
     return s;
 """)
-def dot(init: float, a: wp.array(dtype=float), a_at: int, b: wp.array(dtype=float), b_at: int,
-        n: int) -> float:
-    """init + Σ a[a_at + i] · b[b_at + i]."""
+def row_norm(a: wp.array3d(dtype=float), b: wp.array3d(dtype=float), e: int, r: int,
+             n: int) -> float:
+    """a[e, r, :n] · b[e, r, :n] (J M⁻¹ Jᵀ of a row from its J and its response)."""
+    ...
+
+
+@wp.func_native("""
+    float* yp = wp::address(y, e, r, 0);
+""" + VECTOR_LOOP + """
+    for (int i = 0; i < n; ++i) yp[i] = value;
+""")
+def row_fill(y: wp.array3d(dtype=float), e: int, r: int, value: float, n: int):
+    """y[e, r, :n] = value."""
+    ...
+
+
+@wp.func_native("""
+    float* yp = wp::address(y, e, r, 0);
+    const float* xp = wp::address(x, e, r, 0);
+""" + VECTOR_LOOP + """
+    for (int i = 0; i < n; ++i) yp[i] = xp[i];
+""")
+def row_copy(y: wp.array3d(dtype=float), x: wp.array3d(dtype=float), e: int, r: int, n: int):
+    """y[e, r, :n] = x[e, r, :n]."""
     ...
 
 
@@ -53,7 +115,7 @@ def dot(init: float, a: wp.array(dtype=float), a_at: int, b: wp.array(dtype=floa
 """)
 def axpy(y: wp.array(dtype=float), y_at: int, alpha: float, x: wp.array(dtype=float), x_at: int,
          n: int):
-    """y[y_at + i] += alpha · x[x_at + i]."""
+    """y[y_at + i] += alpha · x[x_at + i] for i < n (1D views)."""
     ...
 
 
@@ -65,16 +127,5 @@ def axpy(y: wp.array(dtype=float), y_at: int, alpha: float, x: wp.array(dtype=fl
     for (int i = 0; i < n; ++i) yp[i] = xp[i];
 """)
 def copy(y: wp.array(dtype=float), y_at: int, x: wp.array(dtype=float), x_at: int, n: int):
-    """y[y_at + i] = x[x_at + i]."""
-    ...
-
-
-@wp.func_native("""
-    if (n <= 0) return;
-    float* yp = wp::address(y, y_at);
-""" + VECTOR_LOOP + """
-    for (int i = 0; i < n; ++i) yp[i] = value;
-""")
-def fill(y: wp.array(dtype=float), y_at: int, value: float, n: int):
-    """y[y_at + i] = value."""
+    """y[y_at + i] = x[x_at + i] for i < n (1D views)."""
     ...

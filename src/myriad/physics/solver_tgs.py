@@ -26,7 +26,7 @@ targets a separation speed of e times its approach speed.
 import warp as wp
 
 from . import dense
-from .constraints import RowLayout, _row_dot, build_contact_rows, build_dof_row
+from .constraints import RowLayout, build_contact_rows, build_dof_row
 from .types import DOF, FRICTION, INACTIVE, NORMAL, SOFT
 from .structs import Contacts, ModelArrays, Rows
 
@@ -35,20 +35,6 @@ from .structs import Contacts, ModelArrays, Rows
 # at its limit) decay instead of growing without bound from step to step. Friction rows start
 # from all of it: static friction on a slope would otherwise creep.
 WARM = wp.constant(0.9)
-
-
-@wp.func
-def _apply(e: int, r: int, dl: float, minv_jt: wp.array3d(dtype=float), v: wp.array2d(dtype=float),
-           sp: wp.vec4i):
-    """v[e] += minv_jt[e, r]·dl over the row's span: a row's response M⁻¹J_rᵀ (zero outside
-    its span) applied to the velocity; or, given J, a row's generalized force."""
-    if dl == 0.0:
-        return
-    row = minv_jt[e, r]
-    ve = v[e]
-    n1 = sp[1] - sp[0]
-    dense.axpy(ve, sp[0], dl, row, 0, n1)
-    dense.axpy(ve, sp[2], dl, row, n1, sp[3] - sp[2])
 
 
 @wp.func
@@ -107,9 +93,9 @@ def _normal_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, biased: i
             err = err + sign * dq[e, dof]
     else:
         sp = rows.span[e, r]
-        jv = _row_dot(rows.jac, e, r, v, sp)
+        jv = dense.row_dot(rows.jac, e, r, v, sp)
         if tgs != 0:
-            err = err + _row_dot(rows.jac, e, r, dq, sp)
+            err = err + dense.row_dot(rows.jac, e, r, dq, sp)
     target = float(0.0)
     if err >= 0.0:
         target = -err / h          # may close the gap, no more
@@ -133,7 +119,7 @@ def _normal_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, biased: i
     old = rows.lam[e, r]
     new = wp.max(old + (target - jv) * rows.inv_mass[e, r], 0.0)
     rows.lam[e, r] = new
-    _apply(e, r, new - old, rows.minv_jt, v, rows.span[e, r])
+    dense.row_apply(v, e, new - old, rows.minv_jt, r, rows.span[e, r])
 
 
 @wp.func
@@ -182,9 +168,9 @@ def _spring_row(e: int, r: int, h: float, rows: Rows, v: wp.array2d(dtype=float)
     k = rows.k[e, r]
     a = h * (h * k + rows.d[e, r])
     w = 1.0 / rows.inv_mass[e, r]
-    dl = -(h * k * rows.err[e, r] + a * _row_dot(rows.jac, e, r, v, sp)) / (1.0 + a * w)
+    dl = -(h * k * rows.err[e, r] + a * dense.row_dot(rows.jac, e, r, v, sp)) / (1.0 + a * w)
     rows.lam[e, r] = rows.lam[e, r] + dl
-    _apply(e, r, dl, rows.minv_jt, v, sp)
+    dense.row_apply(v, e, dl, rows.minv_jt, r, sp)
 
 
 @wp.func
@@ -200,7 +186,7 @@ def _dof_row(m: ModelArrays, e: int, r: int, dof: int, factor: wp.array2d(dtype=
         old = rows.lam[e, r]
         new = wp.clamp(old - v[e, dof] * rows.inv_mass[e, r], -bound, bound)
         rows.lam[e, r] = new
-        _apply(e, r, new - old, rows.minv_jt, v, rows.span[e, r])
+        dense.row_apply(v, e, new - old, rows.minv_jt, r, rows.span[e, r])
     # maximum joint speed: a joint-space impulse brings it back inside
     jv = v[e, dof]
     cap = rows.k[e, r]
@@ -208,15 +194,15 @@ def _dof_row(m: ModelArrays, e: int, r: int, dof: int, factor: wp.array2d(dtype=
         if rows.inv_mass[e, r] == 0.0:   # first time past the cap in this substep
             build_dof_row(m, e, r, dof, 1.0, DOF, factor, rows)
         if rows.type[e, r] == DOF:
-            _apply(e, r, (wp.clamp(jv, -cap, cap) - jv) * rows.inv_mass[e, r], rows.minv_jt, v,
-                   rows.span[e, r])
+            dense.row_apply(v, e, (wp.clamp(jv, -cap, cap) - jv) * rows.inv_mass[e, r],
+                            rows.minv_jt, r, rows.span[e, r])
 
 
 @wp.func
 def _row_dot2(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
               sp: wp.vec4i):
     """(a[e, r] · v[e], a[e, r + 1] · v[e]) over the rows' span."""
-    return wp.vec2(_row_dot(a, e, r, v, sp), _row_dot(a, e, r + 1, v, sp))
+    return wp.vec2(dense.row_dot(a, e, r, v, sp), dense.row_dot(a, e, r + 1, v, sp))
 
 
 @wp.func
@@ -225,8 +211,8 @@ def _apply2(e: int, r: int, dl1: float, dl2: float, minv_jt: wp.array3d(dtype=fl
     """v += M⁻¹J_rᵀ·dl1 + M⁻¹J_{r+1}ᵀ·dl2 over the rows' span."""
     if dl1 == 0.0 and dl2 == 0.0:
         return
-    _apply(e, r, dl1, minv_jt, v, sp)
-    _apply(e, r + 1, dl2, minv_jt, v, sp)
+    dense.row_apply(v, e, dl1, minv_jt, r, sp)
+    dense.row_apply(v, e, dl2, minv_jt, r + 1, sp)
 
 
 @wp.kernel
@@ -257,7 +243,7 @@ def solve(m: ModelArrays, layout: RowLayout, contact_count: wp.array(dtype=wp.in
             rows.lam[e, r] = rows.lam_init[e, r]
             if rows.type[e, r] == NORMAL:
                 rows.lam[e, r] = WARM * rows.lam_init[e, r]
-            _apply(e, r, rows.lam[e, r], rows.minv_jt, qd, rows.span[e, r])
+            dense.row_apply(qd, e, rows.lam[e, r], rows.minv_jt, r, rows.span[e, r])
     hs = h
     if tgs != 0:
         hs = h / float(position_iterations)
@@ -305,4 +291,4 @@ def constraint_forces(m: ModelArrays, layout: RowLayout, h: float,
     for rr in range(used + layout.end - layout.joint_limits):
         r = _row_in_use(rr, used, layout)
         if rows.type[e, r] >= 0 and rows.lam[e, r] != 0.0:   # (an unbuilt dof row has no impulse)
-            _apply(e, r, rows.lam[e, r] / h, rows.jac, rows.dof_force, rows.span[e, r])
+            dense.row_apply(rows.dof_force, e, rows.lam[e, r] / h, rows.jac, r, rows.span[e, r])
