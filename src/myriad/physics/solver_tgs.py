@@ -72,8 +72,16 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
     if first != 0:
         for r in range(layout.springs, layout.dofs):
             _spring_row(e, r, h, rows, v)
+    # most dof rows do nothing in a sweep (no dry friction, speed under the cap): tested on this
+    # env's 1D views, one index each, before the row is visited
+    row_type = rows.type[e]
+    row_bound = rows.mu[e]
+    row_cap = rows.k[e]
+    speed = v[e]
     for dof in range(layout.end - layout.dofs):
-        _dof_row(m, e, layout.dofs + dof, dof, factor, rows, v)
+        r = layout.dofs + dof
+        if row_type[r] == DOF and (row_bound[r] > 0.0 or wp.abs(speed[dof]) > row_cap[r]):
+            _dof_row(m, e, r, dof, factor, rows, v)
 
 
 @wp.func
