@@ -79,7 +79,7 @@ def test_every_field_is_split_between_cpu_threads(sim):
     sim._shard_local.range = sim._shards[1]
     try:
         assert sim._shard_of(sim._m) is sim._m
-        assert sim._shard_of(sim._geom_body) is sim._geom_body
+        assert sim._shard_of(sim._pairs) is sim._pairs
     finally:
         sim._shard_local.range = None
 

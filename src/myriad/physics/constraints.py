@@ -25,7 +25,7 @@ import warp as wp
 from . import dense
 from .dynamics import solve_span
 from .spatial import velocity_at
-from .structs import Contacts, EnvParams, ModelArrays, Rows, State
+from .structs import Contacts, Dynamics, EnvParams, ModelArrays, Rows, State
 from .types import DOF, FRICTION, FRICTION2, INACTIVE, NORMAL, SOFT
 
 
@@ -179,25 +179,26 @@ def tendon_length(m: ModelArrays, p: EnvParams, s: State, e: int, t: int):
 
 @wp.kernel
 def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float,
-               bounce_threshold: float, geom_body: wp.array(dtype=wp.int32),
-               limit_jnt: wp.array(dtype=wp.int32), limit_tendon: wp.array(dtype=wp.int32),
-               p: EnvParams, s: State, factor: wp.array2d(dtype=float),
+               bounce_threshold: float, limit_jnt: wp.array(dtype=wp.int32),
+               limit_tendon: wp.array(dtype=wp.int32), p: EnvParams,
+               s: State,        # in: q, qd, qacc, body_x, cdof
+               d: Dynamics,     # in: factor
                # in: contacts; out: the warm-start keys (prev_key, prev_count)
                contacts: Contacts,
                # in: the last substep's impulses (lam); out: everything else
                rows: Rows):
     """Every row of one env for this substep, family by family (`RowLayout`)."""
     e = wp.tid()
-    contact_rows(m, e, h, rest_offset, bounce_threshold, geom_body, p, s, factor, contacts, rows)
-    joint_limit_rows(m, e, layout.joint_limits, h, limit_jnt, p, s, factor, rows)
-    tendon_limit_rows(m, e, layout.tendon_limits, h, limit_tendon, p, s, factor, rows)
-    tendon_spring_rows(m, e, layout.springs, p, s, factor, rows)
-    dof_rows(m, e, layout.dofs, layout.end - layout.dofs, h, p, factor, rows)
+    contact_rows(m, e, h, rest_offset, bounce_threshold, p, s, d.factor, contacts, rows)
+    joint_limit_rows(m, e, layout.joint_limits, h, limit_jnt, p, s, d.factor, rows)
+    tendon_limit_rows(m, e, layout.tendon_limits, h, limit_tendon, p, s, d.factor, rows)
+    tendon_spring_rows(m, e, layout.springs, p, s, d.factor, rows)
+    dof_rows(m, e, layout.dofs, layout.end - layout.dofs, h, p, d.factor, rows)
 
 
 @wp.func
 def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_threshold: float,
-                 geom_body: wp.array(dtype=wp.int32), p: EnvParams, s: State,
+                 p: EnvParams, s: State,
                  factor: wp.array2d(dtype=float), c: Contacts, rows: Rows):
     """Contact slot k: rows 3k (normal), 3k+1, 3k+2 (friction). Slots past the contact count
     are skipped by the solver: only the used ones are built."""
@@ -205,8 +206,8 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
     hint = int(0)
     for k in range(ncontact):
         pair = c.geom[e, k]
-        b1 = geom_body[pair[0]]
-        b2 = geom_body[pair[1]]
+        b1 = m.geom_body[pair[0]]
+        b2 = m.geom_body[pair[1]]
         n = c.normal[e, k]
         pos = c.pos[e, k]
         # tangent basis: any orthonormal pair (the friction disk is isotropic)

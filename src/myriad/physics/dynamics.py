@@ -21,51 +21,44 @@ import warp as wp
 
 from . import dense
 from .spatial import force_cross, inertia_about_point, inertia_times
-from .structs import EnvParams, ModelArrays
+from .structs import Dynamics, EnvParams, ModelArrays, State
 
 
 @wp.kernel
-def mass_matrix(m: ModelArrays, p: EnvParams, body_x: wp.array2d(dtype=wp.transform),
-                body_com: wp.array2d(dtype=wp.vec3), body_iframe: wp.array2d(dtype=wp.quat),
-                cdof: wp.array2d(dtype=wp.spatial_vector),
-                # scratch: composite rigid-body inertia of each subtree
-                crb_m: wp.array2d(dtype=float), crb_h: wp.array2d(dtype=wp.vec3),
-                crb_i: wp.array2d(dtype=wp.mat33),
-                qm: wp.array2d(dtype=float)):
+def mass_matrix(m: ModelArrays, p: EnvParams,
+                s: State,       # in: body_x, body_com, body_iframe, cdof
+                d: Dynamics):   # out: qm; scratch: crb_m, crb_h, crb_i (subtree inertias)
+    """Joint-space mass matrix with armature (CRBA), in the sparse layout above."""
     e = wp.tid()
     for b in range(m.nbody):
-        ref = wp.transform_get_translation(body_x[e, m.body_root[b]])
+        ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
         mass = p.body_mass[e, b]
-        c = body_com[e, b] - ref
-        crb_m[e, b] = mass
-        crb_h[e, b] = mass * c
-        crb_i[e, b] = inertia_about_point(mass, c, p.body_inertia[e, b], body_iframe[e, b])
+        c = s.body_com[e, b] - ref
+        d.crb_m[e, b] = mass
+        d.crb_h[e, b] = mass * c
+        d.crb_i[e, b] = inertia_about_point(mass, c, p.body_inertia[e, b], s.body_iframe[e, b])
     # children before parents: accumulate subtrees (same tree => same reference point)
     for k in range(m.nbody):
         b = m.nbody - 1 - k
         parent = m.body_parent[b]
         if parent >= 0:
-            crb_m[e, parent] = crb_m[e, parent] + crb_m[e, b]
-            crb_h[e, parent] = crb_h[e, parent] + crb_h[e, b]
-            crb_i[e, parent] = crb_i[e, parent] + crb_i[e, b]
+            d.crb_m[e, parent] = d.crb_m[e, parent] + d.crb_m[e, b]
+            d.crb_h[e, parent] = d.crb_h[e, parent] + d.crb_h[e, b]
+            d.crb_i[e, parent] = d.crb_i[e, parent] + d.crb_i[e, b]
     for i in range(m.nv):
         b = m.dof_body[i]
-        f = inertia_times(crb_m[e, b], crb_h[e, b], crb_i[e, b], cdof[e, i])
+        f = inertia_times(d.crb_m[e, b], d.crb_h[e, b], d.crb_i[e, b], s.cdof[e, i])
         a = m.dof_madr[i]
-        qm[e, a] = wp.dot(cdof[e, i], f) + p.dof_armature[e, i]
+        d.qm[e, a] = wp.dot(s.cdof[e, i], f) + p.dof_armature[e, i]
         for t in range(1, m.dof_mnum[i]):
-            qm[e, a + t] = wp.dot(cdof[e, m.mass_col[a + t]], f)
+            d.qm[e, a + t] = wp.dot(s.cdof[e, m.mass_col[a + t]], f)
 
 
 @wp.func
-def body_forces(m: ModelArrays, p: EnvParams, e: int, body_x: wp.array2d(dtype=wp.transform),
-                body_com: wp.array2d(dtype=wp.vec3), body_iframe: wp.array2d(dtype=wp.quat),
-                qd: wp.array2d(dtype=float), qd_before: wp.array2d(dtype=float), inv_h: float,
-                cvel: wp.array2d(dtype=wp.spatial_vector),
-                cdof: wp.array2d(dtype=wp.spatial_vector),
-                cdof_dot: wp.array2d(dtype=wp.spatial_vector),
-                cacc: wp.array2d(dtype=wp.spatial_vector), cfrc: wp.array2d(dtype=wp.spatial_vector)):
-    """Forward pass of Newton-Euler: each body's acceleration and the force it needs, I·a + v ×* I·v.
+def body_forces(m: ModelArrays, p: EnvParams, s: State, e: int,
+                qd_before: wp.array2d(dtype=float), inv_h: float, d: Dynamics):
+    """Forward pass of Newton-Euler: each body's acceleration and the force it needs,
+    I·a + v ×* I·v, into d.cacc and d.cfrc.
 
     Accelerations come from the velocity-product terms plus (qd - qd_before)·inv_h (inv_h = 0:
     none, for the bias force). Gravity enters as an upward acceleration of the world.
@@ -75,18 +68,19 @@ def body_forces(m: ModelArrays, p: EnvParams, e: int, body_x: wp.array2d(dtype=w
         parent = m.body_parent[b]
         a = world_acc
         if parent >= 0:
-            a = cacc[e, parent]
+            a = d.cacc[e, parent]
         if m.body_jntnum[b] > 0:
             for i in range(m.jnt_dofadr[m.body_jntadr[b]], m.body_last_dof[b] + 1):
-                a = a + cdof_dot[e, i] * qd[e, i] + cdof[e, i] * ((qd[e, i] - qd_before[e, i]) * inv_h)
-        cacc[e, b] = a
-        ref = wp.transform_get_translation(body_x[e, m.body_root[b]])
+                a = (a + s.cdof_dot[e, i] * s.qd[e, i]
+                     + s.cdof[e, i] * ((s.qd[e, i] - qd_before[e, i]) * inv_h))
+        d.cacc[e, b] = a
+        ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
         mass = p.body_mass[e, b]
-        c = body_com[e, b] - ref
+        c = s.body_com[e, b] - ref
         h = mass * c
-        rot_inertia = inertia_about_point(mass, c, p.body_inertia[e, b], body_iframe[e, b])
-        v = cvel[e, b]
-        cfrc[e, b] = inertia_times(mass, h, rot_inertia, a) + force_cross(
+        rot_inertia = inertia_about_point(mass, c, p.body_inertia[e, b], s.body_iframe[e, b])
+        v = s.cvel[e, b]
+        d.cfrc[e, b] = inertia_times(mass, h, rot_inertia, a) + force_cross(
             v, inertia_times(mass, h, rot_inertia, v))
 
 
@@ -101,21 +95,15 @@ def accumulate_subtrees(m: ModelArrays, e: int, cfrc: wp.array2d(dtype=wp.spatia
 
 
 @wp.kernel
-def bias_forces(m: ModelArrays, p: EnvParams, body_x: wp.array2d(dtype=wp.transform),
-                body_com: wp.array2d(dtype=wp.vec3), body_iframe: wp.array2d(dtype=wp.quat),
-                qd: wp.array2d(dtype=float), cvel: wp.array2d(dtype=wp.spatial_vector),
-                cdof: wp.array2d(dtype=wp.spatial_vector),
-                cdof_dot: wp.array2d(dtype=wp.spatial_vector),
-                # scratch
-                cacc: wp.array2d(dtype=wp.spatial_vector), cfrc: wp.array2d(dtype=wp.spatial_vector),
-                bias: wp.array2d(dtype=float)):
+def bias_forces(m: ModelArrays, p: EnvParams,
+                s: State,       # in: body_x, body_com, body_iframe, qd, cvel, cdof, cdof_dot
+                d: Dynamics):   # out: bias; scratch: cacc, cfrc
     """Recursive Newton-Euler at qdd = 0: Coriolis, centrifugal and gravity (MuJoCo's qfrc_bias)."""
     e = wp.tid()
-    body_forces(m, p, e, body_x, body_com, body_iframe, qd, qd, 0.0, cvel, cdof, cdof_dot, cacc,
-                cfrc)
-    accumulate_subtrees(m, e, cfrc)
+    body_forces(m, p, s, e, s.qd, 0.0, d)
+    accumulate_subtrees(m, e, d.cfrc)
     for i in range(m.nv):
-        bias[e, i] = wp.dot(cdof[e, i], cfrc[e, m.dof_body[i]])
+        d.bias[e, i] = wp.dot(s.cdof[e, i], d.cfrc[e, m.dof_body[i]])
 
 
 @wp.func
@@ -212,12 +200,12 @@ def solve_in_place(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
 
 
 @wp.kernel
-def solve_acceleration(m: ModelArrays, qm: wp.array2d(dtype=float),
-                       implicit_diag: wp.array2d(dtype=float), qfrc: wp.array2d(dtype=float),
-                       factor: wp.array2d(dtype=float), qacc: wp.array3d(dtype=float)):
-    """Unconstrained qacc = (M + implicit_diag)⁻¹ qfrc (qacc viewed as [N, 1, nv])."""
+def solve_acceleration(m: ModelArrays,
+                       d: Dynamics,                         # in: qm, implicit_diag, qfrc; out: factor
+                       qacc: wp.array3d(dtype=float)):      # out: State.qacc viewed as [N, 1, nv]
+    """Unconstrained qacc = (M + implicit_diag)⁻¹ qfrc, and the factor the constraint rows use."""
     e = wp.tid()
-    factor_matrix(m, e, qm, implicit_diag, factor)
+    factor_matrix(m, e, d.qm, d.implicit_diag, d.factor)
     for i in range(m.nv):
-        qacc[e, 0, i] = qfrc[e, i]
-    solve_in_place(m, e, factor, qacc, 0)
+        qacc[e, 0, i] = d.qfrc[e, i]
+    solve_in_place(m, e, d.factor, qacc, 0)

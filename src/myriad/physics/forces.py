@@ -22,30 +22,29 @@ import warp as wp
 
 from .types import HINGE, MOTOR, POSITION, SLIDE
 from .spatial import row_finite
-from .structs import EnvParams, ModelArrays
+from .structs import Control, Dynamics, EnvParams, ModelArrays, State
 
 
 
 @wp.kernel
 def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
-                       q: wp.array2d(dtype=float), qd: wp.array2d(dtype=float),
-                       ctrl: wp.array2d(dtype=float), joint_force: wp.array2d(dtype=float),
-                       bias: wp.array2d(dtype=float),
-                       qfrc_actuator: wp.array2d(dtype=float),
-                       qfrc: wp.array2d(dtype=float), implicit_diag: wp.array2d(dtype=float),
-                       nonfinite: wp.array(dtype=wp.int32)):
-    """`joint_force` here is `qfrc_applied` (user joint forces plus projected body wrenches)."""
+                       s: State,      # in: q, qd; out: nonfinite
+                       c: Control,    # in: ctrl
+                       # in: qfrc_applied, bias; out: qfrc_actuator, qfrc, implicit_diag
+                       d: Dynamics):
+    """Explicit generalized force `qfrc` (minus the bias) and the implicit diagonal of this
+    substep, from the applied forces (`body_wrenches`), actuators, damping and joint springs."""
     e = wp.tid()
     for i in range(m.nv):
-        d = p.dof_damping[e, i]
-        qfrc[e, i] = joint_force[e, i] - bias[e, i] - d * qd[e, i]
-        implicit_diag[e, i] = h * d
-        qfrc_actuator[e, i] = 0.0
+        damping = p.dof_damping[e, i]
+        d.qfrc[e, i] = d.qfrc_applied[e, i] - d.bias[e, i] - damping * s.qd[e, i]
+        d.implicit_diag[e, i] = h * damping
+        d.qfrc_actuator[e, i] = 0.0
 
     for a in range(m.nu):
         i = m.actuator_dof[a]
         g = p.actuator_gear[e, a]
-        u = ctrl[e, a]
+        u = c.ctrl[e, a]
         if m.actuator_ctrllimited[a] != 0:
             r = m.actuator_ctrlrange[a]
             u = wp.clamp(u, r[0], r[1])
@@ -59,11 +58,11 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
             kv = p.actuator_kv[e, a]
             if kind == POSITION:
                 kp = p.actuator_kp[e, a]
-                length = g * q[e, m.actuator_qposadr[a]]
-                force = kp * (u - length - h * g * qd[e, i]) - kv * g * qd[e, i]
+                length = g * s.q[e, m.actuator_qposadr[a]]
+                force = kp * (u - length - h * g * s.qd[e, i]) - kv * g * s.qd[e, i]
                 stiff = kp
             else:
-                force = kv * (u - g * qd[e, i])
+                force = kv * (u - g * s.qd[e, i])
             damp = kv
         if m.actuator_forcelimited[a] != 0:
             r = m.actuator_forcerange[a]
@@ -71,8 +70,8 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
                 force = wp.clamp(force, r[0], r[1])
                 stiff = 0.0
                 damp = 0.0
-        qfrc_actuator[e, i] = qfrc_actuator[e, i] + g * force
-        implicit_diag[e, i] = implicit_diag[e, i] + g * g * (h * damp + h * h * stiff)
+        d.qfrc_actuator[e, i] = d.qfrc_actuator[e, i] + g * force
+        d.implicit_diag[e, i] = d.implicit_diag[e, i] + g * g * (h * damp + h * h * stiff)
 
     for j in range(m.njnt):
         t = m.jnt_type[j]
@@ -80,34 +79,32 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
             a = m.jnt_qposadr[j]
             i = m.jnt_dofadr[j]
             k = p.joint_stiffness[e, j]
-            qfrc[e, i] = qfrc[e, i] - k * (q[e, a] - m.jnt_springref[j])
+            d.qfrc[e, i] = d.qfrc[e, i] - k * (s.q[e, a] - m.jnt_springref[j])
             # effort limit on the joint's total actuator force (URDF effort, MJCF actuatorfrcrange)
             if m.jnt_actfrclimited[j] != 0:
                 r = m.jnt_actfrcrange[j]
-                f = qfrc_actuator[e, i]
+                f = d.qfrc_actuator[e, i]
                 if f < r[0] or f > r[1]:
-                    qfrc_actuator[e, i] = wp.clamp(f, r[0], r[1])
-                    implicit_diag[e, i] = h * p.dof_damping[e, i]
+                    d.qfrc_actuator[e, i] = wp.clamp(f, r[0], r[1])
+                    d.implicit_diag[e, i] = h * p.dof_damping[e, i]
     for i in range(m.nv):
-        qfrc[e, i] = qfrc[e, i] + qfrc_actuator[e, i]
+        d.qfrc[e, i] = d.qfrc[e, i] + d.qfrc_actuator[e, i]
 
     # non-finite input: the clamps above would have turned a NaN ctrl into a bound, so the check
     # looks at the inputs themselves; the env is flagged and its forces poisoned, never patched
-    if not (row_finite(ctrl, e, m.nu) and row_finite(joint_force, e, m.nv)):
-        nonfinite[e] = 1
+    if not (row_finite(c.ctrl, e, m.nu) and row_finite(d.qfrc_applied, e, m.nv)):
+        s.nonfinite[e] = 1
         for i in range(m.nv):
-            qfrc_actuator[e, i] = wp.nan
-            qfrc[e, i] = wp.nan
+            d.qfrc_actuator[e, i] = wp.nan
+            d.qfrc[e, i] = wp.nan
 
 
 @wp.kernel
-def body_wrenches(m: ModelArrays, body_x: wp.array2d(dtype=wp.transform),
-                  body_com: wp.array2d(dtype=wp.vec3), cdof: wp.array2d(dtype=wp.spatial_vector),
-                  joint_force: wp.array2d(dtype=float),
-                  body_force: wp.array2d(dtype=wp.spatial_vector),
-                  # scratch: each body's wrench, then its subtree's, at the tree's reference point
-                  wrench: wp.array2d(dtype=wp.spatial_vector),
-                  qfrc_applied: wp.array2d(dtype=float), nonfinite: wp.array(dtype=wp.int32)):
+def body_wrenches(m: ModelArrays,
+                  s: State,      # in: body_x, body_com, cdof; out: nonfinite
+                  c: Control,    # in: joint_force, body_force
+                  # out: qfrc_applied; scratch: wrench (each body's, then its subtree's)
+                  d: Dynamics):
     """qfrc_applied = joint_force + Jᵀ·(force at the center of mass, torque) of every body.
 
     `body_force[e, b]` is (force, torque) in world axes, the force acting at the body's center of
@@ -119,21 +116,22 @@ def body_wrenches(m: ModelArrays, body_x: wp.array2d(dtype=wp.transform),
     e = wp.tid()
     bad = int(0)
     for b in range(m.nbody):
-        if not wp.isfinite(body_force[e, b]):
+        if not wp.isfinite(c.body_force[e, b]):
             bad = 1
     for b in range(m.nbody):
-        f = wp.spatial_top(body_force[e, b])
-        torque = wp.spatial_bottom(body_force[e, b])
-        arm = body_com[e, b] - wp.transform_get_translation(body_x[e, m.body_root[b]])
-        wrench[e, b] = wp.spatial_vector(torque + wp.cross(arm, f), f)
+        f = wp.spatial_top(c.body_force[e, b])
+        torque = wp.spatial_bottom(c.body_force[e, b])
+        arm = s.body_com[e, b] - wp.transform_get_translation(s.body_x[e, m.body_root[b]])
+        d.wrench[e, b] = wp.spatial_vector(torque + wp.cross(arm, f), f)
     for k in range(m.nbody):
         b = m.nbody - 1 - k
         parent = m.body_parent[b]
         if parent >= 0:
-            wrench[e, parent] = wrench[e, parent] + wrench[e, b]
+            d.wrench[e, parent] = d.wrench[e, parent] + d.wrench[e, b]
     for i in range(m.nv):
-        qfrc_applied[e, i] = joint_force[e, i] + wp.dot(cdof[e, i], wrench[e, m.dof_body[i]])
+        d.qfrc_applied[e, i] = (c.joint_force[e, i]
+                                + wp.dot(s.cdof[e, i], d.wrench[e, m.dof_body[i]]))
     if bad != 0:
-        nonfinite[e] = 1
+        s.nonfinite[e] = 1
         for i in range(m.nv):
-            qfrc_applied[e, i] = wp.nan
+            d.qfrc_applied[e, i] = wp.nan

@@ -13,13 +13,13 @@ import warp as wp
 
 from .types import BALL, FREE
 from .spatial import quat_integrate, row_finite
-from .structs import ModelArrays
+from .structs import ModelArrays, State
 
 
 
 @wp.kernel
-def integrate(m: ModelArrays, dq: wp.array2d(dtype=float), q: wp.array2d(dtype=float),
-              qd: wp.array2d(dtype=float), nonfinite: wp.array(dtype=wp.int32)):
+def integrate(m: ModelArrays,
+              s: State):    # in: dq, qd; in and out: q; out: nonfinite
     e = wp.tid()
     for j in range(m.njnt):
         t = m.jnt_type[j]
@@ -28,19 +28,19 @@ def integrate(m: ModelArrays, dq: wp.array2d(dtype=float), q: wp.array2d(dtype=f
         if t == FREE or t == BALL:
             if t == FREE:
                 for k in range(3):
-                    q[e, a + k] = q[e, a + k] + dq[e, d + k]
+                    s.q[e, a + k] = s.q[e, a + k] + s.dq[e, d + k]
                 a = a + 3
                 d = d + 3
-            rot = wp.quat(q[e, a], q[e, a + 1], q[e, a + 2], q[e, a + 3])
-            w = wp.vec3(dq[e, d], dq[e, d + 1], dq[e, d + 2])
+            rot = wp.quat(s.q[e, a], s.q[e, a + 1], s.q[e, a + 2], s.q[e, a + 3])
+            w = wp.vec3(s.dq[e, d], s.dq[e, d + 1], s.dq[e, d + 2])
             if wp.isfinite(rot) and wp.isfinite(w):
                 rot = quat_integrate(wp.normalize(rot), w, 1.0)
             else:  # normalize and the exponential map would turn NaN into a valid rotation
                 rot = wp.quat(wp.nan, wp.nan, wp.nan, wp.nan)
             for k in range(4):
-                q[e, a + k] = rot[k]
+                s.q[e, a + k] = rot[k]
         else:
-            q[e, a] = q[e, a] + dq[e, d]
+            s.q[e, a] = s.q[e, a] + s.dq[e, d]
     # flag an env whose state is no longer finite; it stays flagged until its owner resets it
-    if not (row_finite(q, e, q.shape[1]) and row_finite(qd, e, m.nv)):
-        nonfinite[e] = 1
+    if not (row_finite(s.q, e, s.q.shape[1]) and row_finite(s.qd, e, m.nv)):
+        s.nonfinite[e] = 1

@@ -118,10 +118,6 @@ class Simulator:
                  else np.zeros((0, 2)))
         self._pairs = wp.array(pairs, dtype=wp.vec2i, device=dev)
         self.contact_capacity = params.contacts_per_env if len(pairs) else 0
-        self._geom_type = wp.array(m.geom_type, dtype=wp.int32, device=dev)
-        self._geom_body = wp.array(m.geom_body, dtype=wp.int32, device=dev)
-        self._geom_quat = wp.array(m.geom_quat, dtype=wp.quat, device=dev)
-        self._geom_dataid = wp.array(m.geom_dataid, dtype=wp.int32, device=dev)
         self._meshes, self._hfields = collision.shape_data(model, dev)
 
         # constraint rows: 3 per contact slot, 2 per limited joint, 2 per limited tendon, one
@@ -229,19 +225,14 @@ class Simulator:
         n, m, c, st = self.num_envs, self.model, self._contacts, self._s
         if self.contact_capacity == 0:
             return
-        self._launch(collision.geom_frames, (n, m.ngeom), [
-            self._geom_body, self._p.geom_pos, self._geom_quat, self._geom_type,
-            self._p.geom_size, self._geom_dataid, self._meshes, st.body_x, st.geom_x,
-            st.geom_bound])
+        self._launch(collision.geom_frames, (n, m.ngeom), [self._m, self._p, self._meshes, st])
         self._shard_of(c.count).zero_()
         if len(self._pairs):
             # a GPU runs a thread per (env, pair); a CPU thread per env walks its pairs
             kernel, dim = ((collision.narrowphase, (n, len(self._pairs))) if self.device.is_cuda
                            else (collision.narrowphase_per_env, n))
-            self._launch(kernel, dim, [
-                self._pairs, self._geom_type, self._p.geom_size, self._geom_dataid, self._meshes,
-                self._hfields, st.geom_x, st.geom_bound, self.params.contact_offset,
-                self.contact_capacity, c.count, c.geom, c.key, c.pos, c.normal, c.dist])
+            self._launch(kernel, dim, [self._m, self._pairs, self._p, self._meshes, self._hfields,
+                                       self.params.contact_offset, st, c])
 
     def _launch(self, kernel, dim, inputs) -> None:
         shard = getattr(self._shard_local, "range", None)
@@ -312,38 +303,23 @@ class Simulator:
             future.result()
 
     def _kinematics(self) -> None:
-        st = self._s
-        self._launch(kinematics.kinematics, self.num_envs, [
-            self._m, st.q, st.qd, st.body_x, st.body_com, st.body_iframe, st.body_vel,
-            st.jnt_anchor, st.jnt_xaxis, st.cvel, st.cdof, st.cdof_dot])
+        self._launch(kinematics.kinematics, self.num_envs, [self._m, self._s])
         if self.model.nsite:
-            self._launch(kinematics.attached_frames, (self.num_envs, self.model.nsite),
-                         [self._m.site_body, self._p.site_pos, self._m.site_quat, st.body_x,
-                          st.site_x])
+            self._launch(kinematics.site_frames, (self.num_envs, self.model.nsite),
+                         [self._m, self._p, self._s])
 
     def _dynamics(self) -> None:
-        st, d = self._s, self._d
-        self._launch(dynamics.mass_matrix, self.num_envs, [
-            self._m, self._p, st.body_x, st.body_com, st.body_iframe, st.cdof,
-            d.crb_m, d.crb_h, d.crb_i, d.qm])
-        self._launch(dynamics.bias_forces, self.num_envs, [
-            self._m, self._p, st.body_x, st.body_com, st.body_iframe, st.qd, st.cvel,
-            st.cdof, st.cdof_dot, d.cacc, d.cfrc, d.bias])
+        self._launch(dynamics.mass_matrix, self.num_envs, [self._m, self._p, self._s, self._d])
+        self._launch(dynamics.bias_forces, self.num_envs, [self._m, self._p, self._s, self._d])
 
     def _applied_forces(self) -> None:
-        st, c, d = self._s, self._c, self._d
-        self._launch(forces.body_wrenches, self.num_envs, [
-            self._m, st.body_x, st.body_com, st.cdof, c.joint_force, c.body_force,
-            d.wrench, d.qfrc_applied, st.nonfinite])
-        self._launch(forces.generalized_forces, self.num_envs, [
-            self._m, self._p, self.h, st.q, st.qd, c.ctrl, d.qfrc_applied, d.bias,
-            d.qfrc_actuator, d.qfrc, d.implicit_diag, st.nonfinite])
+        self._launch(forces.body_wrenches, self.num_envs, [self._m, self._s, self._c, self._d])
+        self._launch(forces.generalized_forces, self.num_envs,
+                     [self._m, self._p, self.h, self._s, self._c, self._d])
 
     def _solve_unconstrained(self) -> None:
-        d = self._d
         self._launch(dynamics.solve_acceleration, self.num_envs, [
-            self._m, d.qm, d.implicit_diag, d.qfrc, d.factor,
-            self._s.qacc.reshape((self.num_envs, 1, self.model.nv))])
+            self._m, self._d, self._s.qacc.reshape((self.num_envs, 1, self.model.nv))])
 
     def _constraint_rows(self) -> None:
         if self.nrow == 0:
@@ -351,20 +327,18 @@ class Simulator:
         sp = self.params
         self._launch(constraints.build_rows, self.num_envs, [
             self._m, self._rows_at, self.h, sp.rest_offset, sp.bounce_threshold_velocity,
-            self._geom_body, self._limit_jnt, self._limit_tendon, self._p, self._s,
-            self._d.factor, self._contacts, self._rows])
+            self._limit_jnt, self._limit_tendon, self._p, self._s, self._d, self._contacts,
+            self._rows])
 
     def _solve_constraints(self) -> None:
-        st, sp = self._s, self.params
+        sp = self.params
         self._launch(solver_tgs.solve, self.num_envs, [
-            self._m, self._rows_at, self._contacts.count, self._limit_jnt, self.h,
-            sp.position_iterations, sp.velocity_iterations, int(sp.solver == "tgs"),
-            sp.max_depenetration_velocity, self._d.factor, st.qacc, self._rows, st.qd,
-            st.qd_before, st.dq])
+            self._m, self._rows_at, self._limit_jnt, self.h, sp.position_iterations,
+            sp.velocity_iterations, int(sp.solver == "tgs"), sp.max_depenetration_velocity,
+            self._d, self._contacts, self._rows, self._s])
 
     def _integrate(self) -> None:
-        st = self._s
-        self._launch(integrate.integrate, self.num_envs, [self._m, st.dq, st.q, st.qd, st.nonfinite])
+        self._launch(integrate.integrate, self.num_envs, [self._m, self._s])
 
     def contact_overflow(self) -> int:
         """Number of envs whose contacts did not all fit their slots in the last substep.
@@ -403,16 +377,12 @@ class Simulator:
         return torch.stack([self.sensor_wrench[:, s, c:c + 3] for s, c in self._sensor_columns], 1)
 
     def _constraint_outputs(self) -> None:
-        st, c, r = self._s, self._contacts, self._rows
         self._launch(solver_tgs.constraint_forces, self.num_envs, [
-            self._m, self._rows_at, self.h, self._geom_body, r, c])
+            self._m, self._rows_at, self.h, self._rows, self._contacts])
         if self.sensor_sites:  # site poses are current: the final kinematics computed them
             self._launch(sensors.force_sensors, self.num_envs, [
-                self._m, self._p, self.h, st.body_x, st.body_com, st.body_iframe,
-                st.cvel, st.cdof, st.cdof_dot, st.qd, st.qd_before,
-                self._geom_body, self.contact_capacity, c.count, c.geom, c.pos, c.force,
-                self._sensor_site_body, self._sensor_site, st.site_x, self._d.cacc, self._d.cfrc,
-                st.sensor_wrench])
+                self._m, self._p, self.h, self._sensor_site_body, self._sensor_site, self._s,
+                self._contacts, self._d])
 
     # ------------------------------------------------------------------ CUDA
     def _step_graph(self) -> None:
@@ -441,17 +411,17 @@ class Simulator:
         Computed from the current kinematics (after step() or forward()); the returned tensor is
         overwritten by the next call.
         """
-        return self._jacobians("body", kinematics.body_jacobians, self.model.nbody, [])
+        return self._jacobians("body", kinematics.body_jacobians, self.model.nbody)
 
     def site_jacobians(self) -> torch.Tensor:
         """[N, nsite, 6, nv] at each site, world frame: rows 0-2 linear, 3-5 angular."""
-        return self._jacobians("site", kinematics.site_jacobians, self.model.nsite, [self._s.site_x])
+        return self._jacobians("site", kinematics.site_jacobians, self.model.nsite)
 
-    def _jacobians(self, kind, kernel, count, extra_inputs) -> torch.Tensor:
+    def _jacobians(self, kind, kernel, count) -> torch.Tensor:
         if kind not in self._jac:  # allocated on first use: most tasks never ask
             self._jac[kind] = wp.zeros((self.num_envs, count, 6, self.model.nv), dtype=wp.float32,
                                        device=self.device)
-        inputs = [self._m, self._s.body_x, *extra_inputs, self._s.cdof, self._jac[kind]]
+        inputs = [self._m, self._s, self._jac[kind]]
         launch = lambda: self._launch(kernel, (self.num_envs, count), inputs)
         self._run_on_device(launch) if self.device.is_cuda else launch()
         return wp.to_torch(self._jac[kind])

@@ -28,7 +28,7 @@ import warp as wp
 from . import dense
 from .constraints import RowLayout, build_contact_rows, build_dof_row
 from .types import DOF, FRICTION, INACTIVE, NORMAL, SOFT
-from .structs import Contacts, ModelArrays, Rows
+from .structs import Contacts, Dynamics, ModelArrays, Rows, State
 
 # fraction of the last substep's impulse a contact or limit row starts from: below 1 so that
 # the impulses of a configuration with no solution (a hand pressed into the head by an arm held
@@ -224,25 +224,23 @@ def _apply2(e: int, r: int, dl1: float, dl2: float, minv_jt: wp.array3d(dtype=fl
 
 
 @wp.kernel
-def solve(m: ModelArrays, layout: RowLayout, contact_count: wp.array(dtype=wp.int32),
-          limit_jnt: wp.array(dtype=wp.int32), h: float, position_iterations: int,
-          velocity_iterations: int, tgs: int, max_depenetration: float,
-          factor: wp.array2d(dtype=float), qacc: wp.array2d(dtype=float),
+def solve(m: ModelArrays, layout: RowLayout, limit_jnt: wp.array(dtype=wp.int32), h: float,
+          position_iterations: int, velocity_iterations: int, tgs: int,
+          max_depenetration: float,
+          d: Dynamics,     # in: factor
+          c: Contacts,     # in: count
           # in: rows as built; out: their impulses (lam), and responses built on demand
           rows: Rows,
-          # in: the velocity at the start of the substep; out: the new one
-          qd: wp.array2d(dtype=float),
-          # out
-          qd_before: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
-    """On exit qd holds the new velocity (qd_before the old), dq the displacement to integrate,
-    rows.lam the impulses."""
+          # in: qd (the velocity at the start of the substep), qacc; out: qd (the new velocity),
+          # qd_before (the old), dq (the displacement to integrate)
+          s: State):
     e = wp.tid()
     nv = m.nv
     for i in range(nv):
-        qd_before[e, i] = qd[e, i]
-        qd[e, i] = qd[e, i] + h * qacc[e, i]
-        dq[e, i] = 0.0
-    ncontact = wp.min(contact_count[e], layout.contact_slots)
+        s.qd_before[e, i] = s.qd[e, i]
+        s.qd[e, i] = s.qd[e, i] + h * s.qacc[e, i]
+        s.dq[e, i] = 0.0
+    ncontact = wp.min(c.count[e], layout.contact_slots)
     used = 3 * ncontact     # rows in use: the contacts' [0, used), and all from the limits on
     for i in range(used + layout.end - layout.joint_limits):
         r = _row_in_use(i, used, layout)
@@ -251,27 +249,26 @@ def solve(m: ModelArrays, layout: RowLayout, contact_count: wp.array(dtype=wp.in
             rows.lam[e, r] = rows.lam_init[e, r]
             if rows.type[e, r] == NORMAL:
                 rows.lam[e, r] = WARM * rows.lam_init[e, r]
-            dense.row_apply(qd, e, rows.lam[e, r], rows.minv_jt, r, rows.span[e, r])
+            dense.row_apply(s.qd, e, rows.lam[e, r], rows.minv_jt, r, rows.span[e, r])
     hs = h
     if tgs != 0:
         hs = h / float(position_iterations)
     for it in range(position_iterations):
         _sweep(m, e, layout, ncontact, limit_jnt, int(it == 0), 1, tgs, hs, h,
-               max_depenetration, factor, rows, qd, dq)
+               max_depenetration, d.factor, rows, s.qd, s.dq)
         if tgs != 0:
             for i in range(nv):
-                dq[e, i] = dq[e, i] + hs * qd[e, i]
+                s.dq[e, i] = s.dq[e, i] + hs * s.qd[e, i]
     if tgs == 0:
         for i in range(nv):
-            dq[e, i] = h * qd[e, i]
+            s.dq[e, i] = h * s.qd[e, i]
     for it in range(velocity_iterations):
         _sweep(m, e, layout, ncontact, limit_jnt, 0, 0, tgs, hs, h,
-               max_depenetration, factor, rows, qd, dq)
+               max_depenetration, d.factor, rows, s.qd, s.dq)
 
 
 @wp.kernel
-def constraint_forces(m: ModelArrays, layout: RowLayout, h: float,
-                      geom_body: wp.array(dtype=wp.int32), rows: Rows,
+def constraint_forces(m: ModelArrays, layout: RowLayout, h: float, rows: Rows,
                       # in: the contacts; out: their forces (force, net_force)
                       c: Contacts):
     """Forces of the last substep: per contact (on geom 2, world), net per body, per dof."""
@@ -286,8 +283,8 @@ def constraint_forces(m: ModelArrays, layout: RowLayout, h: float,
                 f = f + rows.dir[e, 3 * k + d] * rows.lam[e, 3 * k + d]
             f = f / h
             pair = c.geom[e, k]
-            b1 = geom_body[pair[0]]
-            b2 = geom_body[pair[1]]
+            b1 = m.geom_body[pair[0]]
+            b2 = m.geom_body[pair[1]]
             if b2 >= 0:
                 c.net_force[e, b2] = c.net_force[e, b2] + f
             if b1 >= 0:

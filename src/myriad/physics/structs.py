@@ -126,6 +126,11 @@ class ModelArrays:
     dof_mnum: wp.array(dtype=wp.int32)     # entries in dof i's row: 1 + its ancestors
     mass_col: wp.array(dtype=wp.int32)
 
+    geom_type: wp.array(dtype=wp.int32)     # types.GeomType
+    geom_body: wp.array(dtype=wp.int32)     # -1: the world (static geometry)
+    geom_quat: wp.array(dtype=wp.quat)      # orientation in the body frame
+    geom_dataid: wp.array(dtype=wp.int32)   # mesh or height field, -1 if none
+
     site_body: wp.array(dtype=wp.int32)
     site_pos: wp.array(dtype=wp.vec3)
     site_quat: wp.array(dtype=wp.quat)
