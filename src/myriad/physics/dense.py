@@ -1,12 +1,12 @@
 """Loops over contiguous runs of floats: a constraint row's columns, a dof's row of the factor.
 
-Every row-sized loop of the engine goes through these few functions: J·v and v += M⁻¹Jᵀ·λ over
-a row's span (`row_dot`, `row_apply`), building rows (`row_fill`, `row_copy`, `row_norm`) and
-the LᵀDL factorization (`axpy`, `copy`). They are native code (`wp.func_native`, compiled by
-Warp for the CPU and for CUDA alike) because a Warp array index wraps negative indices and
-multiplies by the stride on every access, a `range` loop with runtime bounds keeps a generic
-iterator, and a 1D view of a row is a struct built on each call: in these loops that
-overhead, not the arithmetic, was the cost on a CPU (moving the factorization's inner loop here
+Every row-sized loop of the engine goes through these few functions: J·v and v += M⁻¹Jᵀ·λ
+over a row's span (`row_dot`, `row_apply`), building rows (`row_fill`, `row_copy`,
+`row_norm`) and the LᵀDL factorization (`axpy`, `copy`). They are native code
+(`wp.func_native`, compiled by Warp for the CPU and for CUDA alike) because a Warp array index
+wraps negative indices and multiplies by the stride on every access, and a `range` loop with
+runtime bounds keeps a generic iterator: in these loops that overhead, not the arithmetic, was
+the cost on a CPU (moving the factorization's inner loop here
 took the humanoid's unconstrained-solve stage from 4.8 to 3.7 ms per step at 1024 envs, one
 thread). Here each loop walks plain pointers from one address.
 

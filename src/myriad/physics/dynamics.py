@@ -201,8 +201,8 @@ def solve_in_place(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
 
 @wp.kernel
 def solve_acceleration(m: ModelArrays,
-                       d: Dynamics,                         # in: qm, implicit_diag, qfrc; out: factor
-                       qacc: wp.array3d(dtype=float)):      # out: State.qacc viewed as [N, 1, nv]
+                       d: Dynamics,                     # in: qm, implicit_diag, qfrc; out: factor
+                       qacc: wp.array3d(dtype=float)):  # out: State.qacc viewed as [N, 1, nv]
     """Unconstrained qacc = (M + implicit_diag)⁻¹ qfrc, and the factor the constraint rows use."""
     e = wp.tid()
     factor_matrix(m, e, d.qm, d.implicit_diag, d.factor)

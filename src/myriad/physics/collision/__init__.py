@@ -9,8 +9,8 @@ from .heightfield import HFields
 from .narrowphase import geom_frames, narrowphase, narrowphase_per_env
 from .pairs import candidate_pairs
 
-__all__ = ["HFields", "Meshes", "candidate_pairs", "geom_frames", "narrowphase", "narrowphase_per_env",
-           "shape_data"]
+__all__ = ["HFields", "Meshes", "candidate_pairs", "geom_frames", "narrowphase",
+           "narrowphase_per_env", "shape_data"]
 
 
 def shape_data(model, device) -> tuple[Meshes, HFields]:

@@ -26,17 +26,41 @@ HFIELD_PROBES = wp.constant(32)
 poly8 = wp.types.matrix(shape=(8, 3), dtype=float)
 
 
+@wp.struct
+class ContactSlots:
+    """The `Contacts` fields a pair test fills (the same arrays): passed by value down the pair
+    tests, which a CPU build does not inline, so it carries these six and not the struct's ten."""
+    count: wp.array(dtype=wp.int32)
+    geom: wp.array2d(dtype=wp.vec2i)
+    key: wp.array2d(dtype=wp.int32)
+    pos: wp.array2d(dtype=wp.vec3)
+    normal: wp.array2d(dtype=wp.vec3)
+    dist: wp.array2d(dtype=float)
+
+
+@wp.func
+def contact_slots(c: Contacts):
+    out = ContactSlots()
+    out.count = c.count
+    out.geom = c.geom
+    out.key = c.key
+    out.pos = c.pos
+    out.normal = c.normal
+    out.dist = c.dist
+    return out
+
+
 @wp.func
 def _emit(e: int, pair: wp.vec2i, key: int, pos: wp.vec3, normal: wp.vec3, dist: float,
-          margin: float, contacts: Contacts):
+          margin: float, out: ContactSlots):
     if dist < margin:
-        slot = wp.atomic_add(contacts.count, e, 1)
-        if slot < contacts.geom.shape[1]:    # past the env's slots: counted (overflow), not kept
-            contacts.geom[e, slot] = pair
-            contacts.key[e, slot] = key
-            contacts.pos[e, slot] = pos
-            contacts.normal[e, slot] = normal
-            contacts.dist[e, slot] = dist
+        slot = wp.atomic_add(out.count, e, 1)
+        if slot < out.geom.shape[1]:    # past the env's slots: counted (overflow), not kept
+            out.geom[e, slot] = pair
+            out.key[e, slot] = key
+            out.pos[e, slot] = pos
+            out.normal[e, slot] = normal
+            out.dist[e, slot] = dist
 
 
 @wp.func
@@ -167,7 +191,7 @@ def _box_axis(r: wp.mat33, k: int):
 @wp.func
 def _face_contacts(e: int, pair: wp.vec2i, key: int, ref_x: wp.transform, ref_half: wp.vec3,
                    ref_axis: int, n: wp.vec3, inc_x: wp.transform, inc_half: wp.vec3,
-                   flip: float, margin: float, contacts: Contacts):
+                   flip: float, margin: float, out: ContactSlots):
     """Contacts of a reference box face (outward normal n) and the incident box's face.
 
     The incident face is clipped to the reference face's rectangle; its points below the offset
@@ -258,12 +282,12 @@ def _face_contacts(e: int, pair: wp.vec2i, key: int, ref_x: wp.transform, ref_ha
                 if pt[1] > 0.0:
                     quadrant += 2
                 _emit(e, pair, key + quadrant, world - n * (0.5 * pt[2]), n * flip, pt[2], margin,
-                      contacts)
+                      out)
 
 
 @wp.func
 def _box_box(e: int, pair: wp.vec2i, key: int, x1: wp.transform, h1: wp.vec3, x2: wp.transform,
-             h2: wp.vec3, margin: float, contacts: Contacts):
+             h2: wp.vec3, margin: float, out: ContactSlots):
     """Separating-axis test over the 15 axes, then face clipping or the closest edge points."""
     r1 = wp.quat_to_matrix(wp.transform_get_rotation(x1))
     r2 = wp.quat_to_matrix(wp.transform_get_rotation(x2))
@@ -304,10 +328,10 @@ def _box_box(e: int, pair: wp.vec2i, key: int, x1: wp.transform, h1: wp.vec3, x2
             best_axis = a
             best_n = axis
     if best_axis < 3:
-        _face_contacts(e, pair, key, x1, h1, best_axis, best_n, x2, h2, 1.0, margin, contacts)
+        _face_contacts(e, pair, key, x1, h1, best_axis, best_n, x2, h2, 1.0, margin, out)
     elif best_axis < 6:
         _face_contacts(e, pair, key, x2, h2, best_axis - 3, -best_n, x1, h1, -1.0, margin,
-                       contacts)
+                       out)
     else:
         # edge-edge: the supporting edge of each box along the axis, closest points between them
         i1 = (best_axis - 6) // 3
@@ -327,12 +351,12 @@ def _box_box(e: int, pair: wp.vec2i, key: int, x1: wp.transform, h1: wp.vec3, x2
         q1 = p1 - a1 + a1 * (2.0 * st[0])
         q2 = p2 - a2 + a2 * (2.0 * st[1])
         dist = wp.dot(q2 - q1, best_n)
-        _emit(e, pair, key, 0.5 * (q1 + q2), best_n, dist, margin, contacts)
+        _emit(e, pair, key, 0.5 * (q1 + q2), best_n, dist, margin, out)
 
 
 @wp.func
 def _capsule_box(e: int, pair: wp.vec2i, key: int, x1: wp.transform, s1: wp.vec3,
-                 x2: wp.transform, h2: wp.vec3, margin: float, contacts: Contacts):
+                 x2: wp.transform, h2: wp.vec3, margin: float, out: ContactSlots):
     """Both end spheres, plus the segment's closest point when it lies between the ends.
 
     The signed distance from the segment to the box is convex along the segment: a ternary search
@@ -345,7 +369,7 @@ def _capsule_box(e: int, pair: wp.vec2i, key: int, x1: wp.transform, s1: wp.vec3
         if k == 1:
             c = b
         n, dist, pos = _sphere_box(c, s1[0], x2, h2)
-        _emit(e, pair, key + k, pos, n, dist, margin, contacts)
+        _emit(e, pair, key + k, pos, n, dist, margin, out)
     lo = float(0.0)
     hi = float(1.0)
     for it in range(24):
@@ -358,21 +382,21 @@ def _capsule_box(e: int, pair: wp.vec2i, key: int, x1: wp.transform, s1: wp.vec3
     t = 0.5 * (lo + hi)
     if t > 0.02 and t < 0.98:
         n, dist, pos = _sphere_box(a + (b - a) * t, s1[0], x2, h2)
-        _emit(e, pair, key + 2, pos, n, dist, margin, contacts)
+        _emit(e, pair, key + 2, pos, n, dist, margin, out)
 
 
 @wp.func
 def _convex(e: int, pair: wp.vec2i, key: int, t1: int, s1: wp.vec3, m1: int, x1: wp.transform,
             t2: int, s2: wp.vec3, m2: int, x2: wp.transform, meshes: Meshes, margin: float,
-            contacts: Contacts):
+            out: ContactSlots):
     hit, n, dist, pos = convex_contact(t1, s1, m1, x1, t2, s2, m2, x2, meshes, margin)
     if hit != 0:
-        _emit(e, pair, key, pos, n, dist, margin, contacts)
+        _emit(e, pair, key, pos, n, dist, margin, out)
 
 
 @wp.func
 def _plane_cylinder(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x2: wp.transform,
-                    s2: wp.vec3, margin: float, contacts: Contacts):
+                    s2: wp.vec3, margin: float, out: ContactSlots):
     """The lower cap's rim at four points a quarter turn apart, starting from its lowest point,
     and the other cap's lowest rim point: a cylinder standing or lying gets a stable support.
 
@@ -407,12 +431,12 @@ def _plane_cylinder(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x
             cap = center - axis * (lower * s2[1])
         point = cap + rim * s2[0]
         dist = wp.dot(point - c1, n)
-        _emit(e, pair, key + k, point - n * (0.5 * dist), n, dist, margin, contacts)
+        _emit(e, pair, key + k, point - n * (0.5 * dist), n, dist, margin, out)
 
 
 @wp.func
 def _plane_mesh(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x2: wp.transform,
-                mesh: int, meshes: Meshes, margin: float, contacts: Contacts):
+                mesh: int, meshes: Meshes, margin: float, out: ContactSlots):
     """Hull vertices within the offset, at most four: the deepest, the one farthest from it, and
     the farthest on either side of the line through those two."""
     beg = meshes.vertadr[mesh]
@@ -454,7 +478,7 @@ def _plane_mesh(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x2: w
         if i >= 0:
             q = wp.transform_point(x2, meshes.vert[i])
             dist = wp.dot(q - c1, n)
-            _emit(e, pair, key + which, q - n * (0.5 * dist), n, dist, margin, contacts)
+            _emit(e, pair, key + which, q - n * (0.5 * dist), n, dist, margin, out)
 
 
 @wp.kernel
@@ -483,23 +507,25 @@ def narrowphase(m: ModelArrays, pairs: wp.array(dtype=wp.vec2i), p: EnvParams, m
                 contacts: Contacts):   # in: count (zero); out: count, geom, key, pos, normal, dist
     """One thread per (env, candidate pair): the launch for a GPU."""
     e, k = wp.tid()
-    _pair(m, e, k, pairs, p, meshes, hfields, margin, s, contacts)
+    _pair(m, e, k, pairs, p, meshes, hfields, margin, s, contact_slots(contacts))
 
 
 @wp.kernel
 def narrowphase_per_env(m: ModelArrays, pairs: wp.array(dtype=wp.vec2i), p: EnvParams,
-                        meshes: Meshes, hfields: HFields, margin: float, s: State, contacts: Contacts):
+                        meshes: Meshes, hfields: HFields, margin: float, s: State,
+                        contacts: Contacts):
     """One thread per env, walking its candidate pairs in order: the launch for a CPU, where a
     thread's start (reading the kernel's arguments) costs more than most pairs' broadphase test.
     Contacts land in the same slots as with `narrowphase` run on a CPU."""
     e = wp.tid()
+    out = contact_slots(contacts)
     for k in range(pairs.shape[0]):
-        _pair(m, e, k, pairs, p, meshes, hfields, margin, s, contacts)
+        _pair(m, e, k, pairs, p, meshes, hfields, margin, s, out)
 
 
 @wp.func
 def _pair(m: ModelArrays, e: int, k: int, pairs: wp.array(dtype=wp.vec2i), p: EnvParams,
-          meshes: Meshes, hfields: HFields, margin: float, s: State, contacts: Contacts):
+          meshes: Meshes, hfields: HFields, margin: float, s: State, out: ContactSlots):
     """Candidate pair k of env e: the broadphase test, then the pair's contacts."""
     pair = pairs[k]
     g1 = pair[0]
@@ -524,14 +550,14 @@ def _pair(m: ModelArrays, e: int, k: int, pairs: wp.array(dtype=wp.vec2i), p: En
         if wp.length_sq(offset) > reach * reach:
             return
     _collide_pair(e, k, pair, t1, t2, s.geom_x[e, g1], s.geom_x[e, g2], p.geom_size[e, g1],
-                  p.geom_size[e, g2], m.geom_dataid, meshes, hfields, margin, contacts)
+                  p.geom_size[e, g2], m.geom_dataid, meshes, hfields, margin, out)
 
 
 @wp.func
 def _collide_pair(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.transform,
                   x2: wp.transform, s1: wp.vec3, s2: wp.vec3,
                   geom_dataid: wp.array(dtype=wp.int32), meshes: Meshes, hfields: HFields,
-                  margin: float, contacts: Contacts):
+                  margin: float, out: ContactSlots):
     """Contacts of geoms pair[0], pair[1] (types t1 <= t2, poses x1, x2, sizes s1, s2) of env e,
     appended to its contact slots; p (the pair's index) makes their keys."""
     g1 = pair[0]
@@ -550,7 +576,7 @@ def _collide_pair(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.trans
                     center = _segment(x2, s2[1], 2.0 * float(k) - 1.0)
                 dist = wp.dot(center - c1, n) - s2[0]
                 _emit(e, pair, p * 32 + k, center - n * (s2[0] + 0.5 * dist), n, dist, margin,
-                      contacts)
+                      out)
         elif t2 == BOX:
             # corners below the offset, at most four (a box resting on a face touches with four)
             found = int(0)
@@ -559,22 +585,22 @@ def _collide_pair(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.trans
                 dist = wp.dot(point - c1, n)
                 if dist < margin and found < 4:
                     found += 1
-                    _emit(e, pair, p * 32 + k, point - n * (0.5 * dist), n, dist, margin, contacts)
+                    _emit(e, pair, p * 32 + k, point - n * (0.5 * dist), n, dist, margin, out)
         elif t2 == ELLIPSOID:
             point = support(t2, s2, -1, meshes, x2, -n, 0.0)
             dist = wp.dot(point - c1, n)
-            _emit(e, pair, p * 32, point - n * (0.5 * dist), n, dist, margin, contacts)
+            _emit(e, pair, p * 32, point - n * (0.5 * dist), n, dist, margin, out)
         elif t2 == CYLINDER:
-            _plane_cylinder(e, pair, p * 32, c1, n, x2, s2, margin, contacts)
+            _plane_cylinder(e, pair, p * 32, c1, n, x2, s2, margin, out)
         elif t2 == MESH:
-            _plane_mesh(e, pair, p * 32, c1, n, x2, geom_dataid[g2], meshes, margin, contacts)
+            _plane_mesh(e, pair, p * 32, c1, n, x2, geom_dataid[g2], meshes, margin, out)
     elif t1 == HFIELD:
         h = geom_dataid[g1]
         if t2 == ELLIPSOID:
             point = ellipsoid_probe(hfields, h, x1, s2, meshes, x2)
             found, n, dist = surface(hfields, h, x1, point)
             if found != 0:
-                _emit(e, pair, p * 32, point - n * (0.5 * dist), n, dist, margin, contacts)
+                _emit(e, pair, p * 32, point - n * (0.5 * dist), n, dist, margin, out)
         else:
             for k in range(HFIELD_PROBES):
                 valid, point, radius = probe_point(t2, s2, geom_dataid[g2], meshes, x2, k)
@@ -583,20 +609,20 @@ def _collide_pair(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.trans
                     if found != 0:
                         dist = height - radius
                         _emit(e, pair, p * 32 + k, point - n * (radius + 0.5 * dist), n, dist,
-                              margin, contacts)
+                              margin, out)
     elif t1 == SPHERE and t2 != SPHERE and t2 != CAPSULE and t2 != BOX:
         _convex(e, pair, p * 32, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
-                margin, contacts)
+                margin, out)
     elif t1 == SPHERE:
         if t2 == SPHERE or t2 == CAPSULE:
             other = c2
             if t2 == CAPSULE:
                 other = _closest_on_segment(_segment(x2, s2[1], -1.0), _segment(x2, s2[1], 1.0), c1)
             n, dist, pos = _spheres(c1, s1[0], other, s2[0])
-            _emit(e, pair, p * 32, pos, n, dist, margin, contacts)
+            _emit(e, pair, p * 32, pos, n, dist, margin, out)
         elif t2 == BOX:
             n, dist, pos = _sphere_box(c1, s1[0], x2, s2)
-            _emit(e, pair, p * 32, pos, n, dist, margin, contacts)
+            _emit(e, pair, p * 32, pos, n, dist, margin, out)
     elif t1 == CAPSULE and t2 == CAPSULE:
         a1 = _segment(x1, s1[1], -1.0)
         b1 = _segment(x1, s1[1], 1.0)
@@ -604,11 +630,11 @@ def _collide_pair(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.trans
         b2 = _segment(x2, s2[1], 1.0)
         st = _closest_between_segments(a1, b1, a2, b2)
         n, dist, pos = _spheres(a1 + (b1 - a1) * st[0], s1[0], a2 + (b2 - a2) * st[1], s2[0])
-        _emit(e, pair, p * 32, pos, n, dist, margin, contacts)
+        _emit(e, pair, p * 32, pos, n, dist, margin, out)
     elif t1 == CAPSULE and t2 == BOX:
-        _capsule_box(e, pair, p * 32, x1, s1, x2, s2, margin, contacts)
+        _capsule_box(e, pair, p * 32, x1, s1, x2, s2, margin, out)
     elif t1 == BOX and t2 == BOX:
-        _box_box(e, pair, p * 32, x1, s1, x2, s2, margin, contacts)
+        _box_box(e, pair, p * 32, x1, s1, x2, s2, margin, out)
     else:
         _convex(e, pair, p * 32, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
-                margin, contacts)
+                margin, out)
