@@ -1,6 +1,7 @@
 """`Simulator.step` of an older git revision against this tree and MuJoCo C, in one process.
 
-    python benchmarks/step_ab.py --old 11f1754 [--models ant humanoid] [--envs 1024] [--rounds 60]
+    python benchmarks/step_ab.py --old 11f1754 [--models ant humanoid boxes] [--envs 1024]
+                                 [--rounds 60]
 
 Both trees' simulators (the old one imported as `myriad_old`, as in `task_step_ab.py`) and
 MuJoCo (one `MjData`, two 1/120 s steps per env step, its own solver) take turns in short
@@ -9,6 +10,8 @@ turn changing every round. A shared machine's drifting speed then falls on all t
 the ratios are comparable between runs even where the absolute rates are not. One CPU thread
 each, Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on), the same fresh random
 controls for both trees every step, after a 60-step settle from the model's initial state.
+`boxes` is 64 free boxes in one env (`contacts.py --scene boxes`), at 16 envs and 512 contact
+slots per env, as in `step_rate.py`; the ant and the humanoid take the default 64 slots.
 """
 
 from __future__ import annotations
@@ -22,28 +25,31 @@ import torch
 import warp as wp
 
 import myriad
+from contacts import boxes_xml
 from task_step_ab import import_old
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--old", required=True, help="git revision to compare against")
-    ap.add_argument("--models", nargs="+", default=["ant", "humanoid"])
-    ap.add_argument("--envs", type=int, default=1024)
+    ap.add_argument("--models", nargs="+", default=["ant", "humanoid"],
+                    choices=["ant", "humanoid", "boxes"])
+    ap.add_argument("--envs", type=int, default=1024, help="envs of the ant and the humanoid")
     ap.add_argument("--rounds", type=int, default=60)
     args = ap.parse_args()
     wp.config.log_level = wp.LOG_WARNING
     torch.set_num_threads(1)
     old = import_old(args.old)
-    n = args.envs
-    print(f"env-steps/s, one thread, {n} envs, {args.rounds} rounds; ratio to MuJoCo C in brackets")
-    print("| model | old | new | MuJoCo C | new / old |\n|---|---|---|---|---|")
+    print(f"env-steps/s, one thread, {args.rounds} rounds; ratio to MuJoCo C in brackets")
+    print("| model | envs | old | new | MuJoCo C | new / old |\n|---|---|---|---|---|---|")
     for name in args.models:
+        n, slots = (16, 512) if name == "boxes" else (args.envs, 64)
         sims = {}
         for variant, package in (("old", old), ("new", myriad)):
-            model = package.load(package.asset_path(f"{name}.xml"))
+            model = (package.load_xml(boxes_xml(), "64 boxes") if name == "boxes"
+                     else package.load(package.asset_path(f"{name}.xml")))
             params = package.SimParams(dt=1 / 60, substeps=2, position_iterations=4,
-                                       velocity_iterations=0)
+                                       velocity_iterations=0, contacts_per_env=slots)
             sims[variant] = package.Simulator(model, num_envs=n, params=params, cpu_threads=1)
         mj = model.mj_model
         mj.opt.timestep = 1 / 120
@@ -53,7 +59,8 @@ def main() -> None:
 
         def step_mujoco():
             for _ in range(n):
-                data.ctrl[:] = rng.uniform(-1, 1, mj.nu)
+                if mj.nu:
+                    data.ctrl[:] = rng.uniform(-1, 1, mj.nu)
                 mujoco.mj_step(mj, data, nstep=2)
         spent = {"old": 0.0, "new": 0.0, "mujoco": 0.0}
         order = list(spent)
@@ -64,12 +71,13 @@ def main() -> None:
                 if variant == "mujoco":
                     step_mujoco()
                 else:
-                    sims[variant].ctrl = ctrl
+                    if mj.nu:
+                        sims[variant].ctrl = ctrl
                     sims[variant].step()
                 if i >= 60:
                     spent[variant] += time.perf_counter() - start
         rate = {v: n * args.rounds / t for v, t in spent.items()}
-        print(f"| {name} | {rate['old']:,.0f} ({rate['old'] / rate['mujoco']:.2f}) | "
+        print(f"| {name} | {n} | {rate['old']:,.0f} ({rate['old'] / rate['mujoco']:.2f}) | "
               f"{rate['new']:,.0f} ({rate['new'] / rate['mujoco']:.2f}) | {rate['mujoco']:,.0f} | "
               f"{rate['new'] / rate['old']:.3f} |", flush=True)
 
