@@ -1,10 +1,12 @@
 """The Isaac Gym-style tensor API: scene composition, state tensors, writers, indexed resets."""
 
 import math
+import platform
 
 import numpy as np
 import pytest
 import torch
+import warp as wp
 
 import myriad
 from myriad.api import Scene
@@ -189,3 +191,28 @@ def test_dof_efforts_drive_the_joints(device):
     e.step()
     torch.testing.assert_close(e.dof_vel[0], expected * 1e-3, rtol=1e-3, atol=1e-7)
     torch.testing.assert_close(e.dof_forces[0, 1], torch.tensor(0.5, device=device))
+
+
+@wp.kernel
+def _halve(a: wp.array(dtype=float), out: wp.array(dtype=float)):
+    out[0] = a[0] * 0.5
+
+
+@pytest.mark.skipif(platform.machine().lower() not in ("x86_64", "amd64"),
+                    reason="denormals are flushed on x86 CPUs only")
+def test_the_cpu_step_flushes_denormals_and_restores_the_callers_mode():
+    from myriad.physics import float_mode
+
+    tiny = np.float32(1e-38)                   # below float32's smallest normal, 1.18e-38
+    a, out = wp.array([tiny], dtype=float, device="cpu"), wp.zeros(1, dtype=float, device="cpu")
+    saved = wp.zeros(1, dtype=wp.uint32, device="cpu")
+    with float_mode.flushing_denormals(saved):
+        wp.launch(_halve, 1, [a, out], device="cpu")
+        assert out.numpy()[0] == 0.0           # flushed
+    wp.launch(_halve, 1, [a, out], device="cpu")
+    assert out.numpy()[0] == pytest.approx(5e-39, rel=1e-6)
+    sim = myriad.Simulator(myriad.load(ANT), num_envs=2, cpu_threads=1)
+    sim.step()                                 # on this thread
+    assert tiny * np.float32(0.5) == pytest.approx(5e-39, rel=1e-6)
+    wp.launch(_halve, 1, [a, out], device="cpu")
+    assert out.numpy()[0] == pytest.approx(5e-39, rel=1e-6)

@@ -19,8 +19,8 @@ import numpy as np
 import torch
 import warp as wp
 
-from . import (collision, constraints, dynamics, forces, integrate, kinematics, sensors,
-               solver_tgs)
+from . import (collision, constraints, dynamics, float_mode, forces, integrate, kinematics,
+               sensors, solver_tgs)
 from . import structs
 from .model import Model
 from .params import SimParams
@@ -253,6 +253,7 @@ class Simulator:
         """
         self._shard_local = threading.local()
         self._shards, self._pool = [], None
+        self._control_words = wp.zeros(1, dtype=wp.uint32, device="cpu")   # float_mode
         if self.device.is_cuda:
             return
         threads = cpu_threads or max(1, min(os.cpu_count() or 1, self.num_envs // 64))
@@ -261,6 +262,7 @@ class Simulator:
             return
         bounds = np.linspace(0, self.num_envs, threads + 1).round().astype(int)
         self._shards = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+        self._control_words = wp.zeros(len(self._shards), dtype=wp.uint32, device="cpu")
         # each per-env struct, and each of its arrays (by address), per shard
         self._shard_parts = {}
         for struct, whole in self._structs.items():
@@ -288,18 +290,22 @@ class Simulator:
         return self._shard_parts.get((shard, id(a)), a)
 
     def _run_sharded(self, fn) -> None:
+        """Run fn's launches on this thread, or each shard's on a pool thread, with denormals
+        flushed to zero on the thread (`float_mode`)."""
         if not self._shards:
-            fn()
+            with float_mode.flushing_denormals(self._control_words):
+                fn()
             return
 
-        def run(shard):
+        def run(k, shard):
             self._shard_local.range = shard
             try:
-                fn()
+                with float_mode.flushing_denormals(self._control_words[k:k + 1]):
+                    fn()
             finally:
                 self._shard_local.range = None
 
-        for future in [self._pool.submit(run, shard) for shard in self._shards]:
+        for future in [self._pool.submit(run, k, shard) for k, shard in enumerate(self._shards)]:
             future.result()
 
     def _kinematics(self) -> None:
