@@ -8,7 +8,7 @@ import torch
 import myriad
 from myriad import cli
 from myriad.api import Scene
-from myriad.physics.simulator import _resolve_device
+from myriad.physics.devices import resolve_device
 from myriad.rl import run
 
 
@@ -72,10 +72,10 @@ def test_device_names_fail_in_one_line(capsys):
     err = _fails(capsys, "device=cuda:99")
     assert err.count("\n") == 1 and "device=cuda:99: no such GPU" in err and "available: cpu" in err
     with pytest.raises(ValueError, match=r"^device 'gpu': expected 'cpu', 'cuda' or 'cuda:N'$"):
-        _resolve_device("gpu")
+        resolve_device("gpu")
     with pytest.raises(ValueError, match=r"^device 'cuda:99' is not available \(no such GPU\); "
                                          r"Warp sees \['cpu'"):
-        _resolve_device("cuda:99")
+        resolve_device("cuda:99")
     for device in ("gpu", "cuda:99"):
         with pytest.raises(ValueError) as err:
             myriad.make("Ant", num_envs=1, device=device)

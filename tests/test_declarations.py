@@ -9,7 +9,8 @@ import warp as wp
 
 import myriad
 from myriad.physics import structs
-from myriad.physics.simulator import Simulator, _View
+from myriad.physics.simulator import Simulator
+from myriad.physics.structs import PublicView
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +46,7 @@ def test_public_tensors_are_exactly_the_public_fields_and_share_their_memory(sim
             if array.size:
                 assert view.data_ptr() == array.ptr, f.public          # zero copy
             assert tuple(view.shape[:array.ndim]) == array.shape, f.public
-    descriptors = {n for n, v in vars(Simulator).items() if isinstance(v, _View)}
+    descriptors = {n for n, v in vars(Simulator).items() if isinstance(v, PublicView)}
     assert descriptors == set(public)
     for name, f in public.items():
         value = getattr(sim, name).clone()

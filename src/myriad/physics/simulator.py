@@ -24,70 +24,15 @@ from . import (collision, constraints, dynamics, float_mode, forces, integrate, 
 from . import structs
 from .model import Model
 from .params import SimParams
+from .devices import resolve_device
 from .structs import EnvParams, State
-
-
-class _View:
-    """A public per-env tensor of the simulator: a zero-copy torch view of a declared field
-    (`structs`); assigning to a writable one copies into it (broadcasting, shape checked)."""
-
-    def __init__(self, name: str, field: structs.Field):
-        self.name, self.writable = name, field.writable
-        dims = ", ".join(["N"] + [str(d) for d in field.dims])
-        self.__doc__ = f"[{dims}] {field.doc}" + ("" if field.writable else " (read-only)")
-
-    def __get__(self, sim, owner=None):
-        if sim is None:
-            return self
-        return sim._views[self.name]
-
-    def __set__(self, sim, value):
-        if not self.writable:
-            raise AttributeError(f"sim.{self.name} is read-only (the step computes it)")
-        view = sim._views[self.name]
-        if not isinstance(value, torch.Tensor):
-            value = torch.as_tensor(value, dtype=view.dtype, device=view.device)
-        try:
-            fits = torch.broadcast_shapes(value.shape, view.shape) == view.shape
-        except RuntimeError:
-            fits = False
-        if not fits:
-            raise ValueError(f"sim.{self.name}: cannot write a tensor of shape {tuple(value.shape)} "
-                             f"into shape {tuple(view.shape)}")
-        if value.device != view.device:
-            raise ValueError(f"sim.{self.name}: value is on {value.device}, the simulator on {view.device}")
-        view.copy_(value)
-
-
-def device_name(device) -> str:
-    """'cpu' or 'cuda:N' for 'cpu', 'cuda' (cuda:0) or 'cuda:N' (a str, torch or Warp device);
-    any other name raises a one-line ValueError. Whether that GPU exists is not checked here."""
-    name = str(device).strip()
-    kind, colon, index = name.partition(":")
-    if name == "cpu":
-        return name
-    if kind != "cuda" or colon and not (index.isascii() and index.isdigit()):
-        raise ValueError(f"device {name!r}: expected 'cpu', 'cuda' or 'cuda:N'")
-    return f"cuda:{int(index) if colon else 0}"
-
-
-def _resolve_device(device) -> wp.context.Device:
-    """The Warp device of `device` (see `device_name`); a GPU that is not there raises a
-    one-line ValueError."""
-    name = device_name(device)
-    try:
-        return wp.get_device(name)
-    except Exception:
-        available = [str(d) for d in wp.get_devices()]
-        raise ValueError(f"device {name!r} is not available (no such GPU); Warp sees "
-                         f"{available}") from None
 
 
 class Simulator:
     """`num_envs` independent copies of `model`, stepped together on one device."""
 
     # Public tensors (sim.q, sim.ctrl, sim.body_mass, sim.contact_force, ...) are the fields
-    # declared with a `public` name in `structs`: see the loop after this class.
+    # declared with a `public` name in `structs` (`structs.add_public_views`, after the class).
 
     def __init__(self, model: Model, num_envs: int = 1, device="cpu",
                  params: SimParams | None = None, cpu_threads: int | None = None):
@@ -100,7 +45,7 @@ class Simulator:
             raise TypeError(f"params must be a myriad.SimParams, not {type(params).__name__}")
         wp.init()
         self.model, self.params, self.num_envs = model, params, num_envs
-        self.device = _resolve_device(device)
+        self.device = resolve_device(device)
         self.torch_device = wp.device_to_torch(self.device)
         self.h = params.dt / params.substeps
         self._graph = None
@@ -436,7 +381,4 @@ class Simulator:
         return f"Simulator({self.model!r}, num_envs={self.num_envs}, device={self.device})"
 
 
-for _struct in structs.STRUCTS:      # the public views, from the declarations
-    for _name, _field in _struct.fields.items():
-        if _field.public:
-            setattr(Simulator, _field.public, _View(_field.public, _field))
+structs.add_public_views(Simulator)

@@ -25,6 +25,7 @@ import mmap
 from typing import NamedTuple
 
 import numpy as np
+import torch
 import warp as wp
 
 
@@ -126,6 +127,38 @@ def shard(struct, whole, lo: int, hi: int):
         array = getattr(whole, name)
         setattr(part, name, array[lo:hi] if array.size else array)  # empty: nothing to read
     return part
+
+
+class PublicView:
+    """A public per-env tensor of the simulator: a zero-copy torch view of a declared field;
+    assigning to a writable one copies into it (broadcasting, shape checked)."""
+
+    def __init__(self, name: str, field: Field):
+        self.name, self.writable = name, field.writable
+        dims = ", ".join(["N"] + [str(d) for d in field.dims])
+        self.__doc__ = f"[{dims}] {field.doc}" + ("" if field.writable else " (read-only)")
+
+    def __get__(self, sim, owner=None):
+        if sim is None:
+            return self
+        return sim._views[self.name]
+
+    def __set__(self, sim, value):
+        if not self.writable:
+            raise AttributeError(f"sim.{self.name} is read-only (the step computes it)")
+        view = sim._views[self.name]
+        if not isinstance(value, torch.Tensor):
+            value = torch.as_tensor(value, dtype=view.dtype, device=view.device)
+        try:
+            fits = torch.broadcast_shapes(value.shape, view.shape) == view.shape
+        except RuntimeError:
+            fits = False
+        if not fits:
+            raise ValueError(f"sim.{self.name}: cannot write a tensor of shape {tuple(value.shape)} "
+                             f"into shape {tuple(view.shape)}")
+        if value.device != view.device:
+            raise ValueError(f"sim.{self.name}: value is on {value.device}, the simulator on {view.device}")
+        view.copy_(value)
 
 
 @wp.struct
@@ -420,3 +453,12 @@ class Rows:
 
 
 STRUCTS = (EnvParams, State, Control, Dynamics, Contacts, Rows)
+
+
+def add_public_views(cls) -> None:
+    """Every field declared with a public name becomes a `PublicView` attribute of `cls` (the
+    Simulator), read from the instance's `_views`."""
+    for struct in STRUCTS:
+        for name, f in struct.fields.items():
+            if f.public:
+                setattr(cls, f.public, PublicView(f.public, f))

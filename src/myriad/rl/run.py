@@ -150,7 +150,7 @@ def resolve_device(device) -> str:
     one line."""
     import torch
 
-    from ..physics.simulator import device_name
+    from ..physics.devices import device_name
 
     name = str(device).strip()
     if name == "auto":

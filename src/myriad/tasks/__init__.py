@@ -106,11 +106,11 @@ def make(name: str, num_envs: int | None = None, device: str = "cpu", **override
     Keyword overrides are config keys of the task's `env` section, or dotted paths into the whole
     config (write those as `**{"sim.dt": 0.01}`).
     """
-    from ..physics.simulator import _resolve_device
+    from ..physics.devices import resolve_device
 
     cfg = task_config(name)
     cfg.pop("cpu", None)
-    _resolve_device(device)     # "gpu" or a missing GPU fails in one line, before torch sees it
+    resolve_device(device)     # "gpu" or a missing GPU fails in one line, before torch sees it
     if num_envs is not None:
         overrides = {"numEnvs": config_int(num_envs, "num_envs", minimum=1), **overrides}
     apply_overrides(cfg, overrides, f"task {name}")
