@@ -83,3 +83,18 @@ def chain_xml(nlink: int = 10, mass_ratio: float = 1000.0) -> str:
     {''.join(xml)}{''.join(close)}
   </worldbody>
 </mujoco>"""
+
+
+def capsule_chain_xml(nlink: int, direction=(0.0, 0.0, -1.0), length: float = 0.1,
+                      mass: float = 0.1) -> str:
+    """`nlink` capsules of `length` and `mass` in a hinge chain (axes along y) from a point 0.1 m
+    above nlink·length, each link pointing along `direction`; no floor, no collisions."""
+    step = " ".join(f"{length * c:g}" for c in direction)
+    xml = []
+    for i in range(nlink):
+        pos = f"0 0 {length * nlink + 0.1:g}" if i == 0 else step
+        xml.append(f'<body name="link{i}" pos="{pos}"><joint name="hinge{i}" axis="0 1 0"/>'
+                   f'<geom type="capsule" fromto="0 0 0 {step}" size="0.01" mass="{mass:g}" '
+                   'contype="0" conaffinity="0"/>')
+    return (f'<mujoco model="capsule_chain"><worldbody>{"".join(xml)}{"</body>" * nlink}'
+            "</worldbody></mujoco>")

@@ -1,14 +1,15 @@
 """Loops over contiguous runs of floats: a constraint row's columns, a dof's row of the factor.
 
 Every row-sized loop of the engine goes through these few functions: J·v and v += M⁻¹Jᵀ·λ
-over a row's span (`row_dot`, `row_apply`), building rows (`row_fill`, `row_copy`,
-`row_norm`) and the LᵀDL factorization (`axpy`, `copy`). They are native code
+over a row's span (`row_dot`, `row_apply`) and building rows (`row_fill`, `row_copy`,
+`row_norm`). They are native code
 (`wp.func_native`, compiled by Warp for the CPU and for CUDA alike) because a Warp array index
 wraps negative indices and multiplies by the stride on every access, and a `range` loop with
 runtime bounds keeps a generic iterator: in these loops that overhead, not the arithmetic, was
 the cost on a CPU (moving the factorization's inner loop here
 took the humanoid's unconstrained-solve stage from 4.8 to 3.7 ms per step at 1024 envs, one
-thread). Here each loop walks plain pointers from one address.
+thread; the factorization now has a form of its own, `dynamics.articulated_factor`). Here each
+loop walks plain pointers from one address.
 
 Rows: `a[e, r]` of an [env, row, column] array, holding the dofs of its span `sp` (two dof
 ranges [sp[0], sp[1]) and [sp[2], sp[3]), stored one after the other: `constraints`);
@@ -103,29 +104,4 @@ def row_fill(y: wp.array3d(dtype=float), e: int, r: int, value: float, n: int):
 """)
 def row_copy(y: wp.array3d(dtype=float), x: wp.array3d(dtype=float), e: int, r: int, n: int):
     """y[e, r, :n] = x[e, r, :n]."""
-    ...
-
-
-@wp.func_native("""
-    if (n <= 0) return;
-    float* yp = wp::address(y, y_at);
-    const float* xp = wp::address(x, x_at);
-""" + VECTOR_LOOP + """
-    for (int i = 0; i < n; ++i) yp[i] += alpha * xp[i];
-""")
-def axpy(y: wp.array(dtype=float), y_at: int, alpha: float, x: wp.array(dtype=float), x_at: int,
-         n: int):
-    """y[y_at + i] += alpha · x[x_at + i] for i < n (1D views)."""
-    ...
-
-
-@wp.func_native("""
-    if (n <= 0) return;
-    float* yp = wp::address(y, y_at);
-    const float* xp = wp::address(x, x_at);
-""" + VECTOR_LOOP + """
-    for (int i = 0; i < n; ++i) yp[i] = xp[i];
-""")
-def copy(y: wp.array(dtype=float), y_at: int, x: wp.array(dtype=float), x_at: int, n: int):
-    """y[y_at + i] = x[x_at + i] for i < n (1D views)."""
     ...

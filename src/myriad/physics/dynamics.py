@@ -1,26 +1,25 @@
-"""Stage 3, dynamics: joint-space mass matrix (CRBA), bias forces (RNEA) and the solve for qacc.
+"""Stage 3, dynamics: bias forces (RNEA), the factor of the mass matrix from the articulated-body
+inertias, the solve for qacc, and the mass matrix itself (CRBA) for `Simulator.mass_matrix`.
 
 One thread per env. All spatial quantities of a tree are taken at that tree's reference point
-(see `spatial`), so composite inertias of a parent and its children add directly.
+(see `spatial`), so inertias of a parent and its children add directly.
 
 The mass matrix has the branch-induced sparsity of the kinematic tree: entry (i, j) is nonzero
-only if dof j is on the path from dof i to the world (`dof_parent` chain). The factorization
+only if dof j is on the path from dof i to the world (`dof_parent` chain). The factor
 M = Lᵀ D L and the solves below touch only those entries (Featherstone's LTDL, as MuJoCo's
 `mj_factorM`), so their cost is O(nv · depth²) instead of O(nv³).
 
 Storage (MuJoCo's sparse layout, `structs.mass_matrix_layout`): M and its factor keep, for each
 dof i, one contiguous row: (i, i) at `dof_madr[i]`, then (i, j) for its ancestors j, nearest
-first, `dof_mnum[i]` entries in all, columns in `mass_col`. The row of an ancestor j is the
-tail of i's row from (i, j) on, column for column, so eliminating dof i updates each ancestor's
-row with a contiguous run of i's (`dense.axpy`), and the solves read each row in one run: no
-`dof_parent` chain is walked. 64 free boxes store 64 × 21 entries; the humanoid 27 rows of at
-most 15 (243 in all, against 729 for its square block).
+first, `dof_mnum[i]` entries in all, columns in `mass_col`. The solves read each row in one
+run: no `dof_parent` chain is walked. 64 free boxes store 64 × 21 entries; the humanoid 27 rows
+of at most 15 (243 in all, against 729 for its square block).
 """
 
 import warp as wp
 
 from . import dense
-from .spatial import force_cross, inertia_about_point, inertia_times
+from .spatial import force_cross, inertia_about_point, inertia_matrix, inertia_times
 from .structs import Dynamics, EnvParams, ModelArrays, State
 
 
@@ -107,34 +106,52 @@ def bias_forces(m: ModelArrays, p: EnvParams,
 
 
 @wp.func
-def factor_matrix(m: ModelArrays, e: int, qm: wp.array2d(dtype=float),
-                  implicit_diag: wp.array2d(dtype=float), factor: wp.array2d(dtype=float)):
-    """factor <- Lᵀ D L of (M + diag(implicit_diag)), eliminating from the leaves up.
+def articulated_factor(m: ModelArrays, p: EnvParams, s: State, e: int,
+                       implicit_diag: wp.array2d(dtype=float),
+                       articulated: wp.array2d(dtype=wp.spatial_matrix),
+                       factor: wp.array2d(dtype=float)):
+    """factor <- Lᵀ D L of (M + diag(implicit_diag)), from the articulated-body inertias.
 
-    `implicit_diag` holds the joint-space damping and stiffness of implicit terms (h·d + h²·k):
-    on M's diagonal they make joint damping and PD drives unconditionally stable. `factor`
-    keeps L (unit, strictly lower part, on the ancestor pattern) and D⁻¹ (on its diagonal: the
-    solves multiply by it).
+    Eliminating dofs from the leaves up (MuJoCo's `mj_factorM` on M) leaves, at dof i, the
+    articulated-body inertia IA of i's subtree (Featherstone's ABA): D_i = Sᵢᵀ·IA·Sᵢ (plus
+    armature and the implicit terms), L_ij = Sⱼᵀ·IA·Sᵢ / D_i for each ancestor dof j, and the
+    parent's IA gains IA − (IA·Sᵢ)(IA·Sᵢ)ᵀ / D_i. The factor is the same; the arithmetic is
+    not. Forming M first adds the subtree inertias up to the root (a 100-link chain's root
+    entry is 10⁶ times its tip's), and in float32 the elimination then subtracts numbers that
+    agree in all their digits: M of a 100-link chain of 0.1 m capsules has condition number
+    3·10⁸, its LDL gave qacc wrong by 200 % and the chain exploded under gravity in one step.
+    Built from the articulated inertias, which never grow past what a subtree carries, the
+    same chain's qacc is within 1 % of MuJoCo's (float64), a 20-link chain's within 1e-4.
+    `implicit_diag` holds h·d + h²·k of implicit dampers and drives; `factor` keeps L (strictly
+    lower part, on the ancestor pattern) and D⁻¹ (on its diagonal: the solves multiply by it).
     """
-    f = factor[e]
-    dense.copy(f, 0, qm[e], 0, qm.shape[1])
-    for i in range(m.nv):
-        a = m.dof_madr[i]
-        f[a] = f[a] + implicit_diag[e, i]
-    for kk in range(m.nv):
-        k = m.nv - 1 - kk
-        ak = m.dof_madr[k]
-        end = ak + m.dof_mnum[k]
-        inv_dk = 1.0 / f[ak]       # final: every descendant of k is eliminated
-        t = ak + 1
-        while t < end:
-            # ancestor i = mass_col[t]: its row holds the columns of k's row from t on
-            lki = f[t] * inv_dk
-            ai = m.dof_madr[m.mass_col[t]] - t
-            dense.axpy(f, ai + t, -lki, f, t, end - t)
-            f[t] = lki
-            t += 1
-        f[ak] = inv_dk
+    for b in range(m.nbody):
+        ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
+        mass = p.body_mass[e, b]
+        c = s.body_com[e, b] - ref
+        articulated[e, b] = inertia_matrix(
+            mass, mass * c, inertia_about_point(mass, c, p.body_inertia[e, b], s.body_iframe[e, b]))
+    # children before parents; a body's dofs from its last to its first (each one's parent)
+    for k in range(m.nbody):
+        b = m.nbody - 1 - k
+        parent = m.body_parent[b]
+        ia = articulated[e, b]
+        if m.body_jntnum[b] > 0:
+            first = m.jnt_dofadr[m.body_jntadr[b]]
+            i = m.body_last_dof[b]
+            while i >= first:
+                u = ia * s.cdof[e, i]
+                inv_d = 1.0 / (wp.dot(s.cdof[e, i], u) + p.dof_armature[e, i]
+                               + implicit_diag[e, i])
+                a = m.dof_madr[i]
+                factor[e, a] = inv_d
+                for t in range(1, m.dof_mnum[i]):
+                    factor[e, a + t] = wp.dot(s.cdof[e, m.mass_col[a + t]], u) * inv_d
+                if i > first or parent >= 0:      # a tree's first dof passes nothing on
+                    ia = ia - wp.outer(u, u) * inv_d
+                i -= 1
+        if parent >= 0:
+            articulated[e, parent] = articulated[e, parent] + ia
 
 
 @wp.func_native("""
@@ -200,12 +217,14 @@ def solve_in_place(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
 
 
 @wp.kernel
-def solve_acceleration(m: ModelArrays,
-                       d: Dynamics,                     # in: qm, implicit_diag, qfrc; out: factor
+def solve_acceleration(m: ModelArrays, p: EnvParams,
+                       s: State,                        # in: body_x, body_com, body_iframe, cdof
+                       d: Dynamics,                     # in: implicit_diag, qfrc; out: factor;
+                                                        # scratch: articulated
                        qacc: wp.array3d(dtype=float)):  # out: State.qacc viewed as [N, 1, nv]
     """Unconstrained qacc = (M + implicit_diag)⁻¹ qfrc, and the factor the constraint rows use."""
     e = wp.tid()
-    factor_matrix(m, e, d.qm, d.implicit_diag, d.factor)
+    articulated_factor(m, p, s, e, d.implicit_diag, d.articulated, d.factor)
     for i in range(m.nv):
         qacc[e, 0, i] = d.qfrc[e, i]
     solve_in_place(m, e, d.factor, qacc, 0)

@@ -156,7 +156,7 @@ class Simulator:
         self._constraint_outputs()
 
     def forward(self) -> None:
-        """Recompute poses, velocities, mass matrix and bias forces from q, qd (no time passes)."""
+        """Recompute poses, velocities and bias forces from q, qd (no time passes)."""
         def run():
             self._kinematics()
             self._dynamics()
@@ -260,7 +260,6 @@ class Simulator:
                          [self._m, self._p, self._s])
 
     def _dynamics(self) -> None:
-        self._launch(dynamics.mass_matrix, self.num_envs, [self._m, self._p, self._s, self._d])
         self._launch(dynamics.bias_forces, self.num_envs, [self._m, self._p, self._s, self._d])
 
     def _applied_forces(self) -> None:
@@ -270,7 +269,8 @@ class Simulator:
 
     def _solve_unconstrained(self) -> None:
         self._launch(dynamics.solve_acceleration, self.num_envs, [
-            self._m, self._d, self._s.qacc.reshape((self.num_envs, 1, self.model.nv))])
+            self._m, self._p, self._s, self._d,
+            self._s.qacc.reshape((self.num_envs, 1, self.model.nv))])
 
     def _constraint_rows(self) -> None:
         if self.nrow == 0:
@@ -309,11 +309,15 @@ class Simulator:
 
     @property
     def mass_matrix(self) -> torch.Tensor:
-        """[N, nv, nv] joint-space mass matrix with armature, of the current kinematics.
+        """[N, nv, nv] joint-space mass matrix with armature, of the current kinematics (after
+        step() or forward()).
 
-        A new dense tensor built from the stored entries (each dof with its ancestors) on each
-        read: zero between dofs of which neither is an ancestor of the other.
+        Computed on each read (the step factors M without forming it: `dynamics`), as a new
+        dense tensor: zero between dofs of which neither is an ancestor of the other.
         """
+        launch = lambda: self._launch(dynamics.mass_matrix, self.num_envs,
+                                      [self._m, self._p, self._s, self._d])
+        self._run_on_device(launch) if self.device.is_cuda else self._run_sharded(launch)
         n, nv = self.num_envs, self.model.nv
         dense = torch.zeros(n, nv, nv, device=self.torch_device)
         rows, cols = self._qm_dense_at

@@ -42,6 +42,20 @@ def inertia_times(m: float, h: wp.vec3, rot_inertia: wp.mat33, s: wp.spatial_vec
 
 
 @wp.func
+def inertia_matrix(m: float, h: wp.vec3, rot_inertia: wp.mat33):
+    """`inertia_times` as a 6×6 matrix: [[I, [h]×], [-[h]×, m·1]]."""
+    hx = wp.skew(h)
+    out = wp.spatial_matrix()
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = rot_inertia[i, j]
+            out[i, j + 3] = hx[i, j]
+            out[i + 3, j] = -hx[i, j]
+        out[i + 3, i + 3] = m
+    return out
+
+
+@wp.func
 def inertia_about_point(m: float, c: wp.vec3, principal: wp.vec3, frame: wp.quat):
     """Rotational inertia about a point at -c from the center of mass (parallel-axis theorem)."""
     r = wp.quat_to_matrix(frame)

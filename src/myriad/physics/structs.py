@@ -395,7 +395,8 @@ class Dynamics:
     """Terms of the equation of motion of the current substep."""
     qm = per_env("nmass", doc="mass matrix with armature: each dof's row over itself and its "
                  "ancestors (`mass_matrix_layout`)")
-    factor = per_env("nmass", doc="Lᵀ D L factor of qm + implicit_diag, same layout")
+    factor = per_env("nmass", doc="Lᵀ D L factor of M + implicit_diag, same layout: L strictly "
+                     "below the diagonal, D⁻¹ on it")
     bias = per_env("nv", doc="C(q, qd)·qd + g(q)", public="bias_force")
     qfrc = per_env("nv", doc="explicit generalized force minus bias")
     qfrc_applied = per_env("nv", doc="generalized force of joint_force and body_force")
@@ -408,6 +409,8 @@ class Dynamics:
     crb_m = per_env("nbody", doc="CRBA: subtree mass")
     crb_h = per_env("nbody", dtype=wp.vec3, doc="CRBA: subtree first moment")
     crb_i = per_env("nbody", dtype=wp.mat33, doc="CRBA: subtree inertia")
+    articulated = per_env("nbody", dtype=wp.spatial_matrix, doc="articulated-body inertia of "
+                          "each body's subtree at its tree's reference point (factor scratch)")
 
 
 @declared
