@@ -96,7 +96,8 @@ class Simulator:
         self.sizes = dict(nq=m.nq, nv=m.nv, nbody=m.nbody, njnt=m.njnt, nu=m.nu,
                           ntendon=m.ntendon, ngeom=m.ngeom, nsite=m.nsite,
                           nsensor=len(self.sensor_sites), ncontact=self.contact_capacity,
-                          nrow=self.nrow, row_width=self.row_width, nmass=len(mass_col))
+                          nrow=self.nrow, row_width=self.row_width, nmass=len(mass_col),
+                          nlimit=2 * len(limited))
         gravity = m.gravity if params.gravity is None else np.asarray(params.gravity)
         initial = {
             EnvParams: dict(

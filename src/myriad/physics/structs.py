@@ -453,6 +453,15 @@ class Rows:
     lam_init = per_env("nrow", doc="starting impulse of the substep (warm start)")
     dof_force = per_env("nv", doc="generalized force of all rows in the last substep",
                         public="dof_constraint_force")
+    # scratch of the joint-limit block solve (`solver_tgs`), indexed by joint-limit row
+    block_target = per_env("nlimit", doc="limit block: target J·v of the row in this sweep")
+    block_w0 = per_env("nlimit", doc="limit block: J·v with every limit impulse taken out")
+    block_lam = per_env("nlimit", doc="limit block: the impulses being solved for")
+    block_in = per_env("nlimit", dtype=wp.int32, doc="limit block: 1 if in the active set")
+    block_cand = per_env("nlimit", dtype=wp.int32, doc="limit block: the rows within reach")
+    block_row = per_env("nlimit", dtype=wp.int32, doc="limit block: the active set, in order")
+    block_a = per_env("nlimit", "nlimit", doc="limit block: Cholesky factor of J M⁻¹ Jᵀ on the "
+                      "active set")
 
 
 STRUCTS = (EnvParams, State, Control, Dynamics, Contacts, Rows)
