@@ -59,8 +59,8 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
     for k in range(ncontact):
         _normal_row(m, e, 3 * k, -1, 0.0, biased, tgs, hs, h, max_depenetration, factor, rows,
                     v, dq)
-    _joint_limit_block(m, e, layout, limit_jnt, biased, tgs, hs, h, max_depenetration, factor,
-                       rows, v, dq)
+    _joint_limit_block(m, e, layout, limit_jnt, first, biased, tgs, hs, h, max_depenetration,
+                       factor, rows, v, dq)
     for r in range(layout.tendon_limits, layout.springs):
         _normal_row(m, e, r, -1, 0.0, biased, tgs, hs, h, max_depenetration, factor, rows, v,
                     dq)
@@ -158,7 +158,8 @@ def _limit_sign(i: int):
 
 @wp.func
 def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
-                       limit_jnt: wp.array(dtype=wp.int32), biased: int, tgs: int, hs: float,
+                       limit_jnt: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int,
+                       hs: float,
                        h: float, max_depenetration: float, factor: wp.array2d(dtype=float),
                        rows: Rows, v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
     """The joint-limit rows of the env solved together, exactly: the impulses λ ≥ 0 for which
@@ -176,22 +177,35 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
     """
     n = layout.tendon_limits - layout.joint_limits
     base = layout.joint_limits
-    # the candidates (rows within reach of their limit), with their impulses taken out of v
+    # the candidates (rows within reach of their limit: listed in the substep's first sweep),
+    # with their impulses taken out of v
+    if first != 0:
+        k = int(0)
+        for i in range(n):
+            if rows.type[e, base + i] == NORMAL:
+                rows.block_cand[e, k] = i
+                k += 1
+        if k < n:
+            rows.block_cand[e, k] = -1
     ncand = int(0)
-    for i in range(n):
+    while ncand < n:
+        i = rows.block_cand[e, ncand]
+        if i < 0:
+            break
+        ncand += 1
         r = base + i
-        if rows.type[e, r] == NORMAL:
-            rows.block_cand[e, ncand] = i
-            ncand += 1
-            old = rows.lam[e, r]
-            if old != 0.0:
-                dense.row_apply(v, e, -old, rows.minv_jt, r, rows.span[e, r])
+        old = rows.lam[e, r]
+        if old != 0.0:
+            dense.row_apply(v, e, -old, rows.minv_jt, r, rows.span[e, r])
     # targets; J·v without the limit impulses (w0); the starting active set: the rows that
     # pushed, and those that want to
     count = int(0)
     for k in range(ncand):
         i = rows.block_cand[e, k]
         r = base + i
+        rows.block_in[e, i] = 0
+        if rows.type[e, r] != NORMAL:      # could not be built in an earlier sweep
+            continue
         dof = _limit_dof(m, limit_jnt, i)
         sign = _limit_sign(i)
         err = rows.err[e, r]
@@ -201,7 +215,6 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
         rows.block_target[e, i] = target
         rows.block_w0[e, i] = sign * v[e, dof]
         rows.block_lam[e, i] = 0.0
-        rows.block_in[e, i] = 0
         if rows.lam[e, r] > 0.0 or target > rows.block_w0[e, i]:
             rows.block_in[e, i] = 1
             rows.block_row[e, count] = i
@@ -302,6 +315,8 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
     for k in range(ncand):
         i = rows.block_cand[e, k]
         r = base + i
+        if rows.type[e, r] != NORMAL:
+            continue
         new = float(0.0)
         if rows.block_in[e, i] != 0:
             new = wp.max(rows.block_lam[e, i], 0.0)

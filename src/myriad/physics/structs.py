@@ -458,7 +458,8 @@ class Rows:
     block_w0 = per_env("nlimit", doc="limit block: J·v with every limit impulse taken out")
     block_lam = per_env("nlimit", doc="limit block: the impulses being solved for")
     block_in = per_env("nlimit", dtype=wp.int32, doc="limit block: 1 if in the active set")
-    block_cand = per_env("nlimit", dtype=wp.int32, doc="limit block: the rows within reach")
+    block_cand = per_env("nlimit", dtype=wp.int32, doc="limit block: the rows within reach of "
+                         "their limits in this substep, -1 after the last")
     block_row = per_env("nlimit", dtype=wp.int32, doc="limit block: the active set, in order")
     block_a = per_env("nlimit", "nlimit", doc="limit block: Cholesky factor of J M⁻¹ Jᵀ on the "
                       "active set")
