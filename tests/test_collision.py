@@ -144,6 +144,35 @@ def test_candidate_pairs_follow_mujoco_filters():
                      ("ga", "gc"), ("gb", "gd"), ("gc", "gd")}
 
 
+def test_parts_of_one_robot_that_overlap_at_rest_do_not_collide_and_are_named(device):
+    """A fixed arm whose second link reaches 2 cm into its base (a grandparent, so MuJoCo's
+    parent-child filter keeps the pair), and whose first link is sunk into the table it stands
+    on: both pairs are dropped with a warning naming them. A free box sunk 1 cm into the same
+    table keeps colliding (it is another body, resting on the table), and so does the floor."""
+    model = myriad.load_xml("""<mujoco><compiler angle="radian"/><worldbody>
+      <geom name="floor" type="plane" size="2 2 0.1"/>
+      <geom name="table" type="box" pos="0 0 0.25" size="0.5 0.5 0.25"/>
+      <body name="base" pos="0 0 0.55"><geom name="base" type="box" size="0.05 0.05 0.05"/>
+        <body name="link1" pos="0 0 0.05"><joint name="j1" axis="0 1 0" range="-1 1" limited="true"/>
+          <geom name="link1" type="capsule" fromto="0 0 -0.36 0 0 0.2" size="0.02"/>
+          <body name="link2" pos="0 0 0.2"><joint axis="0 1 0" range="-2 2" limited="true"/>
+            <geom name="link2" type="capsule" fromto="0 0 0 0.04 0 -0.23" size="0.02"/>
+          </body></body></body>
+      <body name="box" pos="0.3 0 0.54"><freejoint/><geom name="box" type="box" size="0.05 0.05 0.05"/></body>
+      </worldbody><actuator><motor joint="j1"/></actuator></mujoco>""", "overlapping_arm")
+    names = model.geom_names
+    with pytest.warns(RuntimeWarning, match=r"2 geom pair\(s\) of one robot overlap.*link2.*base"):
+        pairs = {tuple(sorted((names[a], names[b]))) for a, b in candidate_pairs(model)}
+    assert ("base", "link2") not in pairs and ("link1", "table") not in pairs
+    assert ("box", "table") in pairs and ("box", "floor") in pairs and ("box", "link2") in pairs
+    with pytest.warns(RuntimeWarning):
+        sim = myriad.Simulator(model, num_envs=2, device=device)
+    sim.ctrl = torch.tensor([[1.0], [-1.0]], device=sim.torch_device)
+    for _ in range(60):
+        sim.step()
+    assert torch.isfinite(sim.q).all() and sim.qd.abs().max() < 20.0
+
+
 def test_self_collision_switch():
     model = myriad.load(myriad.asset_path("humanoid.xml"))
     names = model.geom_names

@@ -5,11 +5,24 @@ contype/conaffinity test ((contype1 & conaffinity2) | (contype2 & conaffinity1))
 parent-child body pair (unless the parent is the world), and are not excluded by an MJCF
 <exclude>. Pairs are ordered so that geom type 1 <= geom type 2 (a plane always comes first);
 contact normals point from geom 1 to geom 2.
+
+One rule MuJoCo does not have: two geoms of one articulation that already overlap in the model's
+initial pose (qpos0), or a fixed-base robot's link that overlaps the static geometry it is mounted
+on, are not a pair, and a warning names them. Robot files often overlap a link's collision mesh
+with its grandparent's (a hip mesh reaching into the base): MuJoCo's soft contacts push such
+pairs apart with a bounded force, but as hard rows against joints and limits that keep them
+overlapped they asked for ever larger impulses, and the robot exploded at rest (Solo-12 in its
+fourth step, with no input: `benchmarks/corpus.py`).
 """
 
 from __future__ import annotations
 
+import warnings
+
+import mujoco
 import numpy as np
+
+from ..types import GeomType, JointType
 
 
 def candidate_pairs(model, self_collision=True) -> np.ndarray:
@@ -44,4 +57,51 @@ def candidate_pairs(model, self_collision=True) -> np.ndarray:
                 pairs.append((g1, g2))
             else:
                 pairs.append((g2, g1))
-    return np.asarray(pairs, dtype=np.int32).reshape(-1, 2)
+    pairs = np.asarray(pairs, dtype=np.int32).reshape(-1, 2)
+    return pairs[~_overlapping_at_rest(model, pairs)]
+
+
+def _overlapping_at_rest(model, pairs: np.ndarray) -> np.ndarray:
+    """Mask of the pairs between parts of one robot that overlap at qpos0 (see the module's
+    docstring); warns with their names and depths."""
+    body, root = model.geom_body, model.body_root
+    free_root = np.array([model.body_jntnum[r] > 0
+                          and model.jnt_type[model.body_jntadr[r]] == JointType.FREE
+                          for r in range(model.nbody)], dtype=bool)
+    ground = (GeomType.PLANE, GeomType.HFIELD)
+
+    def same_robot(g1, g2):
+        b1, b2 = body[g1], body[g2]
+        if b1 >= 0 and b2 >= 0:
+            return root[b1] == root[b2]
+        b, static = (b2, g1) if b1 < 0 else (b1, g2)
+        return not free_root[root[b]] and model.geom_type[static] not in ground
+
+    mask = np.zeros(len(pairs), dtype=bool)
+    candidates = [k for k, (g1, g2) in enumerate(pairs) if same_robot(g1, g2)]
+    if not candidates:
+        return mask
+    mj = model.mj_model
+    data = mujoco.MjData(mj)
+    data.qpos[:] = model.qpos0
+    mujoco.mj_kinematics(mj, data)
+    found = []
+    for k in candidates:
+        g1, g2 = (int(g) for g in pairs[k])
+        depth = mujoco.mj_geomDistance(mj, data, g1, g2, 0.0, None)
+        if depth < 0.0:
+            mask[k] = True
+            found.append((depth, g1, g2))
+    if found:
+        found.sort()
+        def name(g):      # URDF geoms have no names: their links do
+            body = mujoco.mj_id2name(mj, mujoco.mjtObj.mjOBJ_BODY, int(mj.geom_bodyid[g]))
+            return mujoco.mj_id2name(mj, mujoco.mjtObj.mjOBJ_GEOM, g) or f"{body}'s geom {g}"
+
+        listed = ", ".join(f"{name(g1)}-{name(g2)} ({-1e3 * depth:.1f} mm)"
+                           for depth, g1, g2 in found[:5])
+        more = f" and {len(found) - 5} more" if len(found) > 5 else ""
+        warnings.warn(f"{model.source}: {len(found)} geom pair(s) of one robot overlap in its initial "
+                      f"pose and will not collide: {listed}{more}. Add <contact><exclude> for "
+                      "them to silence this.", RuntimeWarning, stacklevel=4)
+    return mask
