@@ -6,9 +6,9 @@ parent-child body pair (unless the parent is the world), and are not excluded by
 <exclude>. Pairs are ordered so that geom type 1 <= geom type 2 (a plane always comes first);
 contact normals point from geom 1 to geom 2.
 
-One rule MuJoCo does not have: two geoms of one articulation that already overlap in the model's
-initial pose (qpos0), or a fixed-base robot's link that overlaps the static geometry it is mounted
-on, are not a pair, and a warning names them. Robot files often overlap a link's collision mesh
+One rule MuJoCo does not have: two geoms of one articulation that overlap (by more than 0.1 mm)
+in the model's initial pose (qpos0), or a fixed-base robot's link that overlaps the static
+geometry it is mounted on, are not a pair, and a warning names them. Robot files often overlap a link's collision mesh
 with its grandparent's (a hip mesh reaching into the base): MuJoCo's soft contacts push such
 pairs apart with a bounded force, but as hard rows against joints and limits that keep them
 overlapped they asked for ever larger impulses, and the robot exploded at rest (Solo-12 in its
@@ -61,6 +61,10 @@ def candidate_pairs(model, self_collision=True) -> np.ndarray:
     return pairs[~_overlapping_at_rest(model, pairs)]
 
 
+# overlaps shallower than this (m) are parts meant to touch; the solver separates them gently
+REST_OVERLAP = 1e-4
+
+
 def _overlapping_at_rest(model, pairs: np.ndarray) -> np.ndarray:
     """Mask of the pairs between parts of one robot that overlap at qpos0 (see the module's
     docstring); warns with their names and depths."""
@@ -89,7 +93,7 @@ def _overlapping_at_rest(model, pairs: np.ndarray) -> np.ndarray:
     for k in candidates:
         g1, g2 = (int(g) for g in pairs[k])
         depth = mujoco.mj_geomDistance(mj, data, g1, g2, 0.0, None)
-        if depth < 0.0:
+        if depth < -REST_OVERLAP:
             mask[k] = True
             found.append((depth, g1, g2))
     if found:
