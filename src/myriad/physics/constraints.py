@@ -56,6 +56,9 @@ def row_layout(contact_slots: int, limited_joints: int, limited_tendons: int, te
     return layout
 
 
+# a contact whose J M⁻¹ Jᵀ is below this fraction of its bodies' free 1/m1 + 1/m2 is dropped
+UNREACHABLE = wp.constant(1.0e-4)
+
 # a limit row is active when the joint is within this distance (rad or m) of its limit, plus
 # the distance it can travel in two substeps
 LIMIT_MARGIN = wp.constant(0.1)
@@ -245,6 +248,13 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
             rows.bounce[e, r0 + d] = 0.0
             rows.lam_init[e, r0 + d] = 0.0
         rows.err[e, r0] = c.dist[e, k] - rest_offset
+        # 1/m1 + 1/m2: how easily the two bodies would move if nothing held them
+        free = float(0.0)
+        if b1 >= 0:
+            free = free + 1.0 / wp.max(p.body_mass[e, b1], 1.0e-9)
+        if b2 >= 0:
+            free = free + 1.0 / wp.max(p.body_mass[e, b2], 1.0e-9)
+        rows.k[e, r0] = free
         # approach speed before the solve (unconstrained velocity qd + h·qacc)
         approach = (dense.row_dot(rows.jac, e, r0, s.qd, sp)
                     + h * dense.row_dot(rows.jac, e, r0, s.qacc, sp))
@@ -416,6 +426,13 @@ def build_contact_rows(m: ModelArrays, e: int, r0: int, sp: wp.vec4i,
     _set_inv_mass(rows, e, r0, sp, NORMAL)
     _set_inv_mass(rows, e, r0 + 1, sp, FRICTION)
     _set_inv_mass(rows, e, r0 + 2, sp, FRICTION2)
+    if rows.type[e, r0] == NORMAL and rows.inv_mass[e, r0] * UNREACHABLE * rows.k[e, r0] > 1.0:
+        # J M⁻¹ Jᵀ below UNREACHABLE·(1/m1 + 1/m2): the joints can barely move the bodies
+        # along the normal (two links of one arm, the normal through their joint axes), and
+        # what they can is the noise in J. Pushing there took impulses of 10⁵ N·s and sent
+        # a UR5 to 10²⁷ rad/s; the contact is dropped (it cannot deepen along a normal that
+        # the joints cannot move).
+        rows.type[e, r0] = INACTIVE
     if rows.type[e, r0] == INACTIVE:
         rows.type[e, r0 + 1] = INACTIVE
         rows.type[e, r0 + 2] = INACTIVE

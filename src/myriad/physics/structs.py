@@ -444,7 +444,8 @@ class Rows:
     mu = per_env("nrow", doc="contacts: friction coefficient; dof rows: impulse bound")
     bounce = per_env("nrow", doc="restitution target speed (m/s), 0 if none")
     dir = per_env("nrow", dtype=wp.vec3, doc="contacts: the row's direction, world")
-    k = per_env("nrow", doc="soft rows: stiffness; dof rows: speed cap")
+    k = per_env("nrow", doc="soft rows: stiffness; dof rows: speed cap; contact normals: "
+                "1/m1 + 1/m2 of the two bodies")
     d = per_env("nrow", doc="soft rows: damping")
     span = per_env("nrow", dtype=wp.vec4i, doc="the two dof ranges [lo, hi) the row touches")
     jac = per_env("nrow", "row_width", doc="J over the span's dofs")
