@@ -7,6 +7,8 @@ import warp as wp
 import myriad  # noqa: F401  (before any test imports MuJoCo: picks its headless GL backend)
 
 sys.path.insert(0, os.path.dirname(__file__))  # tests/models.py
+# benchmarks/: scenes and the robot corpus that tests share with the benchmarks
+sys.path.insert(1, os.path.join(os.path.dirname(__file__), "..", "benchmarks"))
 wp.config.log_level = wp.LOG_WARNING
 
 

@@ -98,17 +98,3 @@ def capsule_chain_xml(nlink: int, direction=(0.0, 0.0, -1.0), length: float = 0.
                    'contype="0" conaffinity="0"/>')
     return (f'<mujoco model="capsule_chain"><worldbody>{"".join(xml)}{"</body>" * nlink}'
             "</worldbody></mujoco>")
-
-
-def limit_chain_xml(nlink: int, tip_ratio: float, length: float = 0.1, mass: float = 0.1) -> str:
-    """`nlink` capsules sticking out sideways on hinges limited to [-1, 0] rad, the last
-    `tip_ratio` times heavier: gravity presses every joint onto its upper limit."""
-    xml = []
-    for i in range(nlink):
-        pos = "0 0 1" if i == 0 else f"{length:g} 0 0"
-        link_mass = mass * (tip_ratio if i == nlink - 1 else 1.0)
-        xml.append(f'<body pos="{pos}"><joint axis="0 1 0" range="-1 0" limited="true"/>'
-                   f'<geom type="capsule" fromto="0 0 0 {length:g} 0 0" size="0.01" '
-                   f'mass="{link_mass:g}" contype="0" conaffinity="0"/>')
-    return ('<mujoco model="limit_chain"><compiler angle="radian"/><worldbody>'
-            f'{"".join(xml)}{"</body>" * nlink}</worldbody></mujoco>')

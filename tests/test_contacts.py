@@ -11,7 +11,7 @@ import pytest
 import torch
 
 import myriad
-from models import limit_chain_xml
+from limit_chain import chain_xml as limit_chain_xml     # benchmarks/limit_chain.py
 
 ISAAC = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=4, velocity_iterations=1)
 

@@ -10,13 +10,9 @@ beside them. The whole corpus, with MuJoCo's figures beside Myriad's, is
 the benchmark.
 """
 
-import os
-import sys
-
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "benchmarks"))
-corpus = pytest.importorskip("corpus")
+corpus = pytest.importorskip("corpus")      # benchmarks/corpus.py (conftest puts it on the path)
 
 # name: (seconds, envs, largest joint speed allowed, largest limit excess allowed or None)
 SUBSET = {
