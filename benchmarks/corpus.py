@@ -39,7 +39,10 @@ acceleration it warns and resets to qpos0, which is counted here as non-finite.
 Measured for both engines (Myriad over all envs, MuJoCo its one run):
   finite        every q and qd finite at every step (else: the first time it was not);
   max|qd|       largest joint speed seen (rad/s or m/s, free joints included);
-  limit excess  worst violation of a hinge/slide joint limit, max(0, q - hi, lo - q) (rad or m);
+  limit excess  worst violation of a hinge/slide joint limit, max(0, q - hi, lo - q) (rad or m),
+                beyond the joint's violation at t = 0 (several URDFs start with qpos0 = 0
+                outside their joint ranges; the solver then pushes them in, which is not an
+                excess);
   penetration   signed distance of the deepest contact (negative: overlap), in mm, at rest at
                 t = 0 (the model's own overlap, which the solver pushes apart) and the worst
                 over the run. Myriad reports contacts from 2 cm apart (contact_offset), MuJoCo
@@ -258,6 +261,9 @@ def run_model(name: str, loader, seconds: float = 2.0, envs: int = 4,
     sim.collide()
     rest = myriad_deepest(sim)
     worst, max_qd, excess = torch.tensor(math.inf), torch.tensor(0.0), torch.tensor(0.0)
+    if len(joints):
+        q, (lo, hi) = sim.q[:, qadr], sim.joint_range[:, joints].unbind(-1)
+        start_over = torch.maximum(q - hi, lo - q).clamp(min=0.0)     # the start's violation
     first_bad = torch.full((envs,), -1)
     most_contacts = torch.tensor(0)
     start = time.perf_counter()
@@ -273,7 +279,7 @@ def run_model(name: str, loader, seconds: float = 2.0, envs: int = 4,
         max_qd = torch.maximum(max_qd, sim.qd.abs().nan_to_num(0.0).max())
         if len(joints):
             q, (lo, hi) = sim.q[:, qadr], sim.joint_range[:, joints].unbind(-1)
-            over = torch.maximum(q - hi, lo - q).nan_to_num(0.0).clamp(min=0.0)
+            over = (torch.maximum(q - hi, lo - q) - start_over).nan_to_num(0.0).clamp(min=0.0)
             excess = torch.maximum(excess, over.max())
         worst = torch.minimum(worst, myriad_deepest(sim))
         most_contacts = torch.maximum(most_contacts, sim.contact_count.max())
@@ -288,6 +294,7 @@ def run_model(name: str, loader, seconds: float = 2.0, envs: int = 4,
     mujoco.mj_forward(mj, d)
     mj_rest, mj_worst, mj_excess, mj_bad = mujoco_deepest(d), math.inf, 0.0, -1
     lo, hi = mj.jnt_range[joints].T
+    mj_start_over = np.maximum(np.maximum(d.qpos[qadr] - hi, lo - d.qpos[qadr]), 0.0)
     resets = [mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
               mujoco.mjtWarning.mjWARN_BADQACC]
     start = time.perf_counter()
@@ -301,7 +308,8 @@ def run_model(name: str, loader, seconds: float = 2.0, envs: int = 4,
             mj_bad = step
         if len(joints):
             q = d.qpos[qadr]
-            mj_excess = max(mj_excess, float(np.nan_to_num(np.maximum(q - hi, lo - q)).max()))
+            over = np.maximum(q - hi, lo - q) - mj_start_over
+            mj_excess = max(mj_excess, float(np.nan_to_num(over).max()))
         mj_worst = min(mj_worst, mujoco_deepest(d))
     theirs_s = time.perf_counter() - start
     MUJOCO_WARNINGS.clear()     # "unstable" resets: the MuJoCo finite column says it

@@ -18,7 +18,7 @@ corpus = pytest.importorskip("corpus")      # benchmarks/corpus.py (conftest put
 SUBSET = {
     "gymnasium/humanoid": (1.0, 2, 150.0, 0.05),
     "solo/solo12": (1.0, 2, 150.0, 0.05),
-    "go2/go2": (1.0, 2, 150.0, None),
+    "go2/go2": (1.0, 2, 150.0, 0.05),
     "talos_data/talos_left_arm": (1.0, 2, 150.0, 0.05),
     "ur/ur10_robot": (1.0, 2, 150.0, 0.05),
     # a contact between two links along a normal its joints can barely move (J M⁻¹ Jᵀ tiny):
