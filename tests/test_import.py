@@ -43,9 +43,6 @@ def test_invalid_element_names_element(tmp_path):
     ("""<worldbody><body name="a"><joint name="h" type="hinge"/><geom size=".1"/></body></worldbody>
         <actuator><general name="muscle_like" joint="h" dyntype="filter" dynprm="0.1"/></actuator>""",
      "actuator 'muscle_like': actuator dynamics"),
-    ("""<worldbody><body name="a"><joint name="h" type="hinge"/><geom size=".1"/><site name="imu"/></body></worldbody>
-        <sensor><accelerometer name="acc" site="imu"/></sensor>""",
-     "sensor 'acc': sensor type mjSENS_ACCELEROMETER is not supported"),
     ("""<worldbody><body name="a" gravcomp="1"><joint type="hinge"/><geom size=".1"/></body></worldbody>""",
      "body 'a': gravcomp"),
 ])
@@ -53,6 +50,31 @@ def test_unsupported_features_are_errors(tmp_path, snippet, message):
     path = _write(tmp_path, "unsupported.xml", f"<mujoco>{snippet}</mujoco>")
     with pytest.raises(ModelError, match=f"unsupported.xml: {message}"):
         myriad.load(path)
+
+
+def test_what_does_not_touch_the_dynamics_is_skipped_not_refused(tmp_path):
+    """A sensor Myriad does not compute is skipped with a warning naming it (the force sensor
+    beside it is kept, in order), and a flat mesh only drawn (no convex hull) loads."""
+    path = _write(tmp_path, "extras.xml", """<mujoco>
+      <asset><mesh name="decal" vertex="0 0 0 1 0 0 0 1 0 1 1 0" face="0 1 2 1 3 2" inertia="shell"/></asset>
+      <worldbody><geom type="plane" size="2 2 0.1"/>
+        <body name="a" pos="0 0 0.3"><freejoint/><geom type="box" size="0.1 0.1 0.1"/>
+          <geom type="mesh" mesh="decal" contype="0" conaffinity="0" group="1" mass="0"/>
+          <site name="imu"/></body></worldbody>
+      <sensor><accelerometer name="acc" site="imu"/><force name="f" site="imu"/>
+        <gyro name="gyro" site="imu"/></sensor></mujoco>""")
+    with pytest.warns(RuntimeWarning, match=r"extras.xml: 2 sensor\(s\) skipped.*'acc'.*'gyro'"):
+        model = myriad.load(path)
+    assert model.sensor_names == ["f"] and model.sensor_type == ["force"]
+    sim = myriad.Simulator(model, num_envs=1)
+    for _ in range(60):
+        sim.step()
+    assert sim.sensor_data.shape == (1, 1, 3)
+    assert abs(sim.q[0, 2].item() - 0.1) < 2e-3          # the box rests on the plane
+    # a collision mesh still needs its hull
+    collides = open(path).read().replace(' contype="0" conaffinity="0"', "")
+    with pytest.raises(ModelError, match="mesh 'decal'"):
+        myriad.load_xml(collides, "collides")
 
 
 def test_every_geom_type_and_mesh_hull(tmp_path):

@@ -15,6 +15,7 @@ float field of the compiled `MjModel` (included files, models built in code or b
 from __future__ import annotations
 
 import os
+import warnings
 import xml.parsers.expat
 
 import mujoco
@@ -285,11 +286,6 @@ def _check_supported(m, source: str) -> None:
         if m.actuator_delay[a] != 0 or m.actuator_damping[a] != 0 or m.actuator_armature[a] != 0:
             fail(f"{label}: actuator delay, damping and armature are not supported")
         _actuator_kind(m, a, fail)
-    for s in range(m.nsensor):
-        st = int(m.sensor_type[s])  # enum membership tests need a Python int
-        if st not in (int(mujoco.mjtSensor.mjSENS_FORCE), int(mujoco.mjtSensor.mjSENS_TORQUE)):
-            fail(f"{_label(m, o.mjOBJ_SENSOR, s, 'sensor')}: sensor type "
-                 f"{mujoco.mjtSensor(st).name} is not supported (force and torque sensors only)")
     for g in range(m.ngeom):
         if m.geom_type[g] not in range(8):
             fail(f"{_label(m, o.mjOBJ_GEOM, g, 'geom')}: geom type {mujoco.mjtGeom(m.geom_type[g]).name} "
@@ -314,15 +310,40 @@ def _actuator_kind(m, a: int, fail) -> int:
     return -1
 
 
+def _force_torque_sensors(m, source: str) -> list[int]:
+    """The model's force and torque sensors, which Myriad computes, in MuJoCo's order. Other
+    sensors do not change the dynamics: they are skipped with one warning naming them, rather
+    than refusing a model a user brought for its robot."""
+    kinds = (int(mujoco.mjtSensor.mjSENS_FORCE), int(mujoco.mjtSensor.mjSENS_TORQUE))
+    kept = [s for s in range(m.nsensor) if int(m.sensor_type[s]) in kinds]
+    skipped = [f"{_label(m, mujoco.mjtObj.mjOBJ_SENSOR, s, 'sensor')} "
+               f"({mujoco.mjtSensor(int(m.sensor_type[s])).name})"
+               for s in range(m.nsensor) if s not in kept]
+    if skipped:
+        warnings.warn(f"{source}: {len(skipped)} sensor(s) skipped, not computed: "
+                      f"{', '.join(skipped[:6])}{' ...' if len(skipped) > 6 else ''}; "
+                      "sim.sensor_data holds the force and torque sensors, in the model's "
+                      "order", RuntimeWarning, stacklevel=4)
+    return kept
+
+
 def _mesh_hulls(m, source: str):
-    """Convex hull triangles of every mesh, from MuJoCo's hull graph."""
+    """Convex hull triangles of every mesh, from MuJoCo's hull graph. A mesh only drawn (every
+    geom using it has contype and conaffinity 0) may have none, e.g. a flat decal: it gets an
+    empty hull, since it never collides."""
     faces, faceadr, facenum = [], [], []
     nface = 0
+    mesh_geoms = m.geom_type == mujoco.mjtGeom.mjGEOM_MESH
+    collides = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
     for i in range(m.nmesh):
         adr = m.mesh_graphadr[i]
+        if adr < 0 and not (mesh_geoms & (m.geom_dataid == i) & collides).any():
+            faceadr.append(nface)
+            facenum.append(0)
+            continue
         if adr < 0:
             raise ModelError(f"{source}: {_label(m, mujoco.mjtObj.mjOBJ_MESH, i, 'mesh')}: MuJoCo "
-                             "computed no convex hull for it")
+                             "computed no convex hull for it, and a geom that collides uses it")
         g = m.mesh_graph[adr:]
         numvert, numface = int(g[0]), int(g[1])
         # layout: numvert, numface, vert_edgeadr[numvert], vert_globalid[numvert],
@@ -373,18 +394,19 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
     actuator_dof = _i32(m.jnt_dofadr[m.actuator_trnid[:, 0]]) if nu else np.zeros(0, np.int32)
 
     hull_face, hull_faceadr, hull_facenum = _mesh_hulls(m, source)
+    sensors = _force_torque_sensors(m, source)
 
     model = Model(
         source=source, mj_model=m,
         nq=m.nq, nv=m.nv, nbody=nbody, njnt=m.njnt, ngeom=m.ngeom, nsite=m.nsite, nu=nu,
-        ntendon=m.ntendon, nsensor=m.nsensor,
+        ntendon=m.ntendon, nsensor=len(sensors),
         body_names=[_name(m, o.mjOBJ_BODY, b) for b in range(1, m.nbody)],
         joint_names=[_name(m, o.mjOBJ_JOINT, j) for j in range(m.njnt)],
         geom_names=[_name(m, o.mjOBJ_GEOM, g) for g in range(m.ngeom)],
         site_names=[_name(m, o.mjOBJ_SITE, s) for s in range(m.nsite)],
         actuator_names=[_name(m, o.mjOBJ_ACTUATOR, a) for a in range(nu)],
         tendon_names=[_name(m, o.mjOBJ_TENDON, t) for t in range(m.ntendon)],
-        sensor_names=[_name(m, o.mjOBJ_SENSOR, s) for s in range(m.nsensor)],
+        sensor_names=[_name(m, o.mjOBJ_SENSOR, s) for s in sensors],
         body_parent=body_parent, body_root=body_root,
         body_pos=_f32(m.body_pos[1:]), body_quat=_xyzw(m.body_quat[1:]),
         body_ipos=_f32(m.body_ipos[1:]), body_iquat=_xyzw(m.body_iquat[1:]),
@@ -430,9 +452,9 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         tendon_offset=np.zeros(m.ntendon, np.float32),
         tendon_limited=m.tendon_limited.astype(bool), tendon_range=_f32(m.tendon_range),
         tendon_limit_stiffness=np.zeros(m.ntendon, np.float32),
-        sensor_type=["force" if int(t) == int(mujoco.mjtSensor.mjSENS_FORCE) else "torque"
-                     for t in m.sensor_type],
-        sensor_site=_i32(m.sensor_objid),
+        sensor_type=["force" if int(m.sensor_type[s]) == int(mujoco.mjtSensor.mjSENS_FORCE)
+                     else "torque" for s in sensors],
+        sensor_site=_i32(m.sensor_objid[sensors]),
         exclude_body_pairs=_i32(_exclude_pairs(m)),
         gravity=_f32(m.opt.gravity), timestep=float(m.opt.timestep),
     )
