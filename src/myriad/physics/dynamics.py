@@ -23,6 +23,16 @@ from .spatial import force_cross, inertia_about_point, inertia_matrix, inertia_t
 from .structs import Dynamics, EnvParams, ModelArrays, State
 
 
+@wp.func
+def body_inertia(m: ModelArrays, p: EnvParams, s: State, e: int, b: int):
+    """Body b's inertia at its tree's reference point: (mass, first moment h = m·c, rotational
+    inertia about the point)."""
+    mass = p.body_mass[e, b]
+    c = s.body_com[e, b] - wp.transform_get_translation(s.body_x[e, m.body_root[b]])
+    return mass, mass * c, inertia_about_point(mass, c, p.body_inertia[e, b],
+                                               s.body_iframe[e, b])
+
+
 @wp.kernel
 def mass_matrix(m: ModelArrays, p: EnvParams,
                 s: State,       # in: body_x, body_com, body_iframe, cdof
@@ -30,12 +40,10 @@ def mass_matrix(m: ModelArrays, p: EnvParams,
     """Joint-space mass matrix with armature (CRBA), in the sparse layout above."""
     e = wp.tid()
     for b in range(m.nbody):
-        ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
-        mass = p.body_mass[e, b]
-        c = s.body_com[e, b] - ref
+        mass, h, rot_inertia = body_inertia(m, p, s, e, b)
         d.crb_m[e, b] = mass
-        d.crb_h[e, b] = mass * c
-        d.crb_i[e, b] = inertia_about_point(mass, c, p.body_inertia[e, b], s.body_iframe[e, b])
+        d.crb_h[e, b] = h
+        d.crb_i[e, b] = rot_inertia
     # children before parents: accumulate subtrees (same tree => same reference point)
     for k in range(m.nbody):
         b = m.nbody - 1 - k
@@ -73,11 +81,7 @@ def body_forces(m: ModelArrays, p: EnvParams, s: State, e: int,
                 a = (a + s.cdof_dot[e, i] * s.qd[e, i]
                      + s.cdof[e, i] * ((s.qd[e, i] - qd_before[e, i]) * inv_h))
         d.cacc[e, b] = a
-        ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
-        mass = p.body_mass[e, b]
-        c = s.body_com[e, b] - ref
-        h = mass * c
-        rot_inertia = inertia_about_point(mass, c, p.body_inertia[e, b], s.body_iframe[e, b])
+        mass, h, rot_inertia = body_inertia(m, p, s, e, b)
         v = s.cvel[e, b]
         d.cfrc[e, b] = inertia_times(mass, h, rot_inertia, a) + force_cross(
             v, inertia_times(mass, h, rot_inertia, v))
@@ -126,11 +130,8 @@ def articulated_factor(m: ModelArrays, p: EnvParams, s: State, e: int,
     lower part, on the ancestor pattern) and D⁻¹ (on its diagonal: the solves multiply by it).
     """
     for b in range(m.nbody):
-        ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
-        mass = p.body_mass[e, b]
-        c = s.body_com[e, b] - ref
-        articulated[e, b] = inertia_matrix(
-            mass, mass * c, inertia_about_point(mass, c, p.body_inertia[e, b], s.body_iframe[e, b]))
+        mass, h, rot_inertia = body_inertia(m, p, s, e, b)
+        articulated[e, b] = inertia_matrix(mass, h, rot_inertia)
     # children before parents; a body's dofs from its last to its first (each one's parent)
     for k in range(m.nbody):
         b = m.nbody - 1 - k

@@ -161,7 +161,7 @@ class Simulator:
         def run():
             self._kinematics()
             self._dynamics()
-        self._run_on_device(run) if self.device.is_cuda else self._run_sharded(run)
+        self._run(run)
 
     def collide(self) -> None:
         """Contact detection alone, at the current kinematics (for debugging: step() runs it)."""
@@ -234,6 +234,10 @@ class Simulator:
             # a view of a per-env array with another shape (qacc as [N, 1, nv]) keeps its shape
             return part if part.shape[1:] == a.shape[1:] else a[shard[0]:shard[1]]
         return self._shard_parts.get((shard, id(a)), a)
+
+    def _run(self, fn) -> None:
+        """fn's per-env launches: on the device's stream, or on the CPU shards."""
+        self._run_on_device(fn) if self.device.is_cuda else self._run_sharded(fn)
 
     def _run_sharded(self, fn) -> None:
         """Run fn's launches on this thread, or each shard's on a pool thread, with denormals
@@ -316,9 +320,8 @@ class Simulator:
         Computed on each read (the step factors M without forming it: `dynamics`), as a new
         dense tensor: zero between dofs of which neither is an ancestor of the other.
         """
-        launch = lambda: self._launch(dynamics.mass_matrix, self.num_envs,
-                                      [self._m, self._p, self._s, self._d])
-        self._run_on_device(launch) if self.device.is_cuda else self._run_sharded(launch)
+        self._run(lambda: self._launch(dynamics.mass_matrix, self.num_envs,
+                                       [self._m, self._p, self._s, self._d]))
         n, nv = self.num_envs, self.model.nv
         dense = torch.zeros(n, nv, nv, device=self.torch_device)
         rows, cols = self._qm_dense_at

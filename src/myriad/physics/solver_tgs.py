@@ -57,13 +57,11 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
     limits), then the contacts' friction rows, whose bounds then hold this sweep's normal
     impulses, then tendon springs and dofs."""
     for k in range(ncontact):
-        _normal_row(m, e, 3 * k, -1, 0.0, biased, tgs, hs, h, max_depenetration, factor, rows,
-                    v, dq)
+        _normal_row(m, e, 3 * k, biased, tgs, hs, h, max_depenetration, factor, rows, v, dq)
     _joint_limit_block(m, e, layout, limit_jnt, first, biased, tgs, hs, h, max_depenetration,
                        factor, rows, v, dq)
     for r in range(layout.tendon_limits, layout.springs):
-        _normal_row(m, e, r, -1, 0.0, biased, tgs, hs, h, max_depenetration, factor, rows, v,
-                    dq)
+        _normal_row(m, e, r, biased, tgs, hs, h, max_depenetration, factor, rows, v, dq)
     for k in range(ncontact):
         _friction_rows(e, 3 * k + 1, biased, tgs, hs, rows, v, dq)
     if first != 0:
@@ -98,35 +96,26 @@ def _normal_target(err: float, biased: int, hs: float, h: float, max_depenetrati
 
 
 @wp.func
-def _normal_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, biased: int, tgs: int,
-                hs: float, h: float, max_depenetration: float, factor: wp.array2d(dtype=float),
-                rows: Rows, v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
-    """A non-negative impulse along row r (a contact normal, or a limit: along ±e_dof for a
-    joint limit, dof >= 0) that removes the approach, and in biased (position) sweeps the
-    penetration."""
+def _normal_row(m: ModelArrays, e: int, r: int, biased: int, tgs: int, hs: float, h: float,
+                max_depenetration: float, factor: wp.array2d(dtype=float), rows: Rows,
+                v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
+    """A non-negative impulse along row r (a contact normal or a tendon limit) that removes the
+    approach, and in biased (position) sweeps the penetration. (Joint limits are solved
+    together: `_joint_limit_block`.)"""
     if rows.type[e, r] != NORMAL:
         return
+    sp = rows.span[e, r]
+    jv = dense.row_dot(rows.jac, e, r, v, sp)
     err = rows.err[e, r]
-    jv = float(0.0)
-    if dof >= 0:
-        jv = sign * v[e, dof]
-        if tgs != 0:
-            err = err + sign * dq[e, dof]
-    else:
-        sp = rows.span[e, r]
-        jv = dense.row_dot(rows.jac, e, r, v, sp)
-        if tgs != 0:
-            err = err + dense.row_dot(rows.jac, e, r, dq, sp)
+    if tgs != 0:
+        err = err + dense.row_dot(rows.jac, e, r, dq, sp)
     target = _normal_target(err, biased, hs, h, max_depenetration, rows.bounce[e, r])
     if rows.inv_mass[e, r] == 0.0:
         # response not built yet (`constraints`): the row has had no impulse, and gets none
         # while it does not push
         if target - jv <= 0.0:
             return
-        if dof >= 0:
-            build_dof_row(m, e, r, dof, sign, NORMAL, factor, rows)
-        else:
-            build_contact_rows(m, e, r, rows.span[e, r], factor, rows)
+        build_contact_rows(m, e, r, sp, factor, rows)
         if rows.type[e, r] != NORMAL:
             return
     old = rows.lam[e, r]

@@ -8,11 +8,11 @@ contact normals point from geom 1 to geom 2.
 
 One rule MuJoCo does not have: two geoms of one articulation that overlap (by more than 0.1 mm)
 in the model's initial pose (qpos0), or a fixed-base robot's link that overlaps the static
-geometry it is mounted on, are not a pair, and a warning names them. Robot files often overlap a link's collision mesh
-with its grandparent's (a hip mesh reaching into the base): MuJoCo's soft contacts push such
-pairs apart with a bounded force, but as hard rows against joints and limits that keep them
-overlapped they asked for ever larger impulses, and the robot exploded at rest (Solo-12 in its
-fourth step, with no input: `benchmarks/corpus.py`).
+geometry it is mounted on, are not a pair, and a warning names them. Robot files often overlap
+a link's collision mesh with its grandparent's (a hip mesh reaching into the base): MuJoCo's
+soft contacts push such pairs apart with a bounded force, but as hard rows against joints and
+limits that keep them overlapped they asked for ever larger impulses, and the robot exploded
+at rest (Solo-12 in its fourth step, with no input: `benchmarks/corpus.py`).
 """
 
 from __future__ import annotations
@@ -105,7 +105,8 @@ def _overlapping_at_rest(model, pairs: np.ndarray) -> np.ndarray:
         listed = ", ".join(f"{name(g1)}-{name(g2)} ({-1e3 * depth:.1f} mm)"
                            for depth, g1, g2 in found[:5])
         more = f" and {len(found) - 5} more" if len(found) > 5 else ""
-        warnings.warn(f"{model.source}: {len(found)} geom pair(s) of one robot overlap in its initial "
-                      f"pose and will not collide: {listed}{more}. Add <contact><exclude> for "
-                      "them to silence this.", RuntimeWarning, stacklevel=4)
+        warnings.warn(f"{model.source}: {len(found)} geom pair(s) of one robot overlap in its "
+                      f"initial pose and will not collide: {listed}{more}. Add "
+                      "<contact><exclude> for them to silence this.", RuntimeWarning,
+                      stacklevel=4)
     return mask
