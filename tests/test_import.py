@@ -33,10 +33,6 @@ def test_invalid_element_names_element(tmp_path):
 
 
 @pytest.mark.parametrize("snippet, message", [
-    ("""<worldbody><body name="a"><freejoint/><geom size=".1"/></body>
-        <body name="b" pos="1 0 0"><freejoint/><geom size=".1"/></body></worldbody>
-        <equality><weld name="glue" body1="a" body2="b"/></equality>""",
-     "equality constraint 'glue'"),
     ("""<worldbody><site name="s0"/><body name="a"><freejoint/><geom size=".1"/><site name="s1"/></body></worldbody>
         <tendon><spatial name="rope"><site site="s0"/><site site="s1"/></spatial></tendon>""",
      "tendon 'rope': spatial tendons are not supported"),

@@ -26,7 +26,8 @@ from . import dense
 from .dynamics import solve_span
 from .spatial import velocity_at
 from .structs import Contacts, Dynamics, EnvParams, ModelArrays, Rows, State
-from .types import DOF, FRICTION, FRICTION2, INACTIVE, NORMAL, SOFT
+from .types import (CONNECT, DOF, EQ_JOINT, EQUALITY, FRICTION, FRICTION2, INACTIVE, NORMAL,
+                    SOFT, WELD)
 
 
 @wp.struct
@@ -34,23 +35,26 @@ class RowLayout:
     """Where each family of rows starts among an env's rows, fixed when the simulator is built.
     The families are contiguous, in this order: contacts from row 0 (3 rows per contact slot:
     normal, two friction), joint limits (2 per limited joint: lower, upper), hard tendon limits
-    (2 per limited tendon), tendon spring-dampers (1 per tendon), dofs (1 per dof: dry friction
-    and speed cap; none without constraints)."""
+    (2 per limited tendon), equality constraints (`ModelArrays.eq_rownum` each), tendon
+    spring-dampers (1 per tendon), dofs (1 per dof: dry friction and speed cap; none without
+    constraints)."""
     contact_slots: int   # contacts an env holds (its rows: [0, 3 · contact_slots))
     joint_limits: int    # first joint-limit row
     tendon_limits: int   # first tendon-limit row
+    equalities: int      # first equality row
     springs: int         # first tendon spring-damper row
     dofs: int            # first dof row
     end: int             # number of rows
 
 
-def row_layout(contact_slots: int, limited_joints: int, limited_tendons: int, tendons: int,
-               dof_rows: int) -> RowLayout:
+def row_layout(contact_slots: int, limited_joints: int, limited_tendons: int,
+               equality_rows: int, tendons: int, dof_rows: int) -> RowLayout:
     layout = RowLayout()
     layout.contact_slots = contact_slots
     layout.joint_limits = 3 * contact_slots
     layout.tendon_limits = layout.joint_limits + 2 * limited_joints
-    layout.springs = layout.tendon_limits + 2 * limited_tendons
+    layout.equalities = layout.tendon_limits + 2 * limited_tendons
+    layout.springs = layout.equalities + equality_rows
     layout.dofs = layout.springs + tendons
     layout.end = layout.dofs + dof_rows
     return layout
@@ -127,6 +131,19 @@ def _spans(a: wp.vec2i, b: wp.vec2i):
 
 
 @wp.func
+def _body_spans(m: ModelArrays, b1: int, b2: int):
+    """The row span of a row between bodies b1 and b2 (-1: the world): their dof trees."""
+    none = wp.vec2i(0, 0)
+    sp1 = none
+    sp2 = none
+    if b1 >= 0:
+        sp1 = m.body_tree_span[b1]
+    if b2 >= 0:
+        sp2 = m.body_tree_span[b2]
+    return _spans(sp1, sp2)
+
+
+@wp.func
 def _solve_rows(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
                 x: wp.array3d(dtype=float), r: int, nrows: int, sp: wp.vec4i):
     """x[e, r + d] <- M⁻¹ x[e, r + d] for the nrows rows from r, of span sp."""
@@ -195,6 +212,8 @@ def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float,
     contact_rows(m, e, h, rest_offset, bounce_threshold, p, s, d.factor, contacts, rows)
     joint_limit_rows(m, e, layout.joint_limits, h, limit_jnt, p, s, d.factor, rows)
     tendon_limit_rows(m, e, layout.tendon_limits, h, limit_tendon, p, s, d.factor, rows)
+    if layout.springs > layout.equalities:
+        equality_rows(m, e, layout.equalities, p, s, d.factor, rows)
     tendon_spring_rows(m, e, layout.springs, p, s, d.factor, rows)
     dof_rows(m, e, layout.dofs, layout.end - layout.dofs, h, p, d.factor, rows)
 
@@ -219,14 +238,7 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
             t1 = wp.cross(n, wp.vec3(0.0, 1.0, 0.0))
         t1 = wp.normalize(t1)
         t2 = wp.cross(n, t1)
-        none = wp.vec2i(0, 0)
-        sp1 = none
-        sp2 = none
-        if b1 >= 0:
-            sp1 = m.body_tree_span[b1]
-        if b2 >= 0:
-            sp2 = m.body_tree_span[b2]
-        sp = _spans(sp1, sp2)
+        sp = _body_spans(m, b1, b2)
         mu = 0.5 * (p.geom_friction[e, pair[0]] + p.geom_friction[e, pair[1]])
         restitution = 0.5 * (p.geom_restitution[e, pair[0]] + p.geom_restitution[e, pair[1]])
         # the three rows together: normal (3k), then the two friction rows; J is the velocity
@@ -338,6 +350,194 @@ def tendon_limit_rows(m: ModelArrays, e: int, base: int, h: float,
                 _finish_row(m, e, r, sp, factor, rows, NORMAL)
                 if rows.type[e, r] != INACTIVE:
                     rows.lam_init[e, r] = warm
+
+
+@wp.func
+def _pose(body_x: wp.array2d(dtype=wp.transform), e: int, b: int):
+    """Pose of body b; the world's (b = -1) is the identity."""
+    if b < 0:
+        return wp.transform_identity()
+    return body_x[e, b]
+
+
+@wp.func
+def _add_angular_jacobian(m: ModelArrays, e: int, body: int, sign: float,
+                          cdof: wp.array2d(dtype=wp.spatial_vector), jac: wp.array3d(dtype=float),
+                          r: int, sp: wp.vec4i):
+    """J[r + d] += sign · (angular velocity of `body`, per dof)[d] for the world axes d."""
+    if body < 0:
+        return
+    last = m.body_last_dof[body]
+    if last < 0:
+        return
+    chain = m.dof_madr[last]
+    for a in range(chain, chain + m.dof_mnum[last]):
+        j = m.mass_col[a]
+        w = sign * wp.spatial_top(cdof[e, j])
+        c = _col(sp, j)
+        for d in range(3):
+            jac[e, r + d, c] = jac[e, r + d, c] + w[d]
+
+
+@wp.func
+def _tendon_add(m: ModelArrays, e: int, t: int, scale: float, jac: wp.array3d(dtype=float), r: int,
+                sp: wp.vec4i):
+    """J[r] += scale · (rate of fixed tendon t's length, per dof)."""
+    for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
+        c = _col(sp, m.jnt_dofadr[m.wrap_jnt[w]])
+        jac[e, r, c] = jac[e, r, c] + scale * m.wrap_coef[w]
+
+
+@wp.func
+def _coupling(x1: float, y: float, c: wp.array3d(dtype=float), e: int, i: int):
+    """(error, d error / d y) of x1 = c0 + c1·y + c2·y² + c3·y³ + c4·y⁴, MuJoCo's joint and
+    tendon equality."""
+    value = c[e, i, 0] + y * (c[e, i, 1] + y * (c[e, i, 2] + y * (c[e, i, 3] + y * c[e, i, 4])))
+    slope = c[e, i, 1] + y * (2.0 * c[e, i, 2] + y * (3.0 * c[e, i, 3] + y * 4.0 * c[e, i, 4]))
+    return wp.vec2(x1 - value, slope)
+
+
+@wp.func
+def _rotation_vector(q: wp.quat):
+    """Axis · angle of the rotation q, the angle in [0, π]."""
+    v = wp.vec3(q[0], q[1], q[2])
+    w = q[3]
+    if w < 0.0:
+        v = -v
+        w = -w
+    sine = wp.length(v)
+    if sine < 1.0e-9:
+        return 2.0 * v
+    return v * (2.0 * wp.atan2(sine, w) / sine)
+
+
+@wp.func
+def equality_rows(m: ModelArrays, e: int, base: int, p: EnvParams, s: State,
+                  factor: wp.array2d(dtype=float), rows: Rows):
+    """The rows of each active equality constraint (`ModelArrays.eq_rowadr`), hard and
+    bilateral: err is the violation (J·v its rate), to be brought to 0.
+
+    connect: 3 rows, the world x, y, z of p1 - p2 (the anchor points on the two bodies);
+    weld: those 3, then 3 rows of the rotation vector taking body 2's frame onto body 1's
+    (world axes; J: ω1 - ω2); joint and tendon: 1 row, x1 - x1_0 - poly(x2 - x2_0).
+    Their responses are built now, and the Cholesky factor of the constraint's block of
+    J M⁻¹ Jᵀ (`Rows.eq_chol`), which the solver uses to solve the rows of one constraint
+    together."""
+    for i in range(m.neq):
+        r = base + m.eq_rowadr[i]
+        n = m.eq_rownum[i]
+        for a in range(n):
+            rows.type[e, r + a] = INACTIVE
+            rows.lam_init[e, r + a] = 0.0
+        if p.eq_active[e, i] == 0:
+            continue
+        kind = m.eq_type[i]
+        o1 = m.eq_obj1[i]
+        o2 = m.eq_obj2[i]
+        none = wp.vec2i(0, 0)
+        if kind == CONNECT or kind == WELD:
+            sp = _body_spans(m, o1, o2)
+            for a in range(n):
+                rows.span[e, r + a] = sp
+                dense.row_fill(rows.jac, e, r + a, 0.0, _width(sp))
+            x1 = _pose(s.body_x, e, o1)
+            x2 = _pose(s.body_x, e, o2)
+            p1 = wp.transform_point(x1, p.eq_anchor[e, i, 0])
+            p2 = wp.transform_point(x2, p.eq_anchor[e, i, 1])
+            ex = wp.vec3(1.0, 0.0, 0.0)
+            ey = wp.vec3(0.0, 1.0, 0.0)
+            ez = wp.vec3(0.0, 0.0, 1.0)
+            _add_contact_jacobian(m, e, o1, p1, ex, ey, ez, 1.0, s.body_x, s.cdof, rows.jac, r, sp)
+            _add_contact_jacobian(m, e, o2, p2, ex, ey, ez, -1.0, s.body_x, s.cdof, rows.jac, r,
+                                  sp)
+            gap = p1 - p2
+            for a in range(3):
+                rows.err[e, r + a] = gap[a]
+            if n == 6:
+                q1 = wp.transform_get_rotation(x1) * p.eq_frame[e, i, 0]
+                q2 = wp.transform_get_rotation(x2) * p.eq_frame[e, i, 1]
+                turn = _rotation_vector(q1 * wp.quat_inverse(q2))
+                for a in range(3):
+                    rows.err[e, r + 3 + a] = turn[a]
+                _add_angular_jacobian(m, e, o1, 1.0, s.cdof, rows.jac, r + 3, sp)
+                _add_angular_jacobian(m, e, o2, -1.0, s.cdof, rows.jac, r + 3, sp)
+        else:
+            ref = m.eq_ref[i]
+            sp = wp.vec4i(0, 0, 0, 0)
+            val1 = float(0.0)
+            val2 = float(0.0)
+            if kind == EQ_JOINT:
+                d1 = m.jnt_dofadr[o1]
+                t2 = none
+                if o2 >= 0:
+                    t2 = m.dof_tree_span[m.jnt_dofadr[o2]]
+                    val2 = s.q[e, m.jnt_qposadr[o2]]
+                sp = _spans(m.dof_tree_span[d1], t2)
+                val1 = s.q[e, m.jnt_qposadr[o1]]
+            else:
+                sp = _tendon_span(m, o1)
+                val1 = tendon_length(m, p, s, e, o1)[0]
+                if o2 >= 0:
+                    other = _tendon_span(m, o2)
+                    sp = wp.vec4i(wp.min(sp[0], other[0]), wp.max(sp[1], other[1]), 0, 0)
+                    val2 = tendon_length(m, p, s, e, o2)[0]
+            rows.span[e, r] = sp
+            dense.row_fill(rows.jac, e, r, 0.0, _width(sp))
+            err_slope = wp.vec2(val1 - ref[0] - p.eq_polycoef[e, i, 0], 0.0)
+            if o2 >= 0:
+                err_slope = _coupling(val1 - ref[0], val2 - ref[1], p.eq_polycoef, e, i)
+            rows.err[e, r] = err_slope[0]
+            if kind == EQ_JOINT:
+                c1 = _col(sp, m.jnt_dofadr[o1])
+                rows.jac[e, r, c1] = 1.0
+                if o2 >= 0:
+                    c2 = _col(sp, m.jnt_dofadr[o2])
+                    rows.jac[e, r, c2] = rows.jac[e, r, c2] - err_slope[1]
+            else:
+                _tendon_add(m, e, o1, 1.0, rows.jac, r, sp)
+                if o2 >= 0:
+                    _tendon_add(m, e, o2, -err_slope[1], rows.jac, r, sp)
+        _finish_equality(m, e, r, n, r - base, factor, rows)
+
+
+@wp.func
+def _finish_equality(m: ModelArrays, e: int, r: int, n: int, k: int,
+                     factor: wp.array2d(dtype=float), rows: Rows):
+    """Responses of an equality's n rows from r (the k-th equality row), the Cholesky factor of
+    their J M⁻¹ Jᵀ into eq_chol[k...], and their warm start. A row that depends on the rows
+    before it (a weld on a body with fewer than 6 dofs) gets a zero pivot: the solver leaves it
+    out."""
+    sp = rows.span[e, r]
+    width = _width(sp)
+    for a in range(n):
+        dense.row_copy(rows.minv_jt, rows.jac, e, r + a, width)
+    for a in range(0, n, 3):
+        _solve_rows(m, e, factor, rows.minv_jt, r + a, wp.min(3, n - a), sp)
+    for a in range(n):
+        for b in range(a + 1):
+            x = float(0.0)
+            for c in range(width):
+                x = x + rows.jac[e, r + a, c] * rows.minv_jt[e, r + b, c]
+            if b == a:
+                rows.inv_mass[e, r + a] = 0.0
+                if x > 1.0e-12:
+                    rows.inv_mass[e, r + a] = 1.0 / x
+            for c in range(b):
+                x = x - rows.eq_chol[e, k + a, c] * rows.eq_chol[e, k + b, c]
+            if b < a:
+                pivot = rows.eq_chol[e, k + b, b]
+                if pivot > 0.0:
+                    x = x / pivot
+                else:
+                    x = 0.0
+            elif x > 1.0e-6 / wp.max(rows.inv_mass[e, r + a], 1.0e-30):
+                x = wp.sqrt(x)
+            else:
+                x = 0.0      # dependent on the rows before it
+            rows.eq_chol[e, k + a, b] = x
+    for a in range(n):
+        rows.type[e, r + a] = EQUALITY
+        rows.lam_init[e, r + a] = rows.lam[e, r + a]
 
 
 @wp.func

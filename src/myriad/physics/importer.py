@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from .model import Model, ModelError
-from .types import ActuatorKind, JointType
+from .types import ActuatorKind, EqualityType, JointType
 
 
 def load(path: str | os.PathLike) -> Model:
@@ -237,9 +237,12 @@ def _check_supported(m, source: str) -> None:
     def fail(what: str) -> None:
         raise ModelError(f"{source}: {what}")
 
-    if m.neq:
-        fail(f"{_label(m, o.mjOBJ_EQUALITY, 0, 'equality constraint')}: equality constraints "
-             "(connect/weld/joint/tendon) are not supported")
+    for i in range(m.neq):
+        label = _label(m, o.mjOBJ_EQUALITY, i, "equality constraint")
+        kind = int(m.eq_type[i])
+        if kind not in {int(t) for t in EqualityType}:
+            fail(f"{label}: {mujoco.mjtEq(kind).name} equality constraints are not supported "
+                 "(connect, weld, joint and tendon are)")
     if m.nflex:
         fail("flex (deformable) elements are not supported")
     if m.nmocap:
@@ -399,7 +402,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
     model = Model(
         source=source, mj_model=m,
         nq=m.nq, nv=m.nv, nbody=nbody, njnt=m.njnt, ngeom=m.ngeom, nsite=m.nsite, nu=nu,
-        ntendon=m.ntendon, nsensor=len(sensors),
+        ntendon=m.ntendon, nsensor=len(sensors), neq=m.neq,
         body_names=[_name(m, o.mjOBJ_BODY, b) for b in range(1, m.nbody)],
         joint_names=[_name(m, o.mjOBJ_JOINT, j) for j in range(m.njnt)],
         geom_names=[_name(m, o.mjOBJ_GEOM, g) for g in range(m.ngeom)],
@@ -456,9 +459,49 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
                      else "torque" for s in sensors],
         sensor_site=_i32(m.sensor_objid[sensors]),
         exclude_body_pairs=_i32(_exclude_pairs(m)),
+        **_equalities(m),
         gravity=_f32(m.opt.gravity), timestep=float(m.opt.timestep),
     )
     return model
+
+
+def _equalities(m) -> dict:
+    """The Model's eq_* fields from MuJoCo's, with one meaning for body and site semantics: a
+    frame on each body (anchor point, orientation) that the constraint brings together."""
+    neq = m.neq
+    anchor = np.zeros((neq, 2, 3))
+    frame = np.tile([0.0, 0.0, 0.0, 1.0], (neq, 2, 1))
+    obj = np.stack([m.eq_obj1id, m.eq_obj2id], axis=1).astype(np.int64) if neq else \
+        np.zeros((0, 2), np.int64)
+    ref = np.zeros((neq, 2))
+    for i in range(neq):
+        kind, data = int(m.eq_type[i]), m.eq_data[i]
+        if kind in (EqualityType.CONNECT, EqualityType.WELD):
+            if m.eq_objtype[i] == mujoco.mjtObj.mjOBJ_SITE:
+                sites = obj[i].copy()
+                obj[i] = m.site_bodyid[sites]
+                anchor[i] = m.site_pos[sites]
+                if kind == EqualityType.WELD:
+                    frame[i] = _xyzw(m.site_quat[sites])
+            elif kind == EqualityType.CONNECT:
+                anchor[i] = data[0:3], data[3:6]       # on body 1, on body 2
+            else:
+                # MuJoCo's weld: the point data[3:6] of body 1 on the point data[0:3] (the
+                # anchor) of body 2, and body 1's frame turned by relpose onto body 2's
+                anchor[i] = data[3:6], data[0:3]
+                frame[i, 0] = _xyzw(data[6:10] / np.linalg.norm(data[6:10]))
+            obj[i] -= 1                                # our body ids: world -1
+        else:
+            for side in range(2):
+                x = obj[i, side]
+                if x >= 0:
+                    ref[i, side] = (m.qpos0[m.jnt_qposadr[x]] if kind == EqualityType.JOINT
+                                    else m.tendon_length0[x])
+    return dict(eq_type=_i32(m.eq_type), eq_obj1=_i32(obj[:, 0]), eq_obj2=_i32(obj[:, 1]),
+                eq_active=m.eq_active0.astype(bool), eq_anchor=_f32(anchor), eq_frame=_f32(frame),
+                eq_rotation=(m.eq_data[:, 10] != 0) if neq else np.zeros(0, bool),
+                eq_polycoef=_f32(m.eq_data[:, :5]) if neq else np.zeros((0, 5), np.float32),
+                eq_ref=_f32(ref))
 
 
 def _qpos_xyzw(m, qpos: np.ndarray) -> np.ndarray:

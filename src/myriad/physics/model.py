@@ -36,6 +36,7 @@ class Model:
     nu: int
     ntendon: int
     nsensor: int
+    neq: int
 
     body_names: list[str]
     joint_names: list[str]
@@ -146,6 +147,21 @@ class Model:
 
     # contact filtering
     exclude_body_pairs: np.ndarray   # [nexclude, 2] body ids (-1 = world)
+
+    # equality constraints (MuJoCo's <equality>), hard rows of the solve (docs/physics.md).
+    # Site semantics are turned into body semantics at import: a frame on each of two bodies.
+    eq_type: np.ndarray              # [neq] types.EqualityType
+    eq_obj1: np.ndarray              # [neq] body (connect, weld), joint or tendon
+    eq_obj2: np.ndarray              # [neq] the same kind; -1: the world (bodies) or none
+    eq_active: np.ndarray            # [neq] bool, initially active
+    eq_anchor: np.ndarray            # [neq, 2, 3] connect/weld: the point fixed on body 1
+                                     # (body 1 frame), and on body 2 (body 2 frame)
+    eq_frame: np.ndarray             # [neq, 2, 4] weld: orientation xyzw of the frame fixed on
+                                     # body 1 and on body 2, which the weld keeps aligned
+    eq_rotation: np.ndarray          # [neq] bool, weld: orientation held too (torquescale != 0)
+    eq_polycoef: np.ndarray          # [neq, 5] joint/tendon: x1 - x1_0 = c0 + c1·y + ... + c4·y⁴,
+                                     # y = x2 - x2_0 (x: joint position or tendon length)
+    eq_ref: np.ndarray               # [neq, 2] x1_0, x2_0: joint qpos0 or tendon length at qpos0
 
     gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81], np.float32))
     timestep: float = 1.0 / 60.0

@@ -26,6 +26,7 @@ from .model import Model
 from .params import SimParams
 from .devices import resolve_device
 from .structs import EnvParams, State
+from .types import EqualityType
 
 
 class Simulator:
@@ -73,12 +74,17 @@ class Simulator:
         limited_tendons = [t for t in range(m.ntendon) if m.tendon_limited[t] and params.constraints]
         self._limit_tendon = wp.array(np.asarray(limited_tendons, np.int32), dtype=wp.int32,
                                       device=dev)
+        equality_rows = int(structs.equality_rows(m)["eq_rownum"].sum()) if params.constraints else 0
         self._rows_at = constraints.row_layout(self.contact_capacity, len(limited),
-                                               len(limited_tendons), m.ntendon,
+                                               len(limited_tendons), equality_rows, m.ntendon,
                                                m.nv if params.constraints else 0)
         self.nrow = self._rows_at.end
         dof_span = structs.tree_spans(model)[0]
         tendon_dofs = [m.jnt_dofadr[m.wrap_jnt[a:a + k]] for a, k in zip(m.tendon_adr, m.tendon_num)]
+        # a tendon equality's row spans both tendons' dofs
+        tendon_dofs += [np.concatenate([tendon_dofs[t] for t in (t1, t2) if t >= 0])
+                        for kind, t1, t2 in zip(m.eq_type, m.eq_obj1, m.eq_obj2)
+                        if kind == EqualityType.TENDON]
         self.row_width = constraints.row_width(dof_span, tendon_dofs)
         madr, mnum, mass_col = structs.mass_matrix_layout(m.dof_parent)
 
@@ -97,7 +103,7 @@ class Simulator:
                           ntendon=m.ntendon, ngeom=m.ngeom, nsite=m.nsite,
                           nsensor=len(self.sensor_sites), ncontact=self.contact_capacity,
                           nrow=self.nrow, row_width=self.row_width, nmass=len(mass_col),
-                          nlimit=2 * len(limited))
+                          nlimit=2 * len(limited), neq=m.neq, neqrow=equality_rows)
         gravity = m.gravity if params.gravity is None else np.asarray(params.gravity)
         initial = {
             EnvParams: dict(
@@ -114,7 +120,8 @@ class Simulator:
                 tendon_range=m.tendon_range.reshape(-1, 2),
                 tendon_limit_stiffness=m.tendon_limit_stiffness,
                 tendon_rest_length=m.tendon_rest_length, tendon_offset=m.tendon_offset,
-                gravity=gravity),
+                gravity=gravity, eq_active=m.eq_active & params.constraints,
+                eq_anchor=m.eq_anchor, eq_frame=m.eq_frame, eq_polycoef=m.eq_polycoef),
             State: dict(q=m.qpos0),
         }
         self._structs = {struct: structs.allocate(struct, N, self.sizes, dev, initial.get(struct))

@@ -27,7 +27,7 @@ import warp as wp
 
 from . import dense
 from .constraints import RowLayout, build_contact_rows, build_dof_row
-from .types import DOF, FRICTION, INACTIVE, NORMAL, SOFT
+from .types import DOF, EQUALITY, FRICTION, INACTIVE, NORMAL, SOFT
 from .structs import Contacts, Dynamics, ModelArrays, Rows, State
 
 # fraction of the last substep's impulse a contact or limit row starts from: below 1 so that
@@ -35,6 +35,8 @@ from .structs import Contacts, Dynamics, ModelArrays, Rows, State
 # at its limit) decay instead of growing without bound from step to step. Friction rows start
 # from all of it: static friction on a slope would otherwise creep.
 WARM = wp.constant(0.9)
+
+vec6 = wp.types.vector(length=6, dtype=float)
 
 
 @wp.func
@@ -55,12 +57,13 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
 
     Normal rows first (the contacts', then the joint limits solved together, then tendon
     limits), then the contacts' friction rows, whose bounds then hold this sweep's normal
-    impulses, then tendon springs and dofs."""
+    impulses, then tendon springs and dofs, then the equality constraints (each one's rows
+    together)."""
     for k in range(ncontact):
         _normal_row(m, e, 3 * k, biased, tgs, hs, h, max_depenetration, factor, rows, v, dq)
     _joint_limit_block(m, e, layout, limit_jnt, first, biased, tgs, hs, h, max_depenetration,
                        factor, rows, v, dq)
-    for r in range(layout.tendon_limits, layout.springs):
+    for r in range(layout.tendon_limits, layout.equalities):
         _normal_row(m, e, r, biased, tgs, hs, h, max_depenetration, factor, rows, v, dq)
     for k in range(ncontact):
         _friction_rows(e, 3 * k + 1, biased, tgs, hs, rows, v, dq)
@@ -77,6 +80,11 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int,
         r = layout.dofs + dof
         if row_type[r] == DOF and (row_bound[r] > 0.0 or wp.abs(speed[dof]) > row_cap[r]):
             _dof_row(m, e, r, dof, factor, rows, v)
+    # equalities last: the sweep ends with them holding, whatever the rows before did
+    if layout.springs > layout.equalities:
+        for i in range(m.neq):
+            _equality(m, e, layout.equalities, i, biased, tgs, hs, max_depenetration, rows, v,
+                      dq)
 
 
 @wp.func
@@ -122,6 +130,51 @@ def _normal_row(m: ModelArrays, e: int, r: int, biased: int, tgs: int, hs: float
     new = wp.max(old + (target - jv) * rows.inv_mass[e, r], 0.0)
     rows.lam[e, r] = new
     dense.row_apply(v, e, new - old, rows.minv_jt, r, rows.span[e, r])
+
+
+@wp.func
+def _equality(m: ModelArrays, e: int, base: int, i: int, biased: int, tgs: int, hs: float,
+              max_depenetration: float, rows: Rows, v: wp.array2d(dtype=float),
+              dq: wp.array2d(dtype=float)):
+    """The rows of equality constraint i solved together, exactly: impulses Δλ (of either sign)
+    with J M⁻¹ Jᵀ Δλ = target - J·v for its (up to 6) rows, by the Cholesky factor the rows
+    were built with (`constraints.equality_rows`). Row by row, the three rows of a point on a
+    long arm (effective masses far apart) would converge over many sweeps. Targets: in
+    position sweeps the violation undone over the sub-step (its speed capped like
+    depenetration), in velocity sweeps no relative motion."""
+    r = base + m.eq_rowadr[i]
+    if rows.type[e, r] != EQUALITY:
+        return
+    n = m.eq_rownum[i]
+    k = m.eq_rowadr[i]
+    sp = rows.span[e, r]
+    x = vec6()
+    for a in range(n):     # forward substitution: L y = target - J·v
+        rhs = -dense.row_dot(rows.jac, e, r + a, v, sp)
+        if biased != 0:
+            err = rows.err[e, r + a]
+            if tgs != 0:
+                err = err + dense.row_dot(rows.jac, e, r + a, dq, sp)
+            rhs = rhs + wp.clamp(-err / hs, -max_depenetration, max_depenetration)
+        for c in range(a):
+            rhs = rhs - rows.eq_chol[e, k + a, c] * x[c]
+        pivot = rows.eq_chol[e, k + a, a]
+        x[a] = 0.0
+        if pivot > 0.0:
+            x[a] = rhs / pivot
+    for aa in range(n):    # back substitution: Lᵀ Δλ = y
+        a = n - 1 - aa
+        rhs = x[a]
+        for c in range(a + 1, n):
+            rhs = rhs - rows.eq_chol[e, k + c, a] * x[c]
+        pivot = rows.eq_chol[e, k + a, a]
+        x[a] = 0.0
+        if pivot > 0.0:
+            x[a] = rhs / pivot
+    for a in range(n):
+        if x[a] != 0.0:
+            rows.lam[e, r + a] = rows.lam[e, r + a] + x[a]
+            dense.row_apply(v, e, x[a], rows.minv_jt, r + a, sp)
 
 
 @wp.func

@@ -28,6 +28,8 @@ import numpy as np
 import torch
 import warp as wp
 
+from .types import EqualityType
+
 
 class Field(NamedTuple):
     dims: tuple               # sizes after the env dimension: names of Simulator sizes, or ints
@@ -74,7 +76,9 @@ def allocate(struct, num_envs: int, sizes: dict, device, values: dict | None = N
                   for name, f in struct.fields.items()}
     for name, array in arrays.items():
         if values is not None and name in values:
-            one = np.asarray(values[name], np.float32)
+            scalar = getattr(struct.fields[name].dtype, "_wp_scalar_type_",
+                             struct.fields[name].dtype)
+            one = np.asarray(values[name], wp.dtype_to_numpy(scalar))
             assert one.shape[:len(shapes[name]) - 1] == shapes[name][1:], (name, one.shape)
             array.assign(np.ascontiguousarray(np.broadcast_to(one, (num_envs,) + one.shape)))
         setattr(out, name, array)
@@ -226,6 +230,14 @@ class ModelArrays:
     wrap_recip: wp.array(dtype=float)
     tendon_limited: wp.array(dtype=wp.int32)
 
+    neq: int
+    eq_type: wp.array(dtype=wp.int32)       # types.EqualityType
+    eq_obj1: wp.array(dtype=wp.int32)       # body (-1: world), joint or tendon
+    eq_obj2: wp.array(dtype=wp.int32)
+    eq_ref: wp.array(dtype=wp.vec2)         # joint/tendon: x1_0, x2_0
+    eq_rowadr: wp.array(dtype=wp.int32)     # first row, counted from the equality family's
+    eq_rownum: wp.array(dtype=wp.int32)     # rows: 3 connect, 6 (3 without rotation) weld, 1
+
 
 def tree_spans(model) -> tuple[np.ndarray, np.ndarray]:
     """[lo, hi) of the dof tree of each dof [nv, 2] and of each body's moving dofs [nbody, 2].
@@ -271,6 +283,14 @@ def mass_matrix_layout(dof_parent: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     return madr, mnum, mass_col
 
 
+def equality_rows(model) -> dict:
+    """eq_rowadr, eq_rownum: each equality constraint's rows within the equality family."""
+    rownum = np.asarray([6 if t == EqualityType.WELD and rot else
+                         3 if t in (EqualityType.CONNECT, EqualityType.WELD) else 1
+                         for t, rot in zip(model.eq_type, model.eq_rotation)], np.int32)
+    return dict(eq_rownum=rownum, eq_rowadr=(np.cumsum(rownum) - rownum).astype(np.int32))
+
+
 def model_arrays(model, device) -> ModelArrays:
     """`model` on the device: each field of ModelArrays is the Model's attribute of the same
     name, except the few derived here."""
@@ -278,6 +298,7 @@ def model_arrays(model, device) -> ModelArrays:
     madr, mnum, mass_col = mass_matrix_layout(model.dof_parent)
     derived = dict(dof_tree_span=dof_span, body_tree_span=body_span,
                    dof_madr=madr, dof_mnum=mnum, mass_col=mass_col,
+                   **equality_rows(model),
                    actuator_qposadr=model.jnt_qposadr[model.dof_jnt[model.actuator_dof]])
     out = ModelArrays()
     for name, var in ModelArrays.vars.items():
@@ -344,6 +365,15 @@ class EnvParams:
                             writable=True)
     gravity = per_env(dtype=wp.vec3, doc="gravitational acceleration, world (m/s²)",
                       public=True, writable=True)
+    eq_active = per_env("neq", dtype=wp.int32, doc="1: the equality constraint holds, 0: it is "
+                        "off (MuJoCo's eq_active)", public=True, writable=True)
+    eq_anchor = per_env("neq", 2, dtype=wp.vec3, doc="connect/weld: the point on body 1 (its "
+                        "frame) and on body 2 (its frame) that the constraint joins (m)",
+                        public=True, writable=True)
+    eq_frame = per_env("neq", 2, dtype=wp.quat, doc="weld: the orientations (xyzw) on body 1 "
+                       "and body 2 that the weld keeps aligned", public=True, writable=True)
+    eq_polycoef = per_env("neq", 5, doc="joint/tendon: x1 - x1_0 = c0 + c1·y + c2·y² + c3·y³ "
+                          "+ c4·y⁴, y = x2 - x2_0", public=True, writable=True)
 
 
 @declared
@@ -464,6 +494,9 @@ class Rows:
     block_row = per_env("nlimit", dtype=wp.int32, doc="limit block: the active set, in order")
     block_a = per_env("nlimit", "nlimit", doc="limit block: Cholesky factor of J M⁻¹ Jᵀ on the "
                       "active set")
+    eq_chol = per_env("neqrow", 6, doc="equality rows: row i of the Cholesky factor of their "
+                      "constraint's J M⁻¹ Jᵀ (columns up to i; a zero diagonal for a row "
+                      "dependent on those before it)")
 
 
 STRUCTS = (EnvParams, State, Control, Dynamics, Contacts, Rows)

@@ -46,6 +46,15 @@ class RowType(IntEnum):
     FRICTION2 = 2  # second friction row (handled with the first)
     SOFT = 3       # implicit spring-damper along J (fixed tendons): force, not constraint
     DOF = 4        # a dof's dry friction (|impulse| <= frictionloss·h) and speed cap
+    EQUALITY = 5   # bilateral: J v = target, impulse of either sign (equality constraints)
+
+
+class EqualityType(IntEnum):
+    """MuJoCo's equality constraints (`mjtEq`), each a set of hard rows (`constraints`)."""
+    CONNECT = 0    # a point of body 1 on a point of body 2 (a ball joint): 3 rows
+    WELD = 1       # body 1's frame fixed in body 2's: 3 position rows + 3 orientation rows
+    JOINT = 2      # q1 - q1_0 = polynomial(q2 - q2_0): 1 row (a URDF <mimic> joint)
+    TENDON = 3     # the same coupling between two fixed tendons' lengths: 1 row
 
 
 # the same values as kernel constants
@@ -73,3 +82,9 @@ FRICTION = wp.constant(int(RowType.FRICTION))
 FRICTION2 = wp.constant(int(RowType.FRICTION2))
 SOFT = wp.constant(int(RowType.SOFT))
 DOF = wp.constant(int(RowType.DOF))
+EQUALITY = wp.constant(int(RowType.EQUALITY))
+
+CONNECT = wp.constant(int(EqualityType.CONNECT))
+WELD = wp.constant(int(EqualityType.WELD))
+EQ_JOINT = wp.constant(int(EqualityType.JOINT))
+EQ_TENDON = wp.constant(int(EqualityType.TENDON))

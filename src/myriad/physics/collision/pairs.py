@@ -3,7 +3,9 @@
 A pair (g1, g2) can touch when its geoms are on different bodies, not both static, pass the
 contype/conaffinity test ((contype1 & conaffinity2) | (contype2 & conaffinity1)), are not a
 parent-child body pair (unless the parent is the world), and are not excluded by an MJCF
-<exclude>. Pairs are ordered so that geom type 1 <= geom type 2 (a plane always comes first);
+<exclude>. Bodies joined by a connect or weld equality do not collide either (PhysX's default
+for jointed bodies: a weld holding two touching bodies together left their contact nothing to
+do but push harder each step, and a driven arm carrying a welded tool blew up). Pairs are ordered so that geom type 1 <= geom type 2 (a plane always comes first);
 contact normals point from geom 1 to geom 2.
 
 One rule MuJoCo does not have: two geoms of one articulation that overlap (by more than 0.1 mm)
@@ -22,7 +24,7 @@ import warnings
 import mujoco
 import numpy as np
 
-from ..types import GeomType, JointType
+from ..types import EqualityType, GeomType, JointType
 
 
 def candidate_pairs(model, self_collision=True) -> np.ndarray:
@@ -35,6 +37,9 @@ def candidate_pairs(model, self_collision=True) -> np.ndarray:
     parent = np.where(body >= 0, model.body_parent[np.maximum(body, 0)], -2)
     root = np.where(body >= 0, model.body_root[np.maximum(body, 0)], -1)
     excluded = {tuple(sorted(p)) for p in model.exclude_body_pairs.tolist()}
+    jointed = np.isin(model.eq_type, (EqualityType.CONNECT, EqualityType.WELD))
+    excluded |= {tuple(sorted(p)) for p in
+                 np.stack([model.eq_obj1, model.eq_obj2], 1)[jointed].tolist()}
     pairs = []
     for g1 in range(model.ngeom):
         for g2 in range(g1 + 1, model.ngeom):
