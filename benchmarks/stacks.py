@@ -37,10 +37,11 @@ SCENES = {  # name: (box half sizes from the bottom, seconds)
 SETTLE = 30
 
 
-def myriad_drift(model, nbox: int, seconds: float, solver: str, iterations: int) -> float:
+def myriad_drift(model, nbox: int, seconds: float, solver: str, iterations: int,
+                 device: str = "cpu") -> float:
     params = myriad.SimParams(dt=1 / 60, substeps=2, solver=solver,
                               position_iterations=iterations, velocity_iterations=1)
-    sim = myriad.Simulator(model, num_envs=1, params=params, cpu_threads=1)
+    sim = myriad.Simulator(model, num_envs=1, params=params, device=device, cpu_threads=1)
     top = 7 * (nbox - 1)
     for _ in range(SETTLE):
         sim.step()

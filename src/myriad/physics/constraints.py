@@ -15,9 +15,10 @@ stores only those dofs: column c < hi1 - lo1 holds dof lo1 + c, the columns afte
 range (`_col`). The row width is the model's widest span (`row_width`): two trees, or a tendon's
 trees, at most nv; 64 free boxes store 12 columns per row instead of 384.
 
-Each row's starting impulse (warm start) is the final impulse of the same constraint in the last
-substep: the same contact (pair and feature, e.g. the same box corner) or the same limit. A
-resting contact then starts converged instead of being rebuilt from zero by a few sweeps.
+A limit, equality or dof row starts from the final impulse of the same row in the last substep
+(warm start). A contact's rows start from zero; what a contact carries from the last substep
+(found by its pair and feature, e.g. the same box corner) is its friction anchors, the points of
+its two bodies where it began to stick, which its friction rows hold together.
 """
 
 import warp as wp
@@ -155,7 +156,7 @@ def _solve_rows(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
 def _set_inv_mass(rows: Rows, e: int, r: int, sp: wp.vec4i, kind: int):
     """1/(J M⁻¹ Jᵀ) of row r, which becomes `kind`; a row that moves nothing (e.g. between two
     static shapes) is dropped."""
-    w = dense.row_norm(rows.jac, rows.minv_jt, e, r, _width(sp))
+    w = dense.rows_dot(rows.jac, r, rows.minv_jt, r, e, _width(sp))
     if w > 1.0e-12:
         rows.inv_mass[e, r] = 1.0 / w
         rows.type[e, r] = kind
@@ -203,7 +204,8 @@ def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float,
                limit_tendon: wp.array(dtype=wp.int32), p: EnvParams,
                s: State,        # in: q, qd, qacc, body_x, cdof
                d: Dynamics,     # in: factor
-               # in: contacts; out: the warm-start keys (prev_key, prev_count)
+               # in: contacts, slid; out: anchor, and the keys and anchors for the next
+               # substep (prev_key, prev_count, prev_anchor)
                contacts: Contacts,
                # in: the last substep's impulses (lam); out: everything else
                rows: Rows):
@@ -272,10 +274,11 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
                     + h * dense.row_dot(rows.jac, e, r0, s.qacc, sp))
         if approach < -bounce_threshold:
             rows.bounce[e, r0] = -restitution * approach
-        # warm start from the same contact (same pair and feature) of the last substep
-        # (contacts mostly come in the same order as in the last substep, so the search starts
-        # after the last match and wraps around; in the rare case of two contacts of one pair
-        # sharing a key, e.g. two box corners in one face quadrant, either impulse is a guess)
+        # the same contact (same pair and feature) in the last substep, whose friction anchors
+        # it inherits (contacts mostly come in the same order as in the last substep, so the
+        # search starts after the last match and wraps around; in the rare case of two
+        # contacts of one pair sharing a key, e.g. two box corners in one face quadrant,
+        # either one's anchors are a guess)
         same = int(-1)
         npre = c.prev_count[e]
         for jj in range(npre):
@@ -284,18 +287,33 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
                 same = j
                 hint = j + 1
                 break
-        # the response is built now if the contact starts with an impulse, else by the solver
-        # once the contact first pushes (most contacts in the contact offset never do)
+        # static friction anchors (PhysX's): the points of the two bodies that were at the
+        # contact point when the contact began to stick, kept while it holds without sliding
+        # (a normal impulse, the friction impulse inside the disk); the friction rows' error
+        # is how far apart the two have drifted along the tangents, which the position sweeps
+        # undo. The response is built by the solver once the contact first pushes (most
+        # contacts in the contact offset never do), and its impulses start from zero: warm
+        # started from the last substep, the impulses of a stack's rows fed the next
+        # substep's errors back into it, and three stacked boxes rocked and turned at up to
+        # 0.7 rad/s, drifting 8.5 mm in 5 s (`benchmarks/stacks.py`); with the anchors holding
+        # the contacts in place instead, 0.01 mm.
+        x1 = _pose(s.body_x, e, b1)
+        x2 = _pose(s.body_x, e, b2)
+        a1 = wp.transform_point(wp.transform_inverse(x1), pos)
+        a2 = wp.transform_point(wp.transform_inverse(x2), pos)
         if same >= 0:
-            warm3 = wp.vec3(rows.lam[e, 3 * same], rows.lam[e, 3 * same + 1],
-                            rows.lam[e, 3 * same + 2])
-            if warm3[0] != 0.0 or warm3[1] != 0.0 or warm3[2] != 0.0:
-                build_contact_rows(m, e, r0, sp, factor, rows)
-                for d in range(3):
-                    if rows.type[e, r0 + d] != INACTIVE:
-                        rows.lam_init[e, r0 + d] = warm3[d]
+            if rows.lam[e, 3 * same] > 0.0 and c.slid[e, same] == 0:
+                a1 = c.prev_anchor[e, same, 0]
+                a2 = c.prev_anchor[e, same, 1]
+        c.anchor[e, k, 0] = a1
+        c.anchor[e, k, 1] = a2
+        drift = wp.transform_point(x2, a2) - wp.transform_point(x1, a1)
+        rows.err[e, r0 + 1] = wp.dot(drift, t1)
+        rows.err[e, r0 + 2] = wp.dot(drift, t2)
     for k in range(ncontact):
         c.prev_key[e, k] = c.key[e, k]
+        c.prev_anchor[e, k, 0] = c.anchor[e, k, 0]
+        c.prev_anchor[e, k, 1] = c.anchor[e, k, 1]
     c.prev_count[e] = ncontact
 
 
@@ -515,9 +533,7 @@ def _finish_equality(m: ModelArrays, e: int, r: int, n: int, k: int,
         _solve_rows(m, e, factor, rows.minv_jt, r + a, wp.min(3, n - a), sp)
     for a in range(n):
         for b in range(a + 1):
-            x = float(0.0)
-            for c in range(width):
-                x = x + rows.jac[e, r + a, c] * rows.minv_jt[e, r + b, c]
+            x = dense.rows_dot(rows.jac, r + a, rows.minv_jt, r + b, e, width)
             if b == a:
                 rows.inv_mass[e, r + a] = 0.0
                 if x > 1.0e-12:
@@ -574,7 +590,7 @@ def tendon_spring_rows(m: ModelArrays, e: int, base: int, p: EnvParams, s: State
                 rows.jac[e, r, col] = rows.jac[e, r, col] + m.wrap_coef[wi]
                 rows.minv_jt[e, r, col] = rows.minv_jt[e, r, col] + m.wrap_recip[wi]
             _solve_rows(m, e, factor, rows.minv_jt, r, 1, sp)
-            w_eff = dense.row_norm(rows.jac, rows.minv_jt, e, r, _width(sp))
+            w_eff = dense.rows_dot(rows.jac, r, rows.minv_jt, r, e, _width(sp))
             if w_eff > 1.0e-12:
                 rows.type[e, r] = SOFT
                 rows.inv_mass[e, r] = 1.0 / w_eff

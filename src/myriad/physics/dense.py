@@ -2,7 +2,7 @@
 
 Every row-sized loop of the engine goes through these few functions: J·v and v += M⁻¹Jᵀ·λ
 over a row's span (`row_dot`, `row_apply`) and building rows (`row_fill`, `row_copy`,
-`row_norm`). They are native code
+`rows_dot`). They are native code
 (`wp.func_native`, compiled by Warp for the CPU and for CUDA alike) because a Warp array index
 wraps negative indices and multiplies by the stride on every access, and a `range` loop with
 runtime bounds keeps a generic iterator: in these loops that overhead, not the arithmetic, was
@@ -73,16 +73,17 @@ def row_apply(v: wp.array2d(dtype=float), e: int, dl: float, a: wp.array3d(dtype
 
 
 @wp.func_native("""
-    const float* ap = wp::address(a, e, r, 0);
-    const float* bp = wp::address(b, e, r, 0);
+    const float* ap = wp::address(a, e, ra, 0);
+    const float* bp = wp::address(b, e, rb, 0);
     float s = 0.0f;
 """ + VECTOR_LOOP + """
     for (int i = 0; i < n; ++i) s += ap[i] * bp[i];
     return s;
 """)
-def row_norm(a: wp.array3d(dtype=float), b: wp.array3d(dtype=float), e: int, r: int,
+def rows_dot(a: wp.array3d(dtype=float), ra: int, b: wp.array3d(dtype=float), rb: int, e: int,
              n: int) -> float:
-    """a[e, r, :n] · b[e, r, :n] (J M⁻¹ Jᵀ of a row from its J and its response)."""
+    """a[e, ra, :n] · b[e, rb, :n]: J_a M⁻¹ J_bᵀ of two rows of one span from J_a and the
+    response of b (with ra = rb, a row's J M⁻¹ Jᵀ)."""
     ...
 
 

@@ -460,6 +460,11 @@ class Contacts:
                     public="contact_force")
     net_force = per_env("nbody", dtype=wp.vec3, doc="sum of the contact forces on each body (N)",
                         public="net_contact_force")
+    anchor = per_env("ncontact", 2, dtype=wp.vec3, doc="static friction anchors: the contact "
+                     "point when the contact began to stick, in body 1's frame and in body 2's")
+    prev_anchor = per_env("ncontact", 2, dtype=wp.vec3, doc="the last substep's anchors")
+    slid = per_env("ncontact", dtype=wp.int32, doc="1 if the friction disk cut the contact's "
+                   "friction impulse in the last sweep (it slides)")
     prev_key = per_env("ncontact", dtype=wp.int32, doc="the last substep's keys (warm start)")
     prev_count = per_env(dtype=wp.int32, doc="the last substep's contacts in use")
 
