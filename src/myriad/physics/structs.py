@@ -401,6 +401,9 @@ class Dynamics:
     qfrc = per_env("nv", doc="explicit generalized force minus bias")
     qfrc_applied = per_env("nv", doc="generalized force of joint_force and body_force")
     qfrc_actuator = per_env("nv", doc="generalized actuator force", public="dof_actuator_force")
+    actuator_force = per_env("nu", doc="each actuator's force before the gear at the start of "
+                             "the last substep, clamped to its force range (MuJoCo's "
+                             "actuator_force)", public=True)
     implicit_diag = per_env("nv", doc="h·d + h²·k of implicit dampers and drives, added to M's "
                             "diagonal in the solve")
     wrench = per_env("nbody", dtype=wp.spatial_vector, doc="body_force at the tree root")
