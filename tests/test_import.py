@@ -6,6 +6,7 @@ import pytest
 
 import myriad
 from myriad import ModelError
+from myriad.physics.types import SensorType
 
 
 def _write(tmp_path, name, text):
@@ -49,23 +50,23 @@ def test_unsupported_features_are_errors(tmp_path, snippet, message):
 
 
 def test_what_does_not_touch_the_dynamics_is_skipped_not_refused(tmp_path):
-    """A sensor Myriad does not compute is skipped with a warning naming it (the force sensor
-    beside it is kept, in order), and a flat mesh only drawn (no convex hull) loads."""
+    """A sensor Myriad does not compute is skipped with a warning naming it (the sensors around
+    it are kept, in order), and a flat mesh only drawn (no convex hull) loads."""
     path = _write(tmp_path, "extras.xml", """<mujoco>
       <asset><mesh name="decal" vertex="0 0 0 1 0 0 0 1 0 1 1 0" face="0 1 2 1 3 2" inertia="shell"/></asset>
       <worldbody><geom type="plane" size="2 2 0.1"/>
         <body name="a" pos="0 0 0.3"><freejoint/><geom type="box" size="0.1 0.1 0.1"/>
           <geom type="mesh" mesh="decal" contype="0" conaffinity="0" group="1" mass="0"/>
           <site name="imu"/></body></worldbody>
-      <sensor><accelerometer name="acc" site="imu"/><force name="f" site="imu"/>
-        <gyro name="gyro" site="imu"/></sensor></mujoco>""")
-    with pytest.warns(RuntimeWarning, match=r"extras.xml: 2 sensor\(s\) skipped.*'acc'.*'gyro'"):
+      <sensor><rangefinder name="range" site="imu"/><force name="f" site="imu"/>
+        <subtreecom name="com" body="a"/></sensor></mujoco>""")
+    with pytest.warns(RuntimeWarning, match=r"extras.xml: 2 sensor\(s\) skipped.*'range'.*'com'"):
         model = myriad.load(path)
-    assert model.sensor_names == ["f"] and model.sensor_type == ["force"]
+    assert model.sensor_names == ["f"] and list(model.sensor_type) == [SensorType.FORCE]
     sim = myriad.Simulator(model, num_envs=1)
     for _ in range(60):
         sim.step()
-    assert sim.sensor_data.shape == (1, 1, 3)
+    assert sim.sensor_data.shape == (1, 3)
     assert abs(sim.q[0, 2].item() - 0.1) < 2e-3          # the box rests on the plane
     # a collision mesh still needs its hull
     collides = open(path).read().replace(' contype="0" conaffinity="0"', "")
@@ -124,7 +125,7 @@ def test_urdf(tmp_path):
 def test_model_contents_of_the_ant():
     model = myriad.load(myriad.asset_path("ant.xml"))
     assert model.nq == 15 and model.nv == 14 and model.nu == 8
-    assert model.sensor_type == ["force", "torque"] * 4
+    assert list(model.sensor_type) == [SensorType.FORCE, SensorType.TORQUE] * 4
     assert np.all(model.actuator_gear == 15.0)
     # quaternions are stored xyzw: the free joint's initial rotation is the identity
     np.testing.assert_allclose(model.qpos0[3:7], [0, 0, 0, 1])

@@ -30,7 +30,8 @@ from .structs import Control, Dynamics, EnvParams, ModelArrays, State
 def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
                        s: State,      # in: q, qd; out: nonfinite
                        c: Control,    # in: ctrl
-                       # in: qfrc_applied, bias; out: qfrc_actuator, qfrc, implicit_diag
+                       # in: qfrc_applied, bias; out: qfrc_actuator, actuator_force, qfrc,
+                       # implicit_diag
                        d: Dynamics):
     """Explicit generalized force `qfrc` (minus the bias) and the implicit diagonal of this
     substep, from the applied forces (`body_wrenches`), actuators, damping and joint springs."""
@@ -64,12 +65,20 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
             else:
                 force = kv * (u - g * s.qd[e, i])
             damp = kv
+        # what MuJoCo reports as actuator_force: the force at this state, without the implicit
+        # step's prediction of the position (-kp·h·g·qd above), clamped to the force range
+        reported = force
+        if kind == POSITION:
+            reported = (p.actuator_kp[e, a] * (u - g * s.q[e, m.actuator_qposadr[a]])
+                        - p.actuator_kv[e, a] * g * s.qd[e, i])
         if m.actuator_forcelimited[a] != 0:
             r = m.actuator_forcerange[a]
+            reported = wp.clamp(reported, r[0], r[1])
             if force < r[0] or force > r[1]:
                 force = wp.clamp(force, r[0], r[1])
                 stiff = 0.0
                 damp = 0.0
+        d.actuator_force[e, a] = reported
         d.qfrc_actuator[e, i] = d.qfrc_actuator[e, i] + g * force
         d.implicit_diag[e, i] = d.implicit_diag[e, i] + g * g * (h * damp + h * h * stiff)
 
@@ -97,6 +106,8 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
         for i in range(m.nv):
             d.qfrc_actuator[e, i] = wp.nan
             d.qfrc[e, i] = wp.nan
+        for a in range(m.nu):
+            d.actuator_force[e, a] = wp.nan
 
 
 @wp.kernel

@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from .model import Model, ModelError
-from .types import ActuatorKind, EqualityType, JointType
+from .types import ActuatorKind, EqualityType, JointType, ObjType, SensorType
 
 
 def load(path: str | os.PathLike) -> Model:
@@ -313,21 +313,59 @@ def _actuator_kind(m, a: int, fail) -> int:
     return -1
 
 
-def _force_torque_sensors(m, source: str) -> list[int]:
-    """The model's force and torque sensors, which Myriad computes, in MuJoCo's order. Other
-    sensors do not change the dynamics: they are skipped with one warning naming them, rather
-    than refusing a model a user brought for its robot."""
-    kinds = (int(mujoco.mjtSensor.mjSENS_FORCE), int(mujoco.mjtSensor.mjSENS_TORQUE))
-    kept = [s for s in range(m.nsensor) if int(m.sensor_type[s]) in kinds]
-    skipped = [f"{_label(m, mujoco.mjtObj.mjOBJ_SENSOR, s, 'sensor')} "
-               f"({mujoco.mjtSensor(int(m.sensor_type[s])).name})"
-               for s in range(m.nsensor) if s not in kept]
+_FRAME_SENSORS = {SensorType.FRAMEPOS, SensorType.FRAMEQUAT, SensorType.FRAMEXAXIS,
+                  SensorType.FRAMEYAXIS, SensorType.FRAMEZAXIS, SensorType.FRAMELINVEL,
+                  SensorType.FRAMEANGVEL, SensorType.FRAMELINACC, SensorType.FRAMEANGACC}
+_FRAME_OBJECTS = {ObjType.BODY, ObjType.XBODY, ObjType.GEOM, ObjType.SITE}
+
+
+def _sensor_skipped(m, s: int) -> str | None:
+    """Why Myriad does not compute sensor s (None: it does)."""
+    kind = int(m.sensor_type[s])
+    if kind not in set(SensorType):
+        return mujoco.mjtSensor(kind).name
+    if m.sensor_delay[s] > 0 or m.sensor_interval[s, 0] > 0:
+        return f"{mujoco.mjtSensor(kind).name} with a delay or an interval"
+    if kind in _FRAME_SENSORS:
+        reftype = int(m.sensor_reftype[s]) if m.sensor_refid[s] >= 0 else int(ObjType.UNKNOWN)
+        if int(m.sensor_objtype[s]) not in _FRAME_OBJECTS or \
+                reftype not in _FRAME_OBJECTS | {ObjType.UNKNOWN}:
+            return f"{mujoco.mjtSensor(kind).name} of a camera"   # Myriad has no cameras
+    return None
+
+
+def _sensors(m, source: str) -> dict:
+    """The sensors Myriad computes (`sensors`), in MuJoCo's order, as the Model's sensor_*
+    fields. Other sensors do not change the dynamics: they are skipped with one warning naming
+    them, rather than refusing a model a user brought for its robot; the values of the kept
+    ones stay in MuJoCo's order, closed up where a skipped one was."""
+    o = mujoco.mjtObj
+    reasons = {s: _sensor_skipped(m, s) for s in range(m.nsensor)}
+    kept = [s for s in range(m.nsensor) if reasons[s] is None]
+    skipped = [f"{_label(m, o.mjOBJ_SENSOR, s, 'sensor')} ({reasons[s]})"
+               for s in range(m.nsensor) if reasons[s] is not None]
     if skipped:
         warnings.warn(f"{source}: {len(skipped)} sensor(s) skipped, not computed: "
                       f"{', '.join(skipped[:6])}{' ...' if len(skipped) > 6 else ''}; "
-                      "sim.sensor_data holds the force and torque sensors, in the model's "
-                      "order", RuntimeWarning, stacklevel=4)
-    return kept
+                      "sim.sensor_data holds the others, in the model's order",
+                      RuntimeWarning, stacklevel=4)
+
+    def our_id(objtype, objid):   # our bodies have no world body: MuJoCo's b is our b - 1
+        body = np.isin(objtype, [ObjType.BODY, ObjType.XBODY])
+        return _i32(np.where(body, objid - 1, objid))
+
+    kept = np.asarray(kept, np.int64)
+    objtype, refid = _i32(m.sensor_objtype[kept]), m.sensor_refid[kept]
+    reftype = _i32(np.where(refid >= 0, m.sensor_reftype[kept], ObjType.UNKNOWN))
+    dim = _i32(m.sensor_dim[kept])
+    return dict(
+        nsensor=len(kept), nsensordata=int(dim.sum()),
+        sensor_names=[_name(m, o.mjOBJ_SENSOR, s) for s in kept],
+        sensor_type=_i32(m.sensor_type[kept]), sensor_objtype=objtype,
+        sensor_objid=our_id(objtype, m.sensor_objid[kept]), sensor_reftype=reftype,
+        sensor_refid=_i32(np.where(refid >= 0, our_id(reftype, refid), -1)),
+        sensor_dim=dim, sensor_adr=_i32(np.cumsum(dim) - dim),
+        sensor_datatype=_i32(m.sensor_datatype[kept]), sensor_cutoff=_f32(m.sensor_cutoff[kept]))
 
 
 def _mesh_hulls(m, source: str):
@@ -397,19 +435,18 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
     actuator_dof = _i32(m.jnt_dofadr[m.actuator_trnid[:, 0]]) if nu else np.zeros(0, np.int32)
 
     hull_face, hull_faceadr, hull_facenum = _mesh_hulls(m, source)
-    sensors = _force_torque_sensors(m, source)
+    sensors = _sensors(m, source)
 
     model = Model(
         source=source, mj_model=m,
         nq=m.nq, nv=m.nv, nbody=nbody, njnt=m.njnt, ngeom=m.ngeom, nsite=m.nsite, nu=nu,
-        ntendon=m.ntendon, nsensor=len(sensors), neq=m.neq,
+        ntendon=m.ntendon, neq=m.neq,
         body_names=[_name(m, o.mjOBJ_BODY, b) for b in range(1, m.nbody)],
         joint_names=[_name(m, o.mjOBJ_JOINT, j) for j in range(m.njnt)],
         geom_names=[_name(m, o.mjOBJ_GEOM, g) for g in range(m.ngeom)],
         site_names=[_name(m, o.mjOBJ_SITE, s) for s in range(m.nsite)],
         actuator_names=[_name(m, o.mjOBJ_ACTUATOR, a) for a in range(nu)],
         tendon_names=[_name(m, o.mjOBJ_TENDON, t) for t in range(m.ntendon)],
-        sensor_names=[_name(m, o.mjOBJ_SENSOR, s) for s in sensors],
         body_parent=body_parent, body_root=body_root,
         body_pos=_f32(m.body_pos[1:]), body_quat=_xyzw(m.body_quat[1:]),
         body_ipos=_f32(m.body_ipos[1:]), body_iquat=_xyzw(m.body_iquat[1:]),
@@ -437,6 +474,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         hfield_ncol=_i32(m.hfield_ncol), hfield_adr=_i32(m.hfield_adr),
         hfield_data=_f32(m.hfield_data),
         site_body=_i32(m.site_bodyid - 1), site_pos=_f32(m.site_pos), site_quat=_xyzw(m.site_quat),
+        site_type=_i32(m.site_type), site_size=_f32(m.site_size),
         actuator_kind=kind, actuator_dof=actuator_dof, actuator_gear=_f32(gear),
         actuator_gain=_f32(gain), actuator_kp=_f32(kp), actuator_kv=_f32(kv),
         actuator_ctrllimited=m.actuator_ctrllimited.astype(bool),
@@ -455,9 +493,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         tendon_offset=np.zeros(m.ntendon, np.float32),
         tendon_limited=m.tendon_limited.astype(bool), tendon_range=_f32(m.tendon_range),
         tendon_limit_stiffness=np.zeros(m.ntendon, np.float32),
-        sensor_type=["force" if int(m.sensor_type[s]) == int(mujoco.mjtSensor.mjSENS_FORCE)
-                     else "torque" for s in sensors],
-        sensor_site=_i32(m.sensor_objid[sensors]),
+        **sensors,
         exclude_body_pairs=_i32(_exclude_pairs(m)),
         **_equalities(m),
         gravity=_f32(m.opt.gravity), timestep=float(m.opt.timestep),

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .types import JointType
+from .types import JointType, SensorType
 
 
 class ModelError(ValueError):
@@ -35,7 +35,8 @@ class Model:
     nsite: int
     nu: int
     ntendon: int
-    nsensor: int
+    nsensor: int                     # sensors Myriad computes (the model's others are skipped)
+    nsensordata: int                 # their values, flat: the width of sim.sensor_data
     neq: int
 
     body_names: list[str]
@@ -113,6 +114,8 @@ class Model:
     site_body: np.ndarray            # [nsite] -1 = world
     site_pos: np.ndarray             # [nsite, 3]
     site_quat: np.ndarray            # [nsite, 4] xyzw
+    site_type: np.ndarray            # [nsite] geom type of the site's zone (touch sensors)
+    site_size: np.ndarray            # [nsite, 3] MuJoCo's size semantics
 
     # actuators (joint transmission)
     actuator_kind: np.ndarray        # [nu] types.ActuatorKind
@@ -141,9 +144,17 @@ class Model:
     tendon_range: np.ndarray         # [ntendon, 2] lower, upper length
     tendon_limit_stiffness: np.ndarray  # [ntendon] 0: hard limit (a constraint row); > 0: spring
 
-    # force/torque sensors (a 6D wrench per sensor site comes with the constraint solver)
-    sensor_type: list[str]           # "force" | "torque"
-    sensor_site: np.ndarray          # [nsensor]
+    # sensors (`sensors`), in MuJoCo's order; sensor i writes its sensor_dim[i] values from
+    # sensor_adr[i] of the flat sensor data, as MuJoCo's sensordata (without skipped sensors)
+    sensor_type: np.ndarray          # [nsensor] types.SensorType (MuJoCo's mjtSensor)
+    sensor_objtype: np.ndarray       # [nsensor] types.ObjType of the object it reads
+    sensor_objid: np.ndarray         # [nsensor] that object (bodies: ours, -1 = the world)
+    sensor_reftype: np.ndarray       # [nsensor] frame sensors: reference frame's ObjType, 0: world
+    sensor_refid: np.ndarray         # [nsensor] its id (bodies: ours, -1 = the world)
+    sensor_dim: np.ndarray           # [nsensor] number of values
+    sensor_adr: np.ndarray           # [nsensor] first value in the sensor data
+    sensor_datatype: np.ndarray      # [nsensor] types.DataType: how the cutoff applies
+    sensor_cutoff: np.ndarray        # [nsensor] clamp of real/positive values, 0: none
 
     # contact filtering
     exclude_body_pairs: np.ndarray   # [nexclude, 2] body ids (-1 = world)
@@ -199,6 +210,22 @@ class Model:
 
     def actuator_index(self, name: str) -> int:
         return _index(self.actuator_names, name, "actuator")
+
+    def sensor_index(self, name: str) -> int:
+        return _index(self.sensor_names, name, "sensor")
+
+    def sensor_slice(self, name: str) -> slice:
+        """The columns of `sim.sensor_data` that the sensor named `name` writes."""
+        i = self.sensor_index(name)
+        return slice(int(self.sensor_adr[i]), int(self.sensor_adr[i] + self.sensor_dim[i]))
+
+    @property
+    def force_sensor_sites(self) -> list[int]:
+        """Sites that carry a force or torque sensor, each once, in the order of their first
+        sensor: the rows of `sim.sensor_wrench` (Isaac Gym's force sensors)."""
+        kinds = (SensorType.FORCE, SensorType.TORQUE)
+        return list(dict.fromkeys(int(o) for t, o in zip(self.sensor_type, self.sensor_objid)
+                                  if t in kinds))
 
     def __repr__(self) -> str:
         return (f"Model({self.source!r}: nq={self.nq} nv={self.nv} nbody={self.nbody} "

@@ -26,7 +26,7 @@ from .model import Model
 from .params import SimParams
 from .devices import resolve_device
 from .structs import EnvParams, State
-from .types import EqualityType
+from .types import EqualityType, SensorType
 
 
 class Simulator:
@@ -88,20 +88,23 @@ class Simulator:
         self.row_width = constraints.row_width(dof_span, tendon_dofs)
         madr, mnum, mass_col = structs.mass_matrix_layout(m.dof_parent)
 
-        # force/torque sensors: one 6D wrench per site that carries a force or torque sensor
-        self.sensor_sites = list(dict.fromkeys(int(s) for s in m.sensor_site))
+        # sensors (`sensors`): one 6D wrench per site that carries a force or torque sensor, and
+        # the Newton-Euler pass that gives it (and every body's acceleration) only when a sensor
+        # reads accelerations or forces between bodies
+        self.sensor_sites = m.force_sensor_sites
         self._sensor_site = wp.array(np.asarray(self.sensor_sites, np.int32), dtype=wp.int32, device=dev)
         self._sensor_site_body = wp.array(np.asarray(m.site_body[self.sensor_sites], np.int32)
                                           if self.sensor_sites else np.zeros(0, np.int32),
                                           dtype=wp.int32, device=dev)
-        # MuJoCo's sensordata order: (site slot, 0 for force / 3 for torque) of each sensor
-        self._sensor_columns = [(self.sensor_sites.index(int(site)), 0 if kind == "force" else 3)
-                                for site, kind in zip(m.sensor_site, m.sensor_type)]
+        self._sensor_accelerations = bool(np.isin(m.sensor_type, [
+            SensorType.FORCE, SensorType.TORQUE, SensorType.ACCELEROMETER,
+            SensorType.FRAMELINACC, SensorType.FRAMEANGACC]).any())
 
         # every per-env array: the declared structs (`structs`), allocated in one loop each
         self.sizes = dict(nq=m.nq, nv=m.nv, nbody=m.nbody, njnt=m.njnt, nu=m.nu,
                           ntendon=m.ntendon, ngeom=m.ngeom, nsite=m.nsite,
-                          nsensor=len(self.sensor_sites), ncontact=self.contact_capacity,
+                          nsensor_site=len(self.sensor_sites), nsensordata=m.nsensordata,
+                          ncontact=self.contact_capacity,
                           nrow=self.nrow, row_width=self.row_width, nmass=len(mass_col),
                           nlimit=2 * len(limited), neq=m.neq, neqrow=equality_rows)
         gravity = m.gravity if params.gravity is None else np.asarray(params.gravity)
@@ -335,20 +338,17 @@ class Simulator:
         dense[:, rows, cols] = wp.to_torch(self._d.qm).repeat(1, 2)
         return dense
 
-    @property
-    def sensor_data(self) -> torch.Tensor:
-        """[N, nsensor, 3]: each MJCF force/torque sensor's reading, in the model's order."""
-        if not self._sensor_columns:
-            return self.sensor_wrench.new_zeros(self.num_envs, 0, 3)
-        return torch.stack([self.sensor_wrench[:, s, c:c + 3] for s, c in self._sensor_columns], 1)
-
     def _constraint_outputs(self) -> None:
         self._launch(solver_tgs.constraint_forces, self.num_envs, [
             self._m, self._rows_at, self.h, self._rows, self._contacts])
-        if self.sensor_sites:  # site poses are current: the final kinematics computed them
+        # sensors: site poses and velocities are current (the final kinematics computed them)
+        if self._sensor_accelerations:
             self._launch(sensors.force_sensors, self.num_envs, [
                 self._m, self._p, self.h, self._sensor_site_body, self._sensor_site, self._s,
                 self._contacts, self._d])
+        if self.model.nsensor:
+            self._launch(sensors.sensor_readings, self.num_envs, [
+                self._m, self._p, self._s, self._contacts, self._d])
 
     # ------------------------------------------------------------------ CUDA
     def _step_graph(self) -> None:

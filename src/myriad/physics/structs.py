@@ -28,7 +28,7 @@ import numpy as np
 import torch
 import warp as wp
 
-from .types import EqualityType
+from .types import EqualityType, SensorType
 
 
 class Field(NamedTuple):
@@ -172,6 +172,7 @@ class ModelArrays:
     njnt: int
     nu: int
     ntendon: int
+    nsensor: int
 
     body_parent: wp.array(dtype=wp.int32)
     body_root: wp.array(dtype=wp.int32)
@@ -214,6 +215,8 @@ class ModelArrays:
     site_body: wp.array(dtype=wp.int32)
     site_pos: wp.array(dtype=wp.vec3)
     site_quat: wp.array(dtype=wp.quat)
+    site_type: wp.array(dtype=wp.int32)     # the zone of a touch sensor: sphere ... box
+    site_size: wp.array(dtype=wp.vec3)
 
     actuator_kind: wp.array(dtype=wp.int32)
     actuator_dof: wp.array(dtype=wp.int32)
@@ -237,6 +240,18 @@ class ModelArrays:
     eq_ref: wp.array(dtype=wp.vec2)         # joint/tendon: x1_0, x2_0
     eq_rowadr: wp.array(dtype=wp.int32)     # first row, counted from the equality family's
     eq_rownum: wp.array(dtype=wp.int32)     # rows: 3 connect, 6 (3 without rotation) weld, 1
+
+    # sensors, in MuJoCo's order (`Model`, `sensors`)
+    sensor_type: wp.array(dtype=wp.int32)
+    sensor_objtype: wp.array(dtype=wp.int32)
+    sensor_objid: wp.array(dtype=wp.int32)
+    sensor_reftype: wp.array(dtype=wp.int32)
+    sensor_refid: wp.array(dtype=wp.int32)
+    sensor_adr: wp.array(dtype=wp.int32)
+    sensor_dim: wp.array(dtype=wp.int32)
+    sensor_datatype: wp.array(dtype=wp.int32)
+    sensor_cutoff: wp.array(dtype=float)
+    sensor_slot: wp.array(dtype=wp.int32)   # force/torque: its site's row of sensor_wrench; else -1
 
 
 def tree_spans(model) -> tuple[np.ndarray, np.ndarray]:
@@ -296,10 +311,14 @@ def model_arrays(model, device) -> ModelArrays:
     name, except the few derived here."""
     dof_span, body_span = tree_spans(model)
     madr, mnum, mass_col = mass_matrix_layout(model.dof_parent)
+    sites = model.force_sensor_sites
+    slot = [sites.index(int(o)) if t in (SensorType.FORCE, SensorType.TORQUE) else -1
+            for t, o in zip(model.sensor_type, model.sensor_objid)]
     derived = dict(dof_tree_span=dof_span, body_tree_span=body_span,
                    dof_madr=madr, dof_mnum=mnum, mass_col=mass_col,
                    **equality_rows(model),
-                   actuator_qposadr=model.jnt_qposadr[model.dof_jnt[model.actuator_dof]])
+                   actuator_qposadr=model.jnt_qposadr[model.dof_jnt[model.actuator_dof]],
+                   sensor_slot=np.asarray(slot, np.int32))
     out = ModelArrays()
     for name, var in ModelArrays.vars.items():
         value = derived[name] if name in derived else getattr(model, name)
@@ -403,9 +422,13 @@ class State:
     cvel = per_env("nbody", dtype=wp.spatial_vector, doc="spatial velocity at the tree root")
     cdof = per_env("nv", dtype=wp.spatial_vector, doc="motion subspace of each dof")
     cdof_dot = per_env("nv", dtype=wp.spatial_vector, doc="its time derivative")
-    sensor_wrench = per_env("nsensor", dtype=wp.spatial_vector, doc="force then torque that each "
-                            "sensor site's body receives from its parent, site frame (MuJoCo's "
-                            "force/torque sensors)", public=True)
+    sensor_wrench = per_env("nsensor_site", dtype=wp.spatial_vector, doc="force then torque that "
+                            "each force/torque sensor site's body receives from its parent, site "
+                            "frame (MuJoCo's force/torque sensors; rows: sim.sensor_sites)",
+                            public=True)
+    sensor_data = per_env("nsensordata", doc="every sensor's values after the last step, in "
+                          "MuJoCo's sensordata order (Model.sensor_adr, sensor_dim; "
+                          "quaternions w, x, y, z)", public=True)
     nonfinite = per_env(dtype=wp.int32, doc="1 once the env's state or input went non-finite "
                         "(its state is then NaN); the task resets it", public=True,
                         writable=True)
@@ -431,6 +454,9 @@ class Dynamics:
     qfrc = per_env("nv", doc="explicit generalized force minus bias")
     qfrc_applied = per_env("nv", doc="generalized force of joint_force and body_force")
     qfrc_actuator = per_env("nv", doc="generalized actuator force", public="dof_actuator_force")
+    actuator_force = per_env("nu", doc="each actuator's force before the gear at the start of "
+                             "the last substep, clamped to its force range (MuJoCo's "
+                             "actuator_force)", public=True)
     implicit_diag = per_env("nv", doc="h·d + h²·k of implicit dampers and drives, added to M's "
                             "diagonal in the solve")
     wrench = per_env("nbody", dtype=wp.spatial_vector, doc="body_force at the tree root")

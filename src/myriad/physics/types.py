@@ -1,7 +1,7 @@
 """The engine's enumerations, in one place: host code uses the enums, kernels the constants.
 
-Joint and geom values are MuJoCo's (`mjtJoint`, `mjtGeom`), so a compiled MuJoCo model's arrays
-are read as they are.
+Joint, geom, sensor, object and sensor data types are MuJoCo's values (`mjtJoint`, `mjtGeom`,
+`mjtSensor`, `mjtObj`, `mjtDataType`), so a compiled MuJoCo model's arrays are read as they are.
 """
 
 from enum import IntEnum
@@ -36,6 +36,48 @@ class GeomType(IntEnum):
     CYLINDER = 5
     BOX = 6
     MESH = 7     # the convex hull of the mesh's vertices
+
+
+class SensorType(IntEnum):
+    """The MuJoCo sensors Myriad computes (`sensors`); MuJoCo's mjtSensor values."""
+    TOUCH = 0           # 1: normal force of the contacts in the site's zone
+    ACCELEROMETER = 1   # 3: linear acceleration of the site, site frame (+g up at rest)
+    VELOCIMETER = 2     # 3: linear velocity of the site, site frame
+    GYRO = 3            # 3: angular velocity, site frame
+    FORCE = 4           # 3: force the site's body receives from its parent, site frame
+    TORQUE = 5          # 3: torque of the same, about the site, site frame
+    JOINTPOS = 9        # 1: hinge or slide position
+    JOINTVEL = 10       # 1: hinge or slide velocity
+    ACTUATORFRC = 15    # 1: actuator force (before the gear)
+    JOINTACTFRC = 16    # 1: summed actuator force at a hinge or slide joint
+    FRAMEPOS = 26       # 3: position of an object's frame (world, or the reference frame)
+    FRAMEQUAT = 27      # 4: its orientation, quaternion (w, x, y, z)
+    FRAMEXAXIS = 28     # 3: its x axis
+    FRAMEYAXIS = 29     # 3: its y axis
+    FRAMEZAXIS = 30     # 3: its z axis
+    FRAMELINVEL = 31    # 3: linear velocity of the frame's origin
+    FRAMEANGVEL = 32    # 3: angular velocity
+    FRAMELINACC = 33    # 3: linear acceleration of the frame's origin, world (+g up at rest)
+    FRAMEANGACC = 34    # 3: angular acceleration, world
+
+
+class ObjType(IntEnum):
+    """Objects sensors are attached to; MuJoCo's mjtObj values."""
+    UNKNOWN = 0    # no reference frame
+    BODY = 1       # a body's inertial frame (center of mass, principal axes)
+    XBODY = 2      # a body's own frame
+    JOINT = 3
+    GEOM = 5
+    SITE = 6
+    ACTUATOR = 19
+
+
+class DataType(IntEnum):
+    """How a sensor's cutoff applies; MuJoCo's mjtDataType values."""
+    REAL = 0         # clamped to [-cutoff, cutoff]
+    POSITIVE = 1     # clamped to at most cutoff
+    AXIS = 2         # a unit vector: no cutoff
+    QUATERNION = 3   # no cutoff
 
 
 class RowType(IntEnum):
@@ -88,3 +130,32 @@ CONNECT = wp.constant(int(EqualityType.CONNECT))
 WELD = wp.constant(int(EqualityType.WELD))
 EQ_JOINT = wp.constant(int(EqualityType.JOINT))
 EQ_TENDON = wp.constant(int(EqualityType.TENDON))
+
+SENS_TOUCH = wp.constant(int(SensorType.TOUCH))
+SENS_ACCELEROMETER = wp.constant(int(SensorType.ACCELEROMETER))
+SENS_VELOCIMETER = wp.constant(int(SensorType.VELOCIMETER))
+SENS_GYRO = wp.constant(int(SensorType.GYRO))
+SENS_FORCE = wp.constant(int(SensorType.FORCE))
+SENS_TORQUE = wp.constant(int(SensorType.TORQUE))
+SENS_JOINTPOS = wp.constant(int(SensorType.JOINTPOS))
+SENS_JOINTVEL = wp.constant(int(SensorType.JOINTVEL))
+SENS_ACTUATORFRC = wp.constant(int(SensorType.ACTUATORFRC))
+SENS_JOINTACTFRC = wp.constant(int(SensorType.JOINTACTFRC))
+SENS_FRAMEPOS = wp.constant(int(SensorType.FRAMEPOS))
+SENS_FRAMEQUAT = wp.constant(int(SensorType.FRAMEQUAT))
+SENS_FRAMEXAXIS = wp.constant(int(SensorType.FRAMEXAXIS))
+SENS_FRAMEYAXIS = wp.constant(int(SensorType.FRAMEYAXIS))
+SENS_FRAMEZAXIS = wp.constant(int(SensorType.FRAMEZAXIS))
+SENS_FRAMELINVEL = wp.constant(int(SensorType.FRAMELINVEL))
+SENS_FRAMEANGVEL = wp.constant(int(SensorType.FRAMEANGVEL))
+SENS_FRAMELINACC = wp.constant(int(SensorType.FRAMELINACC))
+SENS_FRAMEANGACC = wp.constant(int(SensorType.FRAMEANGACC))
+
+OBJ_UNKNOWN = wp.constant(int(ObjType.UNKNOWN))
+OBJ_BODY = wp.constant(int(ObjType.BODY))
+OBJ_XBODY = wp.constant(int(ObjType.XBODY))
+OBJ_GEOM = wp.constant(int(ObjType.GEOM))
+OBJ_SITE = wp.constant(int(ObjType.SITE))
+
+DATA_REAL = wp.constant(int(DataType.REAL))
+DATA_POSITIVE = wp.constant(int(DataType.POSITIVE))
