@@ -476,7 +476,7 @@ class Contacts:
                     "were dropped)", public="contact_count")
     geom = per_env("ncontact", dtype=wp.vec2i, doc="geom 1, geom 2", public="contact_geom")
     key = per_env("ncontact", dtype=wp.int32, doc="identity across substeps (pair and feature, "
-                  "e.g. which box corner), for warm starts")
+                  "e.g. which box corner), to find the same contact's anchors next substep")
     pos = per_env("ncontact", dtype=wp.vec3, doc="midpoint between the surfaces",
                   public="contact_pos")
     normal = per_env("ncontact", dtype=wp.vec3, doc="from geom 1 to geom 2",
