@@ -14,13 +14,18 @@ import warp as wp
 
 from ..structs import Contacts, EnvParams, ModelArrays, State
 from ..types import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPHERE
-from .convex import Meshes, bounding_radius, box_corner, convex_contact, support
+from .convex import Meshes, bounding_radius, box_corner, convex_contact, mat43, support
 from .heightfield import HFields, ellipsoid_probe, probe_point, surface
 
 
 # probes per shape against a height field (see heightfield.probe_point); meshes: at most this many
 # of their vertices (the hull's vertices come first in MuJoCo's mesh data)
 HFIELD_PROBES = wp.constant(32)
+
+# a convex pair's extra contact points: the normal tilted by this (tan of the angle) to find the
+# corners of each shape's contact face, and the least distance between two kept points (m)
+FACE_TILT = wp.constant(0.2)
+FACE_SPACING = wp.constant(1.0e-3)
 
 # up to 8 polygon points (rows: u, v, height) while clipping a face against another
 poly8 = wp.types.matrix(shape=(8, 3), dtype=float)
@@ -386,12 +391,68 @@ def _capsule_box(e: int, pair: wp.vec2i, key: int, x1: wp.transform, s1: wp.vec3
 
 
 @wp.func
-def _convex(e: int, pair: wp.vec2i, key: int, t1: int, s1: wp.vec3, m1: int, x1: wp.transform,
-            t2: int, s2: wp.vec3, m2: int, x2: wp.transform, meshes: Meshes, margin: float,
-            out: ContactSlots):
-    hit, n, dist, pos = convex_contact(t1, s1, m1, x1, t2, s2, m2, x2, meshes, margin)
-    if hit != 0:
-        _emit(e, pair, key, pos, n, dist, margin, out)
+def _convex(e: int, pair: wp.vec2i, key: int, t1_type: int, s1: wp.vec3, m1: int,
+            x1: wp.transform, t2_type: int, s2: wp.vec3, m2: int, x2: wp.transform, meshes: Meshes,
+            margin: float, out: ContactSlots):
+    hit, n, dist, pos = convex_contact(t1_type, s1, m1, x1, t2_type, s2, m2, x2, meshes, margin)
+    if hit == 0 or dist >= margin:
+        return
+    _emit(e, pair, key, pos, n, dist, margin, out)
+    # a face resting on a face needs more than one point, or it turns on it (a mesh cube on a
+    # mesh slab crept 12 mm in 5 s): the corners of each shape's contact face, found as its
+    # support points along the normal tilted four ways, each kept where it lies within the
+    # other shape's reach and below the offset from the other's face (most pairs touch at a
+    # corner or an edge, and give the same point back, or one outside)
+    t1 = wp.cross(n, wp.vec3(1.0, 0.0, 0.0))
+    if wp.length_sq(t1) < 1.0e-6:
+        t1 = wp.cross(n, wp.vec3(0.0, 1.0, 0.0))
+    t1 = wp.normalize(t1)
+    t2 = wp.cross(n, t1)
+    face1 = wp.dot(support(t1_type, s1, m1, meshes, x1, n, 0.0), n)
+    face2 = wp.dot(support(t2_type, s2, m2, meshes, x2, -n, 0.0), n)
+    kept = mat43()
+    nkept = int(0)
+    for k in range(8):
+        # diagonal tilts, so that an axis-aligned face gives its four corners
+        s_a = 1.0 - 2.0 * float(k % 2)
+        s_b = 1.0 - 2.0 * float((k / 2) % 2)
+        tilt = (t1 * s_a + t2 * s_b) * FACE_TILT
+        side = k / 4          # 0: shape 2's corners on shape 1's face; 1: shape 1's on 2's
+        corner = wp.vec3()
+        gap = float(0.0)
+        if side == 0:
+            corner = support(t2_type, s2, m2, meshes, x2, tilt - n, 0.0)
+            gap = wp.dot(corner, n) - face1
+        else:
+            corner = support(t1_type, s1, m1, meshes, x1, n + tilt, 0.0)
+            gap = face2 - wp.dot(corner, n)
+        if gap >= margin or gap < dist - FACE_SPACING:
+            continue          # beyond the offset, or deeper than the shapes overlap (a corner
+                              # beside the other's face, under the plane of its extent)
+        lateral = (corner - pos) - n * wp.dot(corner - pos, n)
+        reach = wp.length(lateral)
+        if reach < FACE_SPACING:
+            continue          # the contact already found
+        u = lateral / reach
+        other = wp.vec3()
+        if side == 0:
+            other = support(t1_type, s1, m1, meshes, x1, u, 0.0)
+        else:
+            other = support(t2_type, s2, m2, meshes, x2, u, 0.0)
+        if wp.dot(other - pos, u) < reach:
+            continue          # beyond the other shape's face
+        fresh = int(1)
+        for j in range(nkept):
+            if wp.length(kept[j] - corner) < FACE_SPACING:
+                fresh = 0
+        if fresh == 0 or nkept == 4:
+            continue
+        kept[nkept] = corner
+        nkept += 1
+        at = corner - n * (0.5 * gap)
+        if side == 1:
+            at = corner + n * (0.5 * gap)
+        _emit(e, pair, key + 1 + k, at, n, gap, margin, out)
 
 
 @wp.func
