@@ -15,10 +15,11 @@ stores only those dofs: column c < hi1 - lo1 holds dof lo1 + c, the columns afte
 range (`_col`). The row width is the model's widest span (`row_width`): two trees, or a tendon's
 trees, at most nv; 64 free boxes store 12 columns per row instead of 384.
 
-A limit, equality or dof row starts from the final impulse of the same row in the last substep
-(warm start). A contact's rows start from zero; what a contact carries from the last substep
-(found by its pair and feature, e.g. the same box corner) is its friction anchors, the points of
-its two bodies where it began to stick, which its friction rows hold together.
+A limit, equality or dof row, and the normal row of a contact with the ground (a plane or
+height field), starts from the final impulse of the same row in the last substep (warm start);
+other contact rows start from zero. A contact also carries from the last substep (found by its pair and feature, e.g. the
+same box corner) its friction anchors, the points of its two bodies where it began to stick,
+which its friction rows hold together.
 """
 
 import warp as wp
@@ -27,8 +28,8 @@ from . import dense
 from .dynamics import solve_span
 from .spatial import velocity_at
 from .structs import Contacts, Dynamics, EnvParams, ModelArrays, Rows, State
-from .types import (CONNECT, DOF, EQ_JOINT, EQUALITY, FRICTION, FRICTION2, INACTIVE, NORMAL,
-                    SOFT, WELD)
+from .types import (CONNECT, DOF, EQ_JOINT, EQUALITY, FRICTION, FRICTION2, HFIELD, INACTIVE,
+                    NORMAL, PLANE, SOFT, WELD)
 
 
 @wp.struct
@@ -292,11 +293,11 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
         # (a normal impulse, the friction impulse inside the disk); the friction rows' error
         # is how far apart the two have drifted along the tangents, which the position sweeps
         # undo. The response is built by the solver once the contact first pushes (most
-        # contacts in the contact offset never do), and its impulses start from zero: warm
-        # started from the last substep, the impulses of a stack's rows fed the next
-        # substep's errors back into it, and three stacked boxes rocked and turned at up to
-        # 0.7 rad/s, drifting 8.5 mm in 5 s (`benchmarks/stacks.py`); with the anchors holding
-        # the contacts in place instead, 0.01 mm.
+        # contacts in the contact offset never do), and between two moving bodies its
+        # impulses start from zero: warm started from the last substep, the impulses of a
+        # stack's rows fed the next substep's errors back into it, and three stacked boxes
+        # rocked and turned at up to 0.7 rad/s, drifting 8.5 mm in 5 s (`benchmarks/
+        # stacks.py`); with the anchors holding the contacts in place instead, 0.01 mm.
         x1 = _pose(s.body_x, e, b1)
         x2 = _pose(s.body_x, e, b2)
         a1 = wp.transform_point(wp.transform_inverse(x1), pos)
@@ -307,6 +308,17 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
                 a2 = c.prev_anchor[e, same, 1]
         c.anchor[e, k, 0] = a1
         c.anchor[e, k, 1] = a2
+        # a contact with the ground (a plane or height field: a foot) starts from its normal
+        # impulse of the last substep, like a limit: a leg pressed down under load otherwise
+        # sank 43 mm into the ground in a hard landing (the ant under random torques; 5 mm
+        # warm). Other contacts start from zero (above); warm, a link pressed into a fixed
+        # robot's base mesh at its joint limit pushed a UR5 1.4 rad past the limit
+        if same >= 0 and (m.geom_type[pair[0]] == PLANE or m.geom_type[pair[0]] == HFIELD):
+            warm_n = rows.lam[e, 3 * same]
+            if warm_n != 0.0:
+                build_contact_rows(m, e, r0, sp, factor, rows)
+                if rows.type[e, r0] != INACTIVE:
+                    rows.lam_init[e, r0] = warm_n
         drift = wp.transform_point(x2, a2) - wp.transform_point(x1, a1)
         rows.err[e, r0 + 1] = wp.dot(drift, t1)
         rows.err[e, r0 + 2] = wp.dot(drift, t2)

@@ -31,10 +31,10 @@ from .constraints import RowLayout, build_contact_rows, build_dof_row
 from .types import DOF, EQUALITY, FRICTION, FRICTION2, INACTIVE, NORMAL, SOFT
 from .structs import Contacts, Dynamics, ModelArrays, Rows, State
 
-# fraction of the last substep's impulse a joint or tendon limit row starts from: below 1 so
-# that the impulses of a configuration with no solution (a hand pressed into the head by an arm
-# held at its limit) decay instead of growing without bound from step to step. Contact rows start
-# from zero (`constraints.contact_rows`).
+# fraction of the last substep's impulse a limit row, or the normal row of a contact with the
+# ground, starts from: below 1 so that the impulses of a configuration with no solution (a hand
+# pressed into the head by an arm held at its limit) decay instead of growing without bound from
+# step to step. Other contact rows start from zero (`constraints.contact_rows`).
 WARM = wp.constant(0.9)
 
 vec6 = wp.types.vector(length=6, dtype=float)
