@@ -28,15 +28,30 @@ import myriad
 from memory import memory_per_env
 
 
-def boxes_xml(n_side: int = 4) -> str:
+# convex meshes for the mesh variant of the box scene: a 16 cm cube, and an irregular hull of the
+# same reach (a lopsided octahedron with its corners cut)
+_CUBE = " ".join(f"{x} {y} {z}" for x in (-0.08, 0.08) for y in (-0.08, 0.08) for z in (-0.08, 0.08))
+_GEM = ("0.09 0.01 0  -0.08 0 0.01  0 0.085 0  0.01 -0.075 0  0 0 0.09  0.01 0.02 -0.085  "
+        "0.05 0.05 0.04  -0.05 -0.04 0.05  0.04 -0.05 -0.05  -0.05 0.04 -0.04")
+
+
+def boxes_xml(n_side: int = 4, meshes: bool = False) -> str:
+    """n_side^3 free boxes over a plane, each turned its own way; with `meshes`, convex meshes
+    instead (cubes and irregular hulls in turn), whose pairs take the general convex path
+    (GJK/EPA) instead of the box-box closed form."""
     bodies = []
     for i in range(n_side):
         for j in range(n_side):
             for k in range(n_side):
                 x, y, z = (i - 1.5) * 0.25, (j - 1.5) * 0.25, 0.2 + 0.25 * k
+                geom = 'type="box" size="0.08 0.08 0.08"'
+                if meshes:
+                    geom = f'type="mesh" mesh="{("cube", "gem")[(i + j + k) % 2]}"'
                 bodies.append(f'<body pos="{x:.3f} {y:.3f} {z:.3f}" euler="{7 * i} {5 * j} {11 * k}">'
-                              f'<freejoint/><geom type="box" size="0.08 0.08 0.08" mass="1"/></body>')
-    return (f'<mujoco><compiler angle="degree"/><worldbody><geom type="plane" size="10 10 0.1"/>'
+                              f'<freejoint/><geom {geom} mass="1"/></body>')
+    assets = (f'<asset><mesh name="cube" vertex="{_CUBE}"/><mesh name="gem" vertex="{_GEM}"/></asset>'
+              if meshes else "")
+    return (f'<mujoco><compiler angle="degree"/>{assets}<worldbody><geom type="plane" size="10 10 0.1"/>'
             f'{"".join(bodies)}</worldbody></mujoco>')
 
 

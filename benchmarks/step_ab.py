@@ -1,6 +1,6 @@
 """`Simulator.step` of an older git revision against this tree and MuJoCo C, in one process.
 
-    python benchmarks/step_ab.py --old 11f1754 [--models ant humanoid boxes] [--envs 1024]
+    python benchmarks/step_ab.py --old 11f1754 [--models ant humanoid boxes meshes] [--envs 1024]
                                  [--rounds 60]
 
 Both trees' simulators (the old one imported as `myriad_old`, as in `task_step_ab.py`) and
@@ -11,7 +11,9 @@ the ratios are comparable between runs even where the absolute rates are not. On
 each, Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on), the same fresh random
 controls for both trees every step, after a 60-step settle from the model's initial state.
 `boxes` is 64 free boxes in one env (`contacts.py --scene boxes`), at 16 envs and 512 contact
-slots per env, as in `step_rate.py`; the ant and the humanoid take the default 64 slots.
+slots per env, as in `step_rate.py`; `meshes` the same scene of convex meshes (cubes and
+irregular hulls, `boxes_xml(meshes=True)`), whose pairs take the GJK/EPA path; the ant and the
+humanoid take the default 64 slots.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--old", required=True, help="git revision to compare against")
     ap.add_argument("--models", nargs="+", default=["ant", "humanoid"],
-                    choices=["ant", "humanoid", "boxes"])
+                    choices=["ant", "humanoid", "boxes", "meshes"])
     ap.add_argument("--envs", type=int, default=1024, help="envs of the ant and the humanoid")
     ap.add_argument("--rounds", type=int, default=60)
     args = ap.parse_args()
@@ -43,10 +45,11 @@ def main() -> None:
     print(f"env-steps/s, one thread, {args.rounds} rounds; ratio to MuJoCo C in brackets")
     print("| model | envs | old | new | MuJoCo C | new / old |\n|---|---|---|---|---|---|")
     for name in args.models:
-        n, slots = (16, 512) if name == "boxes" else (args.envs, 64)
+        n, slots = (16, 512) if name in ("boxes", "meshes") else (args.envs, 64)
         sims = {}
         for variant, package in (("old", old), ("new", myriad)):
-            model = (package.load_xml(boxes_xml(), "64 boxes") if name == "boxes"
+            model = (package.load_xml(boxes_xml(meshes=name == "meshes"), f"64 {name}")
+                     if name in ("boxes", "meshes")
                      else package.load(package.asset_path(f"{name}.xml")))
             params = package.SimParams(dt=1 / 60, substeps=2, position_iterations=4,
                                        velocity_iterations=0, contacts_per_env=slots)

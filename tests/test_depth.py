@@ -1,10 +1,14 @@
-"""Penetration depth of convex pairs without a closed form (GJK -> EPA) against MuJoCo.
+"""Penetration depth of convex pairs without a closed form (GJK -> EPA) against MuJoCo and
+against the exact minimum translation.
 
-MuJoCo's own convex collision (GJK/EPA with `nativeccd`, its default since 3.3) is the oracle:
-each pair type is placed in random overlapping poses (fixed seed), one pose per env of one
-simulator, and our depth and normal are compared with the deepest contact MuJoCo reports for the
-same two-geom model at the same pose. Box-box, which the narrowphase handles in closed form
-(separating axes), is compared with EPA on the same two boxes written as meshes.
+Each pair type is placed in random overlapping poses (fixed seed), one pose per env of one
+simulator. Two oracles: MuJoCo's own convex collision (GJK/EPA with `nativeccd`, its default
+since 3.3), the deepest contact it reports for the same two-geom model at the same pose; and the
+exact depth, the least over unit directions n of h_A(n) + h_B(-n) (support functions written
+here in numpy, independent of any collision code), which settles the poses where the two
+engines disagree. Box-box, which the narrowphase handles in closed form (separating axes), is
+compared with EPA on the same two boxes written as meshes. `python tests/test_depth.py` prints
+the per-pair error table of docs/physics.md.
 """
 
 import math

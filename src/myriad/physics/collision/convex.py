@@ -831,6 +831,11 @@ def convex_contact(t1: int, s1: wp.vec3, m1: int, x1: wp.transform, t2: int, s2:
     candidate normals, the one needing the least translation winning (MPR alone measures depth
     along the line between the centers, which overstates a shallow edge-on-face contact seen
     from an oblique line)."""
+    if not (wp.isfinite(wp.transform_get_translation(x1))
+            and wp.isfinite(wp.transform_get_translation(x2))):
+        # an env gone non-finite: NaN fails every stopping test, and each of GJK's 64 and EPA's
+        # 32 steps would walk a mesh's vertices (an exploded G1 took 6 s a step)
+        return 0, wp.vec3(), 0.0, wp.vec3()
     r1 = core_radius(t1, s1)
     r2 = core_radius(t2, s2)
     size = bounding_radius(t1, s1, m1, meshes) + bounding_radius(t2, s2, m2, meshes)
