@@ -26,7 +26,7 @@ import warp as wp
 
 from . import dense
 from .dynamics import solve_span
-from .spatial import velocity_at
+from .spatial import tangents, velocity_at
 from .structs import Contacts, Dynamics, EnvParams, ModelArrays, Rows, State
 from .types import (CONNECT, DOF, EQ_JOINT, EQUALITY, FRICTION, FRICTION2, HFIELD, INACTIVE,
                     NORMAL, PLANE, SOFT, WELD)
@@ -236,11 +236,7 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
         n = c.normal[e, k]
         pos = c.pos[e, k]
         # tangent basis: any orthonormal pair (the friction disk is isotropic)
-        t1 = wp.cross(n, wp.vec3(1.0, 0.0, 0.0))
-        if wp.length_sq(t1) < 1.0e-6:
-            t1 = wp.cross(n, wp.vec3(0.0, 1.0, 0.0))
-        t1 = wp.normalize(t1)
-        t2 = wp.cross(n, t1)
+        t1, t2 = tangents(n)
         sp = _body_spans(m, b1, b2)
         mu = 0.5 * (p.geom_friction[e, pair[0]] + p.geom_friction[e, pair[1]])
         restitution = 0.5 * (p.geom_restitution[e, pair[0]] + p.geom_restitution[e, pair[1]])

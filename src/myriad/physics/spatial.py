@@ -85,3 +85,14 @@ def row_finite(a: wp.array2d(dtype=float), e: int, n: int):
         if not wp.isfinite(a[e, i]):
             return False
     return True
+
+
+@wp.func
+def tangents(n: wp.vec3):
+    """Two unit vectors that make (n, t1, t2) a right-handed orthonormal basis; which pair does
+    not matter to their users (the friction disk, a face's corners), only that it is fixed."""
+    t1 = wp.cross(n, wp.vec3(1.0, 0.0, 0.0))
+    if wp.length_sq(t1) < 1.0e-6:
+        t1 = wp.cross(n, wp.vec3(0.0, 1.0, 0.0))
+    t1 = wp.normalize(t1)
+    return t1, wp.cross(n, t1)

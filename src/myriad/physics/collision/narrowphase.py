@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import warp as wp
 
+from ..spatial import tangents
 from ..structs import Contacts, EnvParams, ModelArrays, State
 from ..types import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPHERE
 from .convex import Meshes, bounding_radius, box_corner, convex_contact, mat43, support
@@ -403,11 +404,7 @@ def _convex(e: int, pair: wp.vec2i, key: int, t1_type: int, s1: wp.vec3, m1: int
     # support points along the normal tilted four ways, each kept where it lies within the
     # other shape's reach and below the offset from the other's face (most pairs touch at a
     # corner or an edge, and give the same point back, or one outside)
-    t1 = wp.cross(n, wp.vec3(1.0, 0.0, 0.0))
-    if wp.length_sq(t1) < 1.0e-6:
-        t1 = wp.cross(n, wp.vec3(0.0, 1.0, 0.0))
-    t1 = wp.normalize(t1)
-    t2 = wp.cross(n, t1)
+    t1, t2 = tangents(n)
     face1 = wp.dot(support(t1_type, s1, m1, meshes, x1, n, 0.0), n)
     face2 = wp.dot(support(t2_type, s2, m2, meshes, x2, -n, 0.0), n)
     kept = mat43()
