@@ -17,9 +17,9 @@ trees, at most nv; 64 free boxes store 12 columns per row instead of 384.
 
 A limit, equality or dof row, and the normal row of a contact with the ground (a plane or
 height field), starts from the final impulse of the same row in the last substep (warm start);
-other contact rows start from zero. A contact also carries from the last substep (found by its pair and feature, e.g. the
-same box corner) its friction anchors, the points of its two bodies where it began to stick,
-which its friction rows hold together.
+other contact rows start from zero. A contact also carries from the last substep (found by its
+pair and feature, e.g. the same box corner) its friction anchors, the points of its two bodies
+where it began to stick, which its friction rows hold together.
 """
 
 import warp as wp
@@ -296,12 +296,18 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
         # stacks.py`); with the anchors holding the contacts in place instead, 0.01 mm.
         x1 = _pose(s.body_x, e, b1)
         x2 = _pose(s.body_x, e, b2)
-        a1 = wp.transform_point(wp.transform_inverse(x1), pos)
-        a2 = wp.transform_point(wp.transform_inverse(x2), pos)
+        held = int(0)
         if same >= 0:
             if rows.lam[e, 3 * same] > 0.0 and c.slid[e, same] == 0:
-                a1 = c.prev_anchor[e, same, 0]
-                a2 = c.prev_anchor[e, same, 1]
+                held = 1
+        a1 = wp.vec3()
+        a2 = wp.vec3()
+        if held != 0:
+            a1 = c.prev_anchor[e, same, 0]
+            a2 = c.prev_anchor[e, same, 1]
+        else:
+            a1 = wp.transform_point(wp.transform_inverse(x1), pos)
+            a2 = wp.transform_point(wp.transform_inverse(x2), pos)
         c.anchor[e, k, 0] = a1
         c.anchor[e, k, 1] = a2
         # a contact with the ground (a plane or height field: a foot) starts from its normal

@@ -28,7 +28,7 @@ import warp as wp
 
 from . import dense
 from .constraints import RowLayout, build_contact_rows, build_dof_row
-from .types import DOF, EQUALITY, FRICTION, FRICTION2, INACTIVE, NORMAL, SOFT
+from .types import DOF, EQUALITY, FRICTION, NORMAL, SOFT
 from .structs import Contacts, Dynamics, ModelArrays, Rows, State
 
 # fraction of the last substep's impulse a limit row, or the normal row of a contact with the

@@ -5,7 +5,8 @@ contype/conaffinity test ((contype1 & conaffinity2) | (contype2 & conaffinity1))
 parent-child body pair (unless the parent is the world), and are not excluded by an MJCF
 <exclude>. Bodies joined by a connect or weld equality do not collide either (PhysX's default
 for jointed bodies: a weld holding two touching bodies together left their contact nothing to
-do but push harder each step, and a driven arm carrying a welded tool blew up). Pairs are ordered so that geom type 1 <= geom type 2 (a plane always comes first);
+do but push harder each step, and a driven arm carrying a welded tool blew up). Pairs are
+ordered so that geom type 1 <= geom type 2 (a plane always comes first);
 contact normals point from geom 1 to geom 2.
 
 One rule MuJoCo does not have: two geoms of one articulation that overlap (by more than 0.1 mm)
