@@ -152,9 +152,11 @@ def urdf_xml(path: str, mobile: bool) -> str:
     m = spec.compile()
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
-    plane = m.ngeom - 1
-    touches = [g for g in range(m.ngeom - 1) if (m.geom_contype[g] & m.geom_conaffinity[plane])
-               or (m.geom_contype[plane] & m.geom_conaffinity[g])]
+    # the world body's geoms compile first: the ground is found by name, not by its place
+    plane = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "ground")
+    touches = [g for g in range(m.ngeom) if g != plane and (
+        (m.geom_contype[g] & m.geom_conaffinity[plane])
+        or (m.geom_contype[plane] & m.geom_conaffinity[g]))]
     if touches:
         lowest = min(mujoco.mj_geomDistance(m, d, g, plane, 100.0, None) for g in touches)
         base = spec.worldbody.first_body()
