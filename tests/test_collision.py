@@ -200,3 +200,23 @@ def test_overflow_is_counted_not_written(device):
         assert sim.contact_overflow() == 3
     sim.step()  # the solver uses the slots that exist; the rest were dropped
     assert torch.isfinite(sim.q).all()
+
+
+def test_an_overflow_keeps_the_deepest_contacts_in_the_order_found(device):
+    """Slots too few: the contacts kept are the deepest of all found, not the first found."""
+    model = myriad.load_xml(_scene(0), "scene0")
+    params = dict(contact_offset=MARGIN)
+    every = myriad.Simulator(model, num_envs=2, device=device, params=myriad.SimParams(**params))
+    every.collide()
+    found = int(every.contact_count[0])
+    dist, key = every.contact_dist[0, :found].cpu(), every._contacts.key.numpy()[0, :found]
+    assert found > 3 and len(set(dist.tolist())) > 2      # distances to choose among
+    slots = found // 3      # all found fit the narrowphase's places, not the slots
+    few = myriad.Simulator(model, num_envs=2, device=device,
+                           params=myriad.SimParams(contacts_per_env=slots, **params))
+    few.collide()
+    assert int(few.contact_count[0]) == found and few.contact_dist.shape == (2, slots)
+    deepest = torch.sort(dist).values[:slots]
+    torch.testing.assert_close(torch.sort(few.contact_dist[0].cpu()).values, deepest)
+    kept = list(zip(few._contacts.key.numpy()[0, :slots].tolist(), few.contact_dist[0].tolist()))
+    assert kept == [c for c in zip(key.tolist(), dist.tolist()) if c in kept]

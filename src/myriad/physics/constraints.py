@@ -227,7 +227,7 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
                  factor: wp.array2d(dtype=float), c: Contacts, rows: Rows):
     """Contact slot k: rows 3k (normal), 3k+1, 3k+2 (friction). Slots past the contact count
     are skipped by the solver: only the used ones are built."""
-    ncontact = wp.min(c.count[e], c.geom.shape[1])
+    ncontact = wp.min(c.count[e], c.force.shape[1])
     hint = int(0)
     for k in range(ncontact):
         pair = c.geom[e, k]

@@ -48,7 +48,7 @@ def force_sensors(m: ModelArrays, p: EnvParams, h: float,
     e = wp.tid()
     body_forces(m, p, s, e, s.qd_before, 1.0 / h, d)
     # contacts are external forces: subtract what they supply (force on geom 2, minus on geom 1)
-    for k in range(wp.min(c.count[e], c.geom.shape[1])):
+    for k in range(wp.min(c.count[e], c.force.shape[1])):
         pair = c.geom[e, k]
         f = c.force[e, k]
         for side in range(2):
@@ -254,7 +254,7 @@ def touch(m: ModelArrays, s: State, c: Contacts, e: int, site: int):
     b = m.site_body[site]
     x = s.site_x[e, site]
     total = float(0.0)
-    for k in range(wp.min(c.count[e], c.geom.shape[1])):
+    for k in range(wp.min(c.count[e], c.force.shape[1])):
         pair = c.geom[e, k]
         b1 = m.geom_body[pair[0]]
         b2 = m.geom_body[pair[1]]

@@ -105,6 +105,7 @@ class Simulator:
                           ntendon=m.ntendon, ngeom=m.ngeom, nsite=m.nsite,
                           nsensor_site=len(self.sensor_sites), nsensordata=m.nsensordata,
                           ncontact=self.contact_capacity,
+                          ncandidate=collision.CANDIDATES_PER_SLOT * self.contact_capacity,
                           nrow=self.nrow, row_width=self.row_width, nmass=len(mass_col),
                           nlimit=2 * len(limited), neq=m.neq, neqrow=equality_rows)
         gravity = m.gravity if params.gravity is None else np.asarray(params.gravity)
@@ -131,7 +132,8 @@ class Simulator:
                          for struct in structs.STRUCTS}
         self._p, self._s, self._c, self._d, self._contacts, self._rows = (
             self._structs[struct] for struct in structs.STRUCTS)
-        self._views = {f.public: wp.to_torch(getattr(self._structs[struct], name))
+        self._views = {f.public: structs.public_tensor(getattr(self._structs[struct], name), f,
+                                                       self.sizes)
                        for struct in structs.STRUCTS for name, f in struct.fields.items()
                        if f.public}
 
@@ -189,6 +191,7 @@ class Simulator:
                            else (collision.narrowphase_per_env, n))
             self._launch(kernel, dim, [self._m, self._pairs, self._p, self._meshes, self._hfields,
                                        self.params.contact_offset, st, c])
+            self._launch(collision.keep_deepest, n, [c])
 
     def _launch(self, kernel, dim, inputs) -> None:
         shard = getattr(self._shard_local, "range", None)

@@ -133,13 +133,27 @@ def shard(struct, whole, lo: int, hi: int):
     return part
 
 
+# a public view of a field declared over the first size shows only the second's leading part:
+# the contacts in use, not the narrowphase's overflow places
+VIEWED_AS = {"ncandidate": "ncontact"}
+
+
+def public_tensor(array: wp.array, f: Field, sizes: dict) -> torch.Tensor:
+    """The zero-copy torch view of a declared field that its public name shows."""
+    view = wp.to_torch(array)
+    for axis, d in enumerate(f.dims, start=1):
+        if d in VIEWED_AS:
+            view = view.narrow(axis, 0, sizes[VIEWED_AS[d]])
+    return view
+
+
 class PublicView:
     """A public per-env tensor of the simulator: a zero-copy torch view of a declared field;
     assigning to a writable one copies into it (broadcasting, shape checked)."""
 
     def __init__(self, name: str, field: Field):
         self.name, self.writable = name, field.writable
-        dims = ", ".join(["N"] + [str(d) for d in field.dims])
+        dims = ", ".join(["N"] + [str(VIEWED_AS.get(d, d)) for d in field.dims])
         self.__doc__ = f"[{dims}] {field.doc}" + ("" if field.writable else " (read-only)")
 
     def __get__(self, sim, owner=None):
@@ -471,17 +485,22 @@ class Dynamics:
 
 @declared
 class Contacts:
-    """Contacts of the last collision stage, in `ncontact` slots per env, and their forces."""
+    """Contacts of the last collision stage, in `ncontact` slots per env, and their forces.
+
+    The narrowphase writes into `ncandidate` (a few times `ncontact`) places; when an env finds
+    more contacts than its slots, `collision.keep_deepest` keeps the deepest `ncontact` of them
+    in the first slots (in their order), so that an overflow drops the contacts that matter
+    least (those still apart, inside the contact offset) and not whichever came last."""
     count = per_env(dtype=wp.int32, doc="contacts found; above the capacity: overflow (the rest "
                     "were dropped)", public="contact_count")
-    geom = per_env("ncontact", dtype=wp.vec2i, doc="geom 1, geom 2", public="contact_geom")
-    key = per_env("ncontact", dtype=wp.int32, doc="identity across substeps (pair and feature, "
+    geom = per_env("ncandidate", dtype=wp.vec2i, doc="geom 1, geom 2", public="contact_geom")
+    key = per_env("ncandidate", dtype=wp.int32, doc="identity across substeps (pair and feature, "
                   "e.g. which box corner), to find the same contact's anchors next substep")
-    pos = per_env("ncontact", dtype=wp.vec3, doc="midpoint between the surfaces",
+    pos = per_env("ncandidate", dtype=wp.vec3, doc="midpoint between the surfaces",
                   public="contact_pos")
-    normal = per_env("ncontact", dtype=wp.vec3, doc="from geom 1 to geom 2",
+    normal = per_env("ncandidate", dtype=wp.vec3, doc="from geom 1 to geom 2",
                      public="contact_normal")
-    dist = per_env("ncontact", doc="signed distance, < 0: penetration (m)", public="contact_dist")
+    dist = per_env("ncandidate", doc="signed distance, < 0: penetration (m)", public="contact_dist")
     force = per_env("ncontact", dtype=wp.vec3, doc="force on geom 2 in the last substep, world (N)",
                     public="contact_force")
     net_force = per_env("nbody", dtype=wp.vec3, doc="sum of the contact forces on each body (N)",

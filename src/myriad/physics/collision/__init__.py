@@ -6,11 +6,12 @@ import warp as wp
 
 from .convex import Meshes
 from .heightfield import HFields
-from .narrowphase import geom_frames, narrowphase, narrowphase_per_env
+from .narrowphase import (CANDIDATES_PER_SLOT, geom_frames, keep_deepest, narrowphase,
+                          narrowphase_per_env)
 from .pairs import candidate_pairs
 
-__all__ = ["HFields", "Meshes", "candidate_pairs", "geom_frames", "narrowphase",
-           "narrowphase_per_env", "shape_data"]
+__all__ = ["CANDIDATES_PER_SLOT", "HFields", "Meshes", "candidate_pairs", "geom_frames",
+           "keep_deepest", "narrowphase", "narrowphase_per_env", "shape_data"]
 
 
 def shape_data(model, device) -> tuple[Meshes, HFields]:

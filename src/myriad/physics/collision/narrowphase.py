@@ -3,9 +3,12 @@
 One thread per (env, pair). A contact is kept when the signed distance between the surfaces is
 below the contact offset (PhysX's contactOffset; MuJoCo's margin). It records, as MuJoCo does,
 the two geoms, the midpoint between the surfaces, the normal from geom 1 to geom 2 and the
-signed distance (negative: penetration). Contacts go to the env's preallocated slots through an
-atomic counter; a count above the capacity is the overflow, reported by the simulator, and
-nothing is ever written outside an env's slots.
+signed distance (negative: penetration). Contacts go to the env's preallocated places through
+an atomic counter; a count above the slots is an overflow, reported by the simulator. There are
+CANDIDATES_PER_SLOT places per slot, and `keep_deepest` keeps the deepest contacts in the slots:
+a robot curled up on itself (G1 with hands: 780 contacts within the offset, 64 slots) lost
+whichever contacts came last, a foot's or a penetrating one's among them, and blew up in one env
+of eight. Nothing is ever written outside an env's places.
 """
 
 from __future__ import annotations
@@ -27,6 +30,9 @@ HFIELD_PROBES = wp.constant(32)
 # corners of each shape's contact face, and the least distance between two kept points (m)
 FACE_TILT = wp.constant(0.2)
 FACE_SPACING = wp.constant(1.0e-3)
+
+# places for the narrowphase's contacts per contact slot (`keep_deepest`)
+CANDIDATES_PER_SLOT = 4
 
 # up to 8 polygon points (rows: u, v, height) while clipping a face against another
 poly8 = wp.types.matrix(shape=(8, 3), dtype=float)
@@ -61,7 +67,7 @@ def _emit(e: int, pair: wp.vec2i, key: int, pos: wp.vec3, normal: wp.vec3, dist:
           margin: float, out: ContactSlots):
     if dist < margin:
         slot = wp.atomic_add(out.count, e, 1)
-        if slot < out.geom.shape[1]:    # past the env's slots: counted (overflow), not kept
+        if slot < out.geom.shape[1]:    # past the env's places: counted (overflow), not kept
             out.geom[e, slot] = pair
             out.key[e, slot] = key
             out.pos[e, slot] = pos
@@ -579,6 +585,42 @@ def narrowphase_per_env(m: ModelArrays, pairs: wp.array(dtype=wp.vec2i), p: EnvP
     out = contact_slots(contacts)
     for k in range(pairs.shape[0]):
         _pair(m, e, k, pairs, p, meshes, hfields, margin, s, out)
+
+
+@wp.kernel
+def keep_deepest(c: Contacts):   # in: count, the narrowphase's places; out: the first slots
+    """An env that found more contacts than its slots keeps the deepest, in the order found (a
+    pair's contacts stay together, as the solver's patches need); ties go to the first found.
+    Two passes, so that the second can compact in place: the last kept contact's (distance,
+    place), then the copy of every contact at or before it in that order."""
+    e = wp.tid()
+    slots = c.force.shape[1]
+    found = wp.min(c.count[e], c.geom.shape[1])
+    if found <= slots:
+        return
+    edge = float(0.0)
+    edge_at = int(-1)
+    for i in range(found):
+        di = c.dist[e, i]
+        ahead = int(0)      # contacts that come before i in (distance, place) order
+        for j in range(found):
+            dj = c.dist[e, j]
+            if dj < di or (dj == di and j < i):
+                ahead += 1
+        if ahead == slots - 1:
+            edge = di
+            edge_at = i
+            break
+    kept = int(0)
+    for i in range(found):
+        di = c.dist[e, i]
+        if di < edge or (di == edge and i <= edge_at):
+            c.geom[e, kept] = c.geom[e, i]
+            c.key[e, kept] = c.key[e, i]
+            c.pos[e, kept] = c.pos[e, i]
+            c.normal[e, kept] = c.normal[e, i]
+            c.dist[e, kept] = di
+            kept += 1
 
 
 @wp.func
