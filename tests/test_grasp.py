@@ -10,10 +10,15 @@ import pytest
 grasp = pytest.importorskip("grasp")        # benchmarks/grasp.py (conftest puts it on the path)
 
 
-@pytest.mark.parametrize("mimic", [False, True], ids=["two drives", "mimic joint"])
-def test_a_squeezed_cube_is_lifted_held_and_turned_without_slipping(mimic, device):
-    result = grasp.myriad_grasp(mimic, device=device)       # Isaac Gym's timing, TGS 4 + 1
+@pytest.mark.parametrize("scene", grasp.SCENES)
+def test_a_squeezed_cube_is_lifted_held_and_turned_without_slipping(scene, device):
+    """Box fingers with two drives or one drive and a mimic joint; and the Panda of
+    example-robot-data, its arm following a straight lift and its own fingers (one driven, the
+    other its URDF mimic joint) holding the cube: MuJoCo C drops the cube in the turn there."""
+    if scene == "panda" and grasp.corpus.robots_folder() is None:
+        pytest.skip("example-robot-data is not installed")
+    result = grasp.myriad_grasp(scene, device=device)       # Isaac Gym's timing, TGS 4 + 1
     assert result["lifted"] > 0.18, result                  # it came up with the hand
-    assert result["slip"] < 5e-3, result                    # the issue's bound; 0.002 mm measured
+    assert result["slip"] < 5e-3, result                    # the issue's bound; <= 0.05 mm measured
     assert abs(result["turned"] - math.pi / 2) < 0.02, result
-    assert result["thrown"] < 5e-3, result                  # 0.04 mm measured
+    assert result["thrown"] < 5e-3, result                  # <= 0.2 mm measured
