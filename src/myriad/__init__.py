@@ -29,7 +29,8 @@ def asset_path(name: str) -> str:
     """Path of a model shipped with Myriad, e.g. ``asset_path("ant.xml")``."""
     path = _resources.files(__package__) / "assets" / name
     if not path.is_file():
-        shipped = sorted(p.name for p in (_resources.files(__package__) / "assets").iterdir())
+        shipped = sorted(p.name for p in (_resources.files(__package__) / "assets").iterdir()
+                         if p.name.endswith(".xml"))
         raise FileNotFoundError(f"no asset named {name!r}; Myriad ships {shipped}")
     return str(path)
 

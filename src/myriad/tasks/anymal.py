@@ -1,7 +1,7 @@
 """ANYmal (flat): a quadruped tracks commanded base velocities (seed A.2.2, Tables 5-7).
 
 The robot is ANYbotics' ANYmal C from the `example-robot-data` package (`pip install
-"myriad[anymal]"`), read from its URDF with fixes applied in code (see `anymal_c_spec`).
+"myriad[anymal]"`), read from its URDF with fixes applied in code (`myriad.assets.anymal_c_spec`).
 
 Actions (12): position-drive targets, target = actionScale × action + default joint angle
 (drives Kp 85, Kd 2; efforts limited to the URDF's 80 N·m).
@@ -28,68 +28,12 @@ config has 2.5e-5).
 
 from __future__ import annotations
 
-import glob
-import os
-import re
-import tempfile
-
-import mujoco
 import torch
 
 from ..api import Scene
-from ..physics import ModelError
+from ..assets import anymal_c_spec
 from .base import VecTask
 from ..torch_utils import env_mask, quat_rotate_inverse, where_rows
-
-URDF = "share/example-robot-data/robots/anymal_c_simple_description/urdf/anymal.urdf"
-
-
-def anymal_c_urdf() -> str:
-    """Path of ANYmal C's URDF inside the installed example-robot-data package."""
-    import site
-    import sys
-
-    roots = list(site.getsitepackages()) + [site.getusersitepackages()] + sys.path
-    for root in roots:
-        for prefix in glob.glob(os.path.join(root, "cmeel.prefix")):
-            path = os.path.join(prefix, URDF)
-            if os.path.isfile(path):
-                return path
-    raise ModelError("ANYmal C needs the example-robot-data package: pip install "
-                     "\"myriad[anymal]\" (or pip install example-robot-data)")
-
-
-def anymal_c_spec() -> mujoco.MjSpec:
-    """ANYmal C as a MuJoCo spec with a free base, fixed in memory (the installed file is
-    never edited):
-    - visual meshes are dropped (they are .dae files MuJoCo cannot read; collision uses
-      primitives);
-    - inertias are the URDF's (MuJoCo would otherwise recompute them from the collision geoms:
-      81.5 kg instead of 52.1 kg);
-    - the link `hatch` declares a singular inertia (all six entries 0.001): its products of
-      inertia are zeroed; the camera links violate the triangle inequality and are balanced;
-    - fixed links are fused into their parents, leaving the base and the 12 leg links.
-    """
-    text = open(anymal_c_urdf()).read()
-    header = ('<mujoco><compiler discardvisual="true" inertiafromgeom="false" '
-              'balanceinertia="true" fusestatic="true"/></mujoco>'
-              '<link name="world"/><joint name="root" type="floating">'
-              '<parent link="world"/><child link="base"/></joint>')
-    text, found = re.subn(r"(<robot[^>]*>)", lambda m: m.group(1) + header, text, count=1)
-    singular = '<inertia ixx="0.001" ixy="0.001" ixz="0.001" iyy="0.001" iyz="0.001" izz="0.001"/>'
-    fixed = '<inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/>'
-    if not found or singular not in text:
-        raise ModelError(f"{anymal_c_urdf()}: not the ANYmal C URDF these fixes were written for")
-    try:
-        model = mujoco.MjModel.from_xml_string(text.replace(singular, fixed))
-    except Exception as err:
-        raise ModelError(f"{anymal_c_urdf()}: MuJoCo rejected the fixed URDF: {err}") from err
-    # the fused model, written back as MJCF (fixed links become frames of their parents)
-    with tempfile.TemporaryDirectory() as folder:
-        path = os.path.join(folder, "anymal.xml")
-        mujoco.mj_saveLastXML(path, model)
-        return mujoco.MjSpec.from_file(path)
-
 
 class Anymal(VecTask):
     num_obs = 48

@@ -1,0 +1,91 @@
+"""Robot models: those written here (the XML files in this folder, `myriad.asset_path`) and
+those that come from packages installed from the registry, found where pip put them, with the
+fixes each needs applied in memory at load time (an installed file is never edited). Every task
+gets its robot from here.
+
+| robot   | extra                | package, file                                                  |
+|---------|----------------------|----------------------------------------------------------------|
+| ANYmal C| `myriad[anymal]`     | example-robot-data: robots/anymal_c_simple_description/urdf/anymal.urdf |
+
+Nothing is downloaded at run time: a missing package is a `ModelError` naming the extra that
+installs it.
+"""
+
+from __future__ import annotations
+
+import glob
+import importlib.util
+import os
+import re
+import site
+import sys
+import tempfile
+
+import mujoco
+
+from ..physics import ModelError
+
+
+def installed_file(package: str, path: str, extra: str) -> str:
+    """The path of `path` inside the installed `package` (an importable package, or a cmeel
+    package such as example-robot-data, whose files live under site-packages' cmeel.prefix)."""
+    spec = importlib.util.find_spec(package.replace("-", "_"))
+    roots = list(spec.submodule_search_locations or []) if spec else []
+    for root in list(site.getsitepackages()) + [site.getusersitepackages()] + sys.path:
+        roots += glob.glob(os.path.join(root, "cmeel.prefix", "share", package))
+    for root in roots:
+        found = os.path.join(root, path)
+        if os.path.isfile(found):
+            return found
+    raise ModelError(f"{path} comes from the {package} package, which is not installed: pip "
+                     f"install \"myriad[{extra}]\" (or pip install {package})")
+
+
+def urdf_spec(path: str, header: str, root_link: str | None = None,
+              text_fixes: dict[str, str] | None = None) -> mujoco.MjSpec:
+    """A URDF compiled by MuJoCo with `header`'s <mujoco><compiler .../></mujoco> options, a
+    free joint to `root_link` (None: fixed to the world) and exact text replacements, written
+    back as MJCF (fixed links become frames of their parents) and read as a spec."""
+    text = open(path).read()
+    if root_link is not None:
+        header += ('<link name="world"/><joint name="root" type="floating">'
+                   f'<parent link="world"/><child link="{root_link}"/></joint>')
+    text, found = re.subn(r"(<robot[^>]*>)", lambda m: m.group(1) + header, text, count=1)
+    for old, new in (text_fixes or {}).items():
+        if old not in text:
+            raise ModelError(f"{path}: not the file these fixes were written for ({old!r} is "
+                             "not in it)")
+        text = text.replace(old, new)
+    if not found:
+        raise ModelError(f"{path}: no <robot> element")
+    try:
+        model = mujoco.MjModel.from_xml_string(text)
+    except Exception as err:
+        raise ModelError(f"{path}: MuJoCo rejected the fixed URDF: {err}") from err
+    with tempfile.TemporaryDirectory() as folder:
+        saved = os.path.join(folder, "model.xml")
+        mujoco.mj_saveLastXML(saved, model)
+        return mujoco.MjSpec.from_file(saved)
+
+
+# ---------------------------------------------------------------------------- ANYmal C
+ANYMAL_C = "robots/anymal_c_simple_description/urdf/anymal.urdf"
+
+
+def anymal_c_spec() -> mujoco.MjSpec:
+    """ANYmal C of example-robot-data with a free base, fixed in memory:
+    - visual meshes are dropped (they are .dae files MuJoCo cannot read; collision uses
+      primitives);
+    - inertias are the URDF's (MuJoCo would otherwise recompute them from the collision geoms:
+      81.5 kg instead of 52.1 kg);
+    - the link `hatch` declares a singular inertia (all six entries 0.001): its products of
+      inertia are zeroed; the camera links violate the triangle inequality and are balanced;
+    - fixed links are fused into their parents, leaving the base and the 12 leg links.
+    """
+    singular = '<inertia ixx="0.001" ixy="0.001" ixz="0.001" iyy="0.001" iyz="0.001" izz="0.001"/>'
+    return urdf_spec(
+        installed_file("example-robot-data", ANYMAL_C, "anymal"),
+        '<mujoco><compiler discardvisual="true" inertiafromgeom="false" balanceinertia="true" '
+        'fusestatic="true"/></mujoco>', root_link="base",
+        text_fixes={singular: '<inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" '
+                              'izz="0.001"/>'})
