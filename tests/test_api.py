@@ -150,6 +150,19 @@ def test_body_force_at_a_point_and_in_the_body_frame(tmp_path, device):
     assert v[:, 0].abs().max() < 1e-6
 
 
+def test_an_actor_without_gravity_floats_beside_one_that_falls(tmp_path, device):
+    """add_actor(gravity=False) is Isaac Gym's disable_gravity: that actor's bodies feel none."""
+    scene = (Scene().add_actor("floats", box_xml(tmp_path, 0.1, 1.0), pos=(0, 0, 1), gravity=False)
+             .add_actor("falls", box_xml(tmp_path, 0.1, 1.0), pos=(1, 0, 1)))
+    e = scene.build(1, device)
+    for _ in range(30):                                             # 0.5 s
+        e.step()
+    z = e.root_states[0, :, 2].cpu()
+    assert abs(z[0].item() - 1.0) < 1e-6
+    h, n = 1 / 120, 60                          # substeps: semi-implicit Euler's free fall
+    assert z[1].item() == pytest.approx(1.0 - 9.81 * h * h * n * (n + 1) / 2, abs=1e-4)
+
+
 def test_drives_efforts_fixed_base_and_self_collisions(device):
     scene = Scene()
     scene.add_actor("pd", ANT, pos=(0, 0, 1), fix_base=True, dof_mode="position",

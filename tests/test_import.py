@@ -40,8 +40,8 @@ def test_invalid_element_names_element(tmp_path):
     ("""<worldbody><body name="a"><joint name="h" type="hinge"/><geom size=".1"/></body></worldbody>
         <actuator><general name="muscle_like" joint="h" dyntype="filter" dynprm="0.1"/></actuator>""",
      "actuator 'muscle_like': actuator dynamics"),
-    ("""<worldbody><body name="a" gravcomp="1"><joint type="hinge"/><geom size=".1"/></body></worldbody>""",
-     "body 'a': gravcomp"),
+    ("""<worldbody><body name="a" gravcomp="1"><joint name="h" type="hinge" actuatorgravcomp="true"/>
+        <geom size=".1"/></body></worldbody>""", "joint 'h': actuatorgravcomp"),
 ])
 def test_unsupported_features_are_errors(tmp_path, snippet, message):
     path = _write(tmp_path, "unsupported.xml", f"<mujoco>{snippet}</mujoco>")

@@ -230,3 +230,38 @@ def test_free_motion_matches_mujoco(model, device):
     d = datas[0]
     mujoco.mj_kinematics(mj, d)
     np.testing.assert_allclose(sim.body_pose[0, :, :3].cpu().numpy(), d.xpos[1:], atol=1e-3)
+
+
+def test_gravity_compensation_is_mujocos_gravcomp(device):
+    """A body's gravcomp cancels that share of its weight (Isaac Gym's disable_gravity is 1):
+    the bias force is MuJoCo's qfrc_bias less its qfrc_gravcomp, and a fully compensated arm
+    hangs still where gravity would swing it."""
+    model = myriad.load_xml("""<mujoco><worldbody>
+      <body name="a" gravcomp="1"><joint type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+        <body name="b" pos="0.3 0 0" gravcomp="0.5"><joint type="hinge" axis="0 1 0"/>
+          <geom type="capsule" fromto="0 0 0 0.3 0 0.1" size="0.03"/>
+          <body name="c" pos="0.3 0 0.1"><joint type="hinge" axis="1 0 0"/>
+            <geom type="box" size="0.05 0.02 0.04" pos="0.05 0 0"/></body></body></body>
+      </worldbody></mujoco>""", "gravcomp")
+    sim = myriad.Simulator(model, num_envs=2, device=device)
+    mj = model.mj_model
+    d = mujoco.MjData(mj)
+    d.qpos[:] = [0.3, -0.7, 0.4]
+    d.qvel[:] = [1.0, -2.0, 0.5]
+    mujoco.mj_forward(mj, d)
+    sim.q = torch.as_tensor(d.qpos, dtype=torch.float32, device=sim.torch_device)
+    sim.qd = torch.as_tensor(d.qvel, dtype=torch.float32, device=sim.torch_device)
+    sim.forward()
+    expected = d.qfrc_bias - d.qfrc_gravcomp
+    assert np.abs(d.qfrc_gravcomp).max() > 0.1                  # the compensation matters here
+    np.testing.assert_allclose(sim.bias_force[0].cpu().numpy(), expected,
+                               atol=2e-5 * np.abs(expected).max() + 1e-6)
+    still = myriad.load_xml("""<mujoco><worldbody>
+      <body name="arm" gravcomp="1"><joint type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03"/></body></worldbody></mujoco>""",
+                            "held")
+    sim = myriad.Simulator(still, num_envs=1, device=device)
+    for _ in range(60):
+        sim.step()
+    assert abs(sim.q[0, 0].item()) < 1e-6                     # without gravcomp: falls

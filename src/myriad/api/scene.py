@@ -34,6 +34,7 @@ class Actor:
     dof_mode: str               # effort: set_dof_efforts; position / velocity: implicit PD drives
     stiffness: float | list     # drive gains, one value or one per DOF of the actor
     damping: float | list
+    gravity: bool = True        # False: Isaac Gym's disable_gravity (each body's gravcomp 1)
 
 
 class Scene:
@@ -53,13 +54,15 @@ class Scene:
 
     def add_actor(self, name: str, path: str | os.PathLike | mujoco.MjSpec, pos=None, quat=(0, 0, 0, 1),
                   fix_base: bool = False, self_collisions: bool = True, dof_mode: str = "effort",
-                  stiffness=0.0, damping=0.0) -> "Scene":
+                  stiffness=0.0, damping=0.0, gravity: bool = True) -> "Scene":
         """Add an actor from a model file, or from a `mujoco.MjSpec` built in code (it is copied).
         `pos=None` keeps the root body's position from the file.
 
         dof_mode: "effort" (forces from `Envs.set_dof_efforts`), "position" (implicit PD drive to
         `set_dof_position_targets` with `stiffness`, `damping`), "velocity" (drive to
         `set_dof_velocity_targets` with `damping`) or "none" (passive joints).
+        gravity=False: gravity does not act on the actor's bodies (Isaac Gym's disable_gravity;
+        MuJoCo's gravcomp 1 on each of them).
         """
         if not name or "/" in name:
             raise ValueError(f"actor name {name!r}: must be non-empty and contain no '/'")
@@ -78,7 +81,7 @@ class Scene:
             if not os.path.isfile(path):
                 raise ModelError(f"{path}: no such model file (actor {name!r})")
         self.actors.append(Actor(name, path, pos, tuple(quat), fix_base, self_collisions,
-                                 dof_mode, stiffness, damping))
+                                 dof_mode, stiffness, damping, bool(gravity)))
         return self
 
     # ------------------------------------------------------------------ composition
@@ -137,6 +140,9 @@ class Scene:
         frame.attach_body(root, prefix, "")
 
         bodies = [b for b in spec.bodies if b.name.startswith(prefix)]
+        if not actor.gravity:
+            for b in bodies:
+                b.gravcomp = 1.0
         if not actor.self_collisions:
             for i, b1 in enumerate(bodies):
                 for b2 in bodies[i + 1:]:

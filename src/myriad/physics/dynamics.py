@@ -68,7 +68,9 @@ def body_forces(m: ModelArrays, p: EnvParams, s: State, e: int,
     I·a + v ×* I·v, into d.cacc and d.cfrc.
 
     Accelerations come from the velocity-product terms plus (qd - qd_before)·inv_h (inv_h = 0:
-    none, for the bias force). Gravity enters as an upward acceleration of the world.
+    none, for the bias force). Gravity enters as an upward acceleration of the world, less the
+    share `body_gravcomp` of each body's weight that an applied force at its centre of mass
+    holds up (MuJoCo's gravcomp).
     """
     world_acc = wp.spatial_vector(wp.vec3(), -p.gravity[e])
     for b in range(m.nbody):
@@ -85,6 +87,9 @@ def body_forces(m: ModelArrays, p: EnvParams, s: State, e: int,
         v = s.cvel[e, b]
         d.cfrc[e, b] = inertia_times(mass, h, rot_inertia, a) + force_cross(
             v, inertia_times(mass, h, rot_inertia, v))
+        if m.body_gravcomp[b] != 0.0:
+            d.cfrc[e, b] = d.cfrc[e, b] - m.body_gravcomp[b] * inertia_times(
+                mass, h, rot_inertia, world_acc)
 
 
 @wp.func

@@ -254,9 +254,11 @@ def _check_supported(m, source: str) -> None:
              "and <exclude>)")
     if np.any(m.opt.wind != 0) or m.opt.density != 0 or m.opt.viscosity != 0:
         fail("<option> wind/density/viscosity (fluid forces) are not supported")
-    for b in range(1, m.nbody):
-        if m.body_gravcomp[b] != 0:
-            fail(f"{_label(m, o.mjOBJ_BODY, b, 'body')}: gravcomp is not supported")
+    for j in range(m.njnt):
+        if m.jnt_actgravcomp[j]:
+            fail(f"{_label(m, o.mjOBJ_JOINT, j, 'joint')}: actuatorgravcomp (gravity "
+                 "compensation through the actuators) is not supported; the body's own "
+                 "gravcomp is")
     for j in range(m.njnt):
         label = _label(m, o.mjOBJ_JOINT, j, "joint")
         if m.jnt_type[j] in (JointType.FREE, JointType.BALL) and m.jnt_stiffness[j] != 0:
@@ -451,6 +453,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         body_pos=_f32(m.body_pos[1:]), body_quat=_xyzw(m.body_quat[1:]),
         body_ipos=_f32(m.body_ipos[1:]), body_iquat=_xyzw(m.body_iquat[1:]),
         body_mass=_f32(m.body_mass[1:]), body_inertia=_f32(m.body_inertia[1:]),
+        body_gravcomp=_f32(m.body_gravcomp[1:]),
         body_jntadr=body_jntadr, body_jntnum=body_jntnum, body_last_dof=body_last_dof,
         jnt_type=_i32(m.jnt_type), jnt_body=_i32(m.jnt_bodyid - 1),
         jnt_qposadr=_i32(m.jnt_qposadr), jnt_dofadr=_i32(m.jnt_dofadr),

@@ -56,6 +56,9 @@ class Model:
     body_iquat: np.ndarray           # [nbody, 4] principal axes of inertia in the body frame
     body_mass: np.ndarray            # [nbody]
     body_inertia: np.ndarray         # [nbody, 3] principal moments
+    body_gravcomp: np.ndarray        # [nbody] share of the body's weight cancelled by an applied
+                                     # force at its centre of mass (MuJoCo's gravcomp; 1: no
+                                     # gravity on it, Isaac Gym's disable_gravity)
     body_jntadr: np.ndarray          # [nbody] first joint, -1 if none
     body_jntnum: np.ndarray          # [nbody]
     body_last_dof: np.ndarray        # [nbody] last dof moving this body (own or an ancestor's), -1 if none

@@ -197,6 +197,7 @@ class ModelArrays:
     body_jntadr: wp.array(dtype=wp.int32)
     body_jntnum: wp.array(dtype=wp.int32)
     body_last_dof: wp.array(dtype=wp.int32)
+    body_gravcomp: wp.array(dtype=float)
 
     jnt_type: wp.array(dtype=wp.int32)
     jnt_qposadr: wp.array(dtype=wp.int32)
