@@ -28,7 +28,7 @@ class Actor:
     name: str
     path: object                # file path, or a mujoco.MjSpec
     pos: tuple
-    quat: tuple                 # x, y, z, w
+    quat: tuple | None          # x, y, z, w; None: the file's
     fix_base: bool
     self_collisions: bool
     dof_mode: str               # effort: set_dof_efforts; position / velocity: implicit PD drives
@@ -56,7 +56,8 @@ class Scene:
                   fix_base: bool = False, self_collisions: bool = True, dof_mode: str = "effort",
                   stiffness=0.0, damping=0.0, gravity: bool = True) -> "Scene":
         """Add an actor from a model file, or from a `mujoco.MjSpec` built in code (it is copied).
-        `pos=None` keeps the root body's position from the file.
+        `pos=None` keeps the root body's position from the file, `quat=None` its orientation
+        (quat is x, y, z, w).
 
         dof_mode: "effort" (forces from `Envs.set_dof_efforts`), "position" (implicit PD drive to
         `set_dof_position_targets` with `stiffness`, `damping`), "velocity" (drive to
@@ -74,13 +75,15 @@ class Scene:
             raise ValueError(f"actor {name!r}: a position drive needs stiffness > 0")
         if dof_mode == "velocity" and np.any(np.asarray(damping) <= 0):
             raise ValueError(f"actor {name!r}: a velocity drive needs damping > 0")
-        if np.shape(quat) != (4,) or (pos is not None and np.shape(pos) != (3,)):
+        if (quat is not None and np.shape(quat) != (4,)) or (pos is not None
+                                                              and np.shape(pos) != (3,)):
             raise ValueError(f"actor {name!r}: pos must be 3 numbers and quat 4 (x, y, z, w)")
         if not isinstance(path, mujoco.MjSpec):
             path = os.fspath(path)
             if not os.path.isfile(path):
                 raise ModelError(f"{path}: no such model file (actor {name!r})")
-        self.actors.append(Actor(name, path, pos, tuple(quat), fix_base, self_collisions,
+        self.actors.append(Actor(name, path, pos, quat if quat is None else tuple(quat),
+                                 fix_base, self_collisions,
                                  dof_mode, stiffness, damping, bool(gravity)))
         return self
 
@@ -133,9 +136,14 @@ class Scene:
         child.option.timestep = spec.option.timestep   # options are the simulator's, not the file's
         child.option.gravity = spec.option.gravity
         pos = root.pos.copy() if actor.pos is None else np.asarray(actor.pos, float)
-        x, y, z, w = actor.quat
+        if actor.quat is None:       # the file's orientation (any of its forms), as a quaternion
+            quat = child.compile().body_quat[1].copy()
+        else:
+            x, y, z, w = actor.quat
+            quat = [w, x, y, z]
         root.pos, root.quat = [0, 0, 0], [1, 0, 0, 0]
-        frame = spec.worldbody.add_frame(pos=pos, quat=[w, x, y, z])
+        root.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT    # not the file's euler etc.
+        frame = spec.worldbody.add_frame(pos=pos, quat=quat)
         prefix = actor.name + "/"
         frame.attach_body(root, prefix, "")
 

@@ -3,9 +3,10 @@ those that come from packages installed from the registry, found where pip put t
 fixes each needs applied in memory at load time (an installed file is never edited). Every task
 gets its robot from here.
 
-| robot   | extra                | package, file                                                  |
-|---------|----------------------|----------------------------------------------------------------|
-| ANYmal C| `myriad[anymal]`     | example-robot-data: robots/anymal_c_simple_description/urdf/anymal.urdf |
+| robot       | extra            | package: file                                                       |
+|-------------|------------------|---------------------------------------------------------------------|
+| ANYmal C    | `myriad[anymal]` | example-robot-data: robots/anymal_c_simple_description/urdf/anymal.urdf |
+| Shadow Hand | `myriad[hands]`  | gymnasium-robotics: envs/assets/hand/{robot,shared,shared_asset}.xml (OpenAI's) |
 
 Nothing is downloaded at run time: a missing package is a `ModelError` naming the extra that
 installs it.
@@ -89,3 +90,57 @@ def anymal_c_spec() -> mujoco.MjSpec:
         'fusestatic="true"/></mujoco>', root_link="base",
         text_fixes={singular: '<inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" '
                               'izz="0.001"/>'})
+
+
+# ---------------------------------------------------------------------------- Shadow Hand
+SHADOW_HAND = "envs/assets/hand"
+SHADOW_FINGERTIPS = ("ffdistal", "mfdistal", "rfdistal", "lfdistal", "thdistal")
+SHADOW_COUPLINGS = ("FF", "MF", "RF", "LF")     # tendons robot0:T_{F}J1c couple J1 and J0
+SHADOW_TENDON_LIMIT_STIFFNESS = 30.0            # PhysX fixed-tendon settings of the original
+SHADOW_TENDON_DAMPING = 0.1
+
+
+def shadow_hand_spec() -> mujoco.MjSpec:
+    """OpenAI's Shadow Hand, as gymnasium-robotics ships it (the model the seed's results were
+    produced with): 24 joints, 20 position actuators (kp 1, wrist 5), 44 fixed tendons, the
+    explicit finger-thumb contact pairs. Only the hand: the scene's floor, cube and target are
+    the task's. Fixes, in memory:
+    - a 6-axis force sensor (`<force>` and `<torque>` at a site on the body origin) on each
+      fingertip body robot0:{ff,mf,rf,lf,th}distal, as the original adds;
+    - the coupling tendons robot0:T_{FF,MF,RF,LF}J1c get the original's damping 0.1 (their limit
+      stiffness 30 is not an MJCF attribute: `shadow_hand_tendon_fixes` sets it once built);
+    - the file's <size> memory and user-data counts are dropped (they are MuJoCo C's buffer
+      sizes, which Myriad does not use and which clash with the scene's when attached).
+    The root body robot0:hand mount keeps the file's pose (the palm up, fingers along -y, after
+    the mount's rotation: `SHADOW_MOUNT_QUAT`).
+    """
+    folder = os.path.dirname(installed_file("gymnasium-robotics",
+                                            f"{SHADOW_HAND}/robot.xml", "hands"))
+    assets = os.path.dirname(folder)
+    text = f"""<mujoco model="shadow_hand">
+  <compiler angle="radian" coordinate="local" meshdir="{assets}/stls/hand"
+            texturedir="{assets}/textures"/>
+  <include file="{folder}/shared.xml"/>
+  <asset><include file="{folder}/shared_asset.xml"/></asset>
+  <worldbody><include file="{folder}/robot.xml"/></worldbody>
+</mujoco>"""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "shadow_hand.xml")
+        with open(path, "w") as f:
+            f.write(text)
+        try:
+            spec = mujoco.MjSpec.from_file(path)
+        except Exception as err:
+            raise ModelError(f"{folder}: MuJoCo rejected the Shadow Hand: {err}") from err
+    for name in ("njmax", "nconmax", "nuser_jnt", "nuser_site", "nuser_tendon",
+                 "nuser_actuator", "nuser_sensor"):
+        setattr(spec, name, -1)
+    for tip in SHADOW_FINGERTIPS:
+        site = spec.body(f"robot0:{tip}").add_site(name=f"robot0:{tip}_wrench", pos=[0, 0, 0])
+        spec.add_sensor(name=f"robot0:{tip}_force", type=mujoco.mjtSensor.mjSENS_FORCE,
+                        objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site.name)
+        spec.add_sensor(name=f"robot0:{tip}_torque", type=mujoco.mjtSensor.mjSENS_TORQUE,
+                        objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site.name)
+    for finger in SHADOW_COUPLINGS:
+        spec.tendon(f"robot0:T_{finger}J1c").damping = [SHADOW_TENDON_DAMPING, 0.0, 0.0]
+    return spec
