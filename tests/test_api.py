@@ -3,6 +3,7 @@
 import math
 import platform
 
+import mujoco
 import numpy as np
 import pytest
 import torch
@@ -188,6 +189,22 @@ def test_drives_efforts_fixed_base_and_self_collisions(device):
         Scene().add_actor("x", ANT).add_actor("x", ANT)
     with pytest.raises(myriad.ModelError, match="no such model file"):
         Scene().add_actor("x", "/nonexistent/robot.xml")
+
+
+def test_an_actor_without_self_collisions_loses_its_explicit_pairs_too():
+    """An explicit <contact><pair> collides whatever <exclude> says (MuJoCo's rule), so an
+    actor added with self_collisions=False drops its pairs as well as getting the excludes."""
+    from myriad.physics.collision import candidate_pairs
+    arm = mujoco.MjSpec.from_string("""<mujoco><worldbody><body name="a"><freejoint/>
+      <geom name="ga" size="0.1" contype="1" conaffinity="0"/><body name="b" pos="0 0 0.3">
+        <joint type="hinge"/><geom name="gb" size="0.1" contype="1" conaffinity="0"/></body></body>
+      </worldbody><contact><pair geom1="ga" geom2="gb" condim="1"/></contact></mujoco>""")
+    for self_collisions, expected in [(True, [("arm/ga", "arm/gb")]), (False, [])]:
+        spec, _ = Scene().add_actor("arm", arm, pos=(0, 0, 1),
+                                    self_collisions=self_collisions).compose()
+        model = myriad.physics.from_mujoco(spec.compile())
+        names = model.geom_names
+        assert [(names[a], names[b]) for a, b in candidate_pairs(model)] == expected
 
 
 def test_dof_efforts_drive_the_joints(device):

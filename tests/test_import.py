@@ -1,6 +1,10 @@
 """Import: what MuJoCo compiles becomes a Model; what it rejects, or we do not support, is a
 ModelError naming the file and the element."""
 
+import importlib.util
+import os
+import warnings
+
 import numpy as np
 import pytest
 
@@ -216,3 +220,40 @@ def test_names_that_read_as_numbers_are_not_numbers():
     model = myriad.load_xml("""<mujoco><worldbody><body name="inf"><joint name="nan" type="hinge"/>
         <geom size="0.1"/></body></worldbody><actuator><motor joint="nan"/></actuator></mujoco>""")
     assert model.body_names == ["inf"] and model.joint_names == ["nan"]
+
+
+def _gymnasium_robotics_asset(name: str) -> str:
+    """A model file of gymnasium-robotics, found without importing the package (its __init__
+    imports pettingzoo, mujoco-py era extras, ...: a `pytest.importorskip` would skip the test
+    wherever those are missing, though the XML is there); the test is skipped without it."""
+    spec = importlib.util.find_spec("gymnasium_robotics")
+    if spec is None or not spec.submodule_search_locations:
+        pytest.skip("gymnasium-robotics is not installed (pip install --no-deps "
+                    "gymnasium-robotics==1.4.2)")
+    return os.path.join(spec.submodule_search_locations[0], "envs", "assets", name)
+
+
+def test_shadow_hand_with_explicit_contact_pairs_loads_and_steps():
+    """OpenAI's Shadow Hand (gymnasium-robotics' manipulate_block.xml): its shared.xml declares
+    19 frictionless (condim 1) <pair>s between the fingers and the thumb, whose geoms'
+    contype/conaffinity (1/0) keep them apart otherwise. It loads; each distinct pair is a
+    candidate once (one is named twice), frictionless; the hand steps, finite."""
+    from myriad.physics.collision import candidate_pairs, pair_friction
+    model = myriad.load(_gymnasium_robotics_asset("hand/manipulate_block.xml"))
+    assert model.pair_geoms.shape == (19, 2) and np.all(model.pair_friction == 0.0)
+    names = model.geom_names
+    pairs = candidate_pairs(model)
+    mu = dict(zip((tuple(sorted((names[a], names[b]))) for a, b in pairs),
+                  pair_friction(model, pairs).tolist()))
+    assert len(mu) == len(pairs), "each pair once"
+    explicit = {tuple(sorted((names[a], names[b]))) for a, b in model.pair_geoms}
+    assert len(explicit) == 18
+    assert all(mu[p] == 0.0 for p in explicit)
+    assert mu[("robot0:C_ffdistal", "robot0:C_thdistal")] == 0.0
+    assert sum(1 for v in mu.values() if v >= 0.0) == 18     # the others: the geoms' average
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)       # no overlap at rest among them
+        sim = myriad.Simulator(model, num_envs=2)
+    for _ in range(10):
+        sim.step()
+    assert sim.nonfinite.sum() == 0 and np.isfinite(sim.q.numpy()).all()

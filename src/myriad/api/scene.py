@@ -155,6 +155,10 @@ class Scene:
             for i, b1 in enumerate(bodies):
                 for b2 in bodies[i + 1:]:
                     spec.add_exclude(bodyname1=b1.name, bodyname2=b2.name)
+            # an explicit <contact><pair> collides whatever <exclude> says: the actor's go too
+            for pair in [p for p in spec.pairs if p.geomname1.startswith(prefix)
+                         and p.geomname2.startswith(prefix)]:
+                spec.delete(pair)
         joints = [j for b in bodies for j in b.joints
                   if j.type in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)]
         if actor.dof_mode not in ("position", "velocity"):

@@ -238,7 +238,10 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
         # tangent basis: any orthonormal pair (the friction disk is isotropic)
         t1, t2 = tangents(n)
         sp = _body_spans(m, b1, b2)
-        mu = 0.5 * (p.geom_friction[e, pair[0]] + p.geom_friction[e, pair[1]])
+        # an explicit <pair>'s own friction, else the two geoms' average (PhysX's combine)
+        mu = m.pair_friction[c.key[e, k] // 32]
+        if mu < 0.0:
+            mu = 0.5 * (p.geom_friction[e, pair[0]] + p.geom_friction[e, pair[1]])
         restitution = 0.5 * (p.geom_restitution[e, pair[0]] + p.geom_restitution[e, pair[1]])
         # the three rows together: normal (3k), then the two friction rows; J is the velocity
         # of body 2's point relative to body 1's, along each direction

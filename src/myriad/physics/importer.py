@@ -249,9 +249,6 @@ def _check_supported(m, source: str) -> None:
         fail("mocap bodies are not supported")
     if m.nplugin:
         fail("engine plugins are not supported")
-    if m.npair:
-        fail("explicit <contact><pair> elements are not supported yet (use contype/conaffinity "
-             "and <exclude>)")
     if np.any(m.opt.wind != 0) or m.opt.density != 0 or m.opt.viscosity != 0:
         fail("<option> wind/density/viscosity (fluid forces) are not supported")
     for j in range(m.njnt):
@@ -498,6 +495,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         tendon_limit_stiffness=np.zeros(m.ntendon, np.float32),
         **sensors,
         exclude_body_pairs=_i32(_exclude_pairs(m)),
+        **_explicit_pairs(m),
         **_equalities(m),
         gravity=_f32(m.opt.gravity), timestep=float(m.opt.timestep),
     )
@@ -550,6 +548,19 @@ def _qpos_xyzw(m, qpos: np.ndarray) -> np.ndarray:
             a = m.jnt_qposadr[j] + (3 if m.jnt_type[j] == JointType.FREE else 0)
             out[a:a + 4] = qpos[[a + 1, a + 2, a + 3, a]]
     return out
+
+
+def _explicit_pairs(m) -> dict:
+    """The Model's pair_* fields from MuJoCo's <contact><pair> elements.
+
+    A pair's own friction replaces its geoms' (pair_friction[:, 0], the sliding friction); a
+    condim 1 pair is frictionless. As for geoms, condim 4 and 6 keep only the sliding friction
+    (Myriad has no torsional or rolling friction), and the pair's margin and gap are not used:
+    every pair has the simulator's contact_offset (`SimParams`), PhysX's one offset. Its solref,
+    solimp and solreffriction do not apply either: contacts are hard rows."""
+    geoms = np.stack([m.pair_geom1, m.pair_geom2], axis=1) if m.npair else np.zeros((0, 2))
+    friction = np.where(m.pair_dim == 1, 0.0, m.pair_friction[:, 0]) if m.npair else np.zeros(0)
+    return dict(pair_geoms=_i32(geoms), pair_friction=_f32(friction))
 
 
 def _exclude_pairs(m) -> np.ndarray:

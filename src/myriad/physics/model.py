@@ -161,6 +161,11 @@ class Model:
 
     # contact filtering
     exclude_body_pairs: np.ndarray   # [nexclude, 2] body ids (-1 = world)
+    # explicit contact pairs (MJCF <contact><pair>), in MuJoCo's order: always candidates,
+    # whatever contype/conaffinity, parent-child and <exclude> say (`collision.candidate_pairs`)
+    pair_geoms: np.ndarray           # [npair, 2] geom ids
+    pair_friction: np.ndarray        # [npair] sliding friction of the pair's contacts, used instead
+                                     # of its geoms' average; 0 for condim 1 (frictionless)
 
     # equality constraints (MuJoCo's <equality>), hard rows of the solve (docs/physics.md).
     # Site semantics are turned into body semantics at import: a frame on each of two bodies.

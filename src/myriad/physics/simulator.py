@@ -57,11 +57,11 @@ class Simulator:
                              "one per CPU core)")
 
         N, dev, m = num_envs, self.device, model
-        self._m = structs.model_arrays(model, dev)
-
-        # model-wide collision data: candidate pairs fixed now, shapes, meshes, height fields
+        # model-wide collision data: candidate pairs fixed now (with the friction of the
+        # explicit ones, in ModelArrays), shapes, meshes, height fields
         pairs = (collision.candidate_pairs(model, params.self_collisions) if params.constraints
-                 else np.zeros((0, 2)))
+                 else np.zeros((0, 2), np.int32))
+        self._m = structs.model_arrays(model, dev, collision.pair_friction(model, pairs))
         self._pairs = wp.array(pairs, dtype=wp.vec2i, device=dev)
         self.contact_capacity = params.contacts_per_env if len(pairs) else 0
         self._meshes, self._hfields = collision.shape_data(model, dev)

@@ -226,6 +226,9 @@ class ModelArrays:
     geom_body: wp.array(dtype=wp.int32)     # -1: the world (static geometry)
     geom_quat: wp.array(dtype=wp.quat)      # orientation in the body frame
     geom_dataid: wp.array(dtype=wp.int32)   # mesh or height field, -1 if none
+    # [ncandidate pairs] friction of candidate pair k's contacts (k = contact key // 32) set by
+    # an explicit <pair>; -1: the average of its geoms' geom_friction (`collision.pair_friction`)
+    pair_friction: wp.array(dtype=float)
 
     site_body: wp.array(dtype=wp.int32)
     site_pos: wp.array(dtype=wp.vec3)
@@ -321,9 +324,10 @@ def equality_rows(model) -> dict:
     return dict(eq_rownum=rownum, eq_rowadr=(np.cumsum(rownum) - rownum).astype(np.int32))
 
 
-def model_arrays(model, device) -> ModelArrays:
+def model_arrays(model, device, pair_friction=None) -> ModelArrays:
     """`model` on the device: each field of ModelArrays is the Model's attribute of the same
-    name, except the few derived here."""
+    name, except the few derived here. `pair_friction`: per candidate pair of the simulator
+    (`collision.pair_friction`); None: no candidate pairs."""
     dof_span, body_span = tree_spans(model)
     madr, mnum, mass_col = mass_matrix_layout(model.dof_parent)
     sites = model.force_sensor_sites
@@ -333,7 +337,9 @@ def model_arrays(model, device) -> ModelArrays:
                    dof_madr=madr, dof_mnum=mnum, mass_col=mass_col,
                    **equality_rows(model),
                    actuator_qposadr=model.jnt_qposadr[model.dof_jnt[model.actuator_dof]],
-                   sensor_slot=np.asarray(slot, np.int32))
+                   sensor_slot=np.asarray(slot, np.int32),
+                   pair_friction=np.zeros(0, np.float32) if pair_friction is None
+                   else pair_friction)
     out = ModelArrays()
     for name, var in ModelArrays.vars.items():
         value = derived[name] if name in derived else getattr(model, name)

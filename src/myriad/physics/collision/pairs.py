@@ -9,6 +9,15 @@ do but push harder each step, and a driven arm carrying a welded tool blew up). 
 ordered so that geom type 1 <= geom type 2 (a plane always comes first);
 contact normals point from geom 1 to geom 2.
 
+An explicit MJCF <contact><pair> (`Model.pair_geoms`) is a candidate whatever the filters above
+say (contype/conaffinity, parent-child, <exclude>, a connect or weld), as in MuJoCo; the pair
+that the filters would have made of the same two geoms is not added again: the explicit one,
+with its own friction (`pair_friction`), replaces it. Three rules still apply to it: a pair of
+geoms on one body (or both static) is dropped, since it cannot push anything; the simulator's
+`self_collisions` switch, when off, turns off an articulation's explicit pairs too; and the
+rule on overlaps at rest below. A pair's own margin and gap are not used: every pair has the
+simulator's one contact_offset (PhysX's semantics).
+
 One rule MuJoCo does not have: two geoms of one articulation that overlap (by more than 0.1 mm)
 in the model's initial pose (qpos0), or a fixed-base robot's link that overlaps the static
 geometry it is mounted on, are not a pair, and a warning names them. Robot files often overlap
@@ -29,7 +38,8 @@ from ..types import EqualityType, GeomType, JointType
 
 
 def candidate_pairs(model, self_collision=True) -> np.ndarray:
-    """[npair, 2] geom indices of every pair that may collide.
+    """[npair, 2] geom indices of every pair that may collide, the model's explicit pairs
+    among them (`pair_friction` gives their friction, per candidate pair).
 
     `self_collision`: whether the bodies of one articulation (a tree below the world) collide with
     each other: one bool for all trees, or one per tree root body (a dict {root body: bool}).
@@ -41,19 +51,21 @@ def candidate_pairs(model, self_collision=True) -> np.ndarray:
     jointed = np.isin(model.eq_type, (EqualityType.CONNECT, EqualityType.WELD))
     excluded |= {tuple(sorted(p)) for p in
                  np.stack([model.eq_obj1, model.eq_obj2], 1)[jointed].tolist()}
+    explicit = _explicit(model)
     pairs = []
     for g1 in range(model.ngeom):
         for g2 in range(g1 + 1, model.ngeom):
             b1, b2 = body[g1], body[g2]
             if b1 == b2:                       # same body, or both static
                 continue
-            if not ((model.geom_contype[g1] & model.geom_conaffinity[g2])
-                    or (model.geom_contype[g2] & model.geom_conaffinity[g1])):
-                continue
-            if (b1 >= 0 and parent[g2] == b1) or (b2 >= 0 and parent[g1] == b2):
-                continue                       # parent and child (the world is nobody's parent here)
-            if tuple(sorted((b1, b2))) in excluded:
-                continue
+            if (g1, g2) not in explicit:       # an explicit pair passes the model's filters
+                if not ((model.geom_contype[g1] & model.geom_conaffinity[g2])
+                        or (model.geom_contype[g2] & model.geom_conaffinity[g1])):
+                    continue
+                if (b1 >= 0 and parent[g2] == b1) or (b2 >= 0 and parent[g1] == b2):
+                    continue                   # parent and child (the world is nobody's parent here)
+                if tuple(sorted((b1, b2))) in excluded:
+                    continue
             if b1 >= 0 and root[g1] == root[g2]:
                 allowed = self_collision if isinstance(self_collision, bool) \
                     else self_collision.get(int(root[g1]), True)
@@ -65,6 +77,27 @@ def candidate_pairs(model, self_collision=True) -> np.ndarray:
                 pairs.append((g2, g1))
     pairs = np.asarray(pairs, dtype=np.int32).reshape(-1, 2)
     return pairs[~_overlapping_at_rest(model, pairs)]
+
+
+def _explicit(model) -> dict:
+    """{(g1, g2) with g1 < g2: sliding friction} of the model's explicit pairs. A pair named
+    twice (the Shadow Hand's shared.xml names one finger pair twice) is one candidate, with
+    the friction of its first <pair>: MuJoCo would collide it twice, doubling its contacts."""
+    explicit = {}
+    for (g1, g2), mu in zip(model.pair_geoms.tolist(), model.pair_friction.tolist()):
+        explicit.setdefault((min(g1, g2), max(g1, g2)), mu)
+    return explicit
+
+
+def pair_friction(model, pairs: np.ndarray) -> np.ndarray:
+    """[npair] float32: the friction coefficient of candidate pair k's contacts where an
+    explicit <pair> sets it, -1 where the average of its two geoms' friction applies
+    (`constraints.contact_rows` reads it by the contact's pair index, key // 32). An explicit
+    pair's friction is the model's, the same in every env: randomizing geom_friction does not
+    change it."""
+    explicit = _explicit(model)
+    return np.asarray([explicit.get((min(g1, g2), max(g1, g2)), -1.0)
+                       for g1, g2 in pairs.tolist()], np.float32).reshape(-1)
 
 
 # overlaps shallower than this (m) are parts meant to touch; the solver separates them gently
@@ -111,8 +144,11 @@ def _overlapping_at_rest(model, pairs: np.ndarray) -> np.ndarray:
         listed = ", ".join(f"{name(g1)}-{name(g2)} ({-1e3 * depth:.1f} mm)"
                            for depth, g1, g2 in found[:5])
         more = f" and {len(found) - 5} more" if len(found) > 5 else ""
+        explicit = _explicit(model)
+        named = any((min(g1, g2), max(g1, g2)) in explicit for _, g1, g2 in found)
         warnings.warn(f"{model.source}: {len(found)} geom pair(s) of one robot overlap in its "
                       f"initial pose and will not collide: {listed}{more}. Add "
-                      "<contact><exclude> for them to silence this.", RuntimeWarning,
-                      stacklevel=4)
+                      "<contact><exclude> for them" + (" (and remove their <pair>)" if named
+                                                       else "") + " to silence this.",
+                      RuntimeWarning, stacklevel=4)
     return mask
