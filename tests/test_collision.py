@@ -290,18 +290,43 @@ def test_an_explicit_pair_collides_geoms_their_contype_keeps_apart(device):
     assert fell.q[:, 2].max() < 0.1 - 0.5 * 9.81 * 0.9 ** 2
 
 
-def _box_on_paired_incline(pair: str, deg: float = 20.0) -> myriad.Model:
-    """A 20 cm box (friction 1, as the incline's) resting on a plane tilted by `deg` about x,
-    the two named by `pair` (the filters make them a pair too: the <pair> replaces it)."""
+def _incline_xml(condim_incline: int, condim_box: int, deg: float = 20.0, contact: str = "") -> str:
     th = math.radians(deg)
     quat = f"{math.cos(th / 2)} {math.sin(th / 2)} 0 0"      # the slope descends toward -y
     pos = " ".join(f"{x:.6f}" for x in np.array([0.0, -math.sin(th), math.cos(th)]) * 0.1)
-    return myriad.load_xml(f"""<mujoco><worldbody>
-      <geom name="incline" type="plane" size="20 20 0.1" quat="{quat}" friction="1 0 0"/>
+    return f"""<mujoco><worldbody>
+      <geom name="incline" type="plane" size="20 20 0.1" quat="{quat}" friction="1 0 0"
+            condim="{condim_incline}"/>
       <body name="box" pos="{pos}" quat="{quat}"><freejoint/>
-        <geom name="box" type="box" size="0.1 0.1 0.1" mass="1" friction="1 0 0"/></body>
-      </worldbody><contact>{pair.format(g1="incline", g2="box")}</contact></mujoco>""",
+        <geom name="box" type="box" size="0.1 0.1 0.1" mass="1" friction="1 0 0"
+              condim="{condim_box}"/></body>
+      </worldbody><contact>{contact}</contact></mujoco>"""
+
+
+def _box_on_paired_incline(pair: str, deg: float = 20.0) -> myriad.Model:
+    """A 20 cm box (friction 1, as the incline's) resting on a plane tilted by `deg` about x,
+    the two named by `pair` (the filters make them a pair too: the <pair> replaces it)."""
+    return myriad.load_xml(_incline_xml(3, 3, deg, pair.format(g1="incline", g2="box")),
                            "paired_incline")
+
+
+def test_two_condim_1_geoms_touch_without_friction(device):
+    """MuJoCo's contact takes the larger condim of its two geoms: frictionless only if both
+    have condim 1. The box slides down the 20° incline at g sin 20° within 5%; with one of the
+    two at condim 3 it sticks (both geoms have friction 1)."""
+    th, g, dt = math.radians(20.0), 9.81, 1 / 60
+    for condims, slides in (((1, 1), True), ((1, 3), False)):
+        model = myriad.load_xml(_incline_xml(*condims), "condim_incline")
+        sim = myriad.Simulator(model, num_envs=1, device=device, params=ISAAC_PARAMS)
+        speeds = []
+        for _ in range(60):
+            sim.step()
+            speeds.append(sim.qd[0, :3].norm().item())
+        if slides:
+            assert (speeds[59] - speeds[14]) / (45 * dt) == pytest.approx(g * math.sin(th),
+                                                                          rel=0.05)
+        else:
+            assert speeds[59] < 1e-2
 
 
 @pytest.mark.parametrize("pair, mu", [

@@ -91,12 +91,15 @@ def _explicit(model) -> dict:
 
 def pair_friction(model, pairs: np.ndarray) -> np.ndarray:
     """[npair] float32: the friction coefficient of candidate pair k's contacts where an
-    explicit <pair> sets it, -1 where the average of its two geoms' friction applies
-    (`constraints.contact_rows` reads it by the contact's pair index, key // 32). An explicit
-    pair's friction is the model's, the same in every env: randomizing geom_friction does not
-    change it."""
+    explicit <pair> sets it, 0 where both geoms have condim 1 (MuJoCo's contact takes the larger
+    condim of its two geoms: frictionless only if both are), -1 where the average of its two
+    geoms' friction applies (`constraints.contact_rows` reads it by the contact's pair index,
+    key // 32). An explicit pair's friction is the model's, the same in every env: randomizing
+    geom_friction does not change it."""
     explicit = _explicit(model)
-    return np.asarray([explicit.get((min(g1, g2), max(g1, g2)), -1.0)
+    frictionless = np.asarray(model.geom_condim) == 1
+    return np.asarray([explicit.get((min(g1, g2), max(g1, g2)),
+                                    0.0 if frictionless[g1] and frictionless[g2] else -1.0)
                        for g1, g2 in pairs.tolist()], np.float32).reshape(-1)
 
 
@@ -126,7 +129,7 @@ def _overlapping_at_rest(model, pairs: np.ndarray) -> np.ndarray:
         return mask
     mj = model.mj_model
     data = mujoco.MjData(mj)
-    data.qpos[:] = model.qpos0
+    data.qpos[:] = mj.qpos0         # MuJoCo's own (w, x, y, z quaternions; Model's are x, y, z, w)
     mujoco.mj_kinematics(mj, data)
     found = []
     for k in candidates:
