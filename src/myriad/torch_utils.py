@@ -16,6 +16,38 @@ def quat_rotate_inverse(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
     return quat_rotate(torch.cat((-q[..., :3], q[..., 3:4]), dim=-1), v)
 
 
+def quat_mul(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    """The rotation a·b (b first, then a)."""
+    av, aw, bv, bw = a[..., :3], a[..., 3:4], b[..., :3], b[..., 3:4]
+    return torch.cat((aw * bv + bw * av + torch.cross(av, bv, dim=-1),
+                      aw * bw - (av * bv).sum(-1, keepdim=True)), dim=-1)
+
+
+def quat_conjugate(q: torch.Tensor) -> torch.Tensor:
+    return torch.cat((-q[..., :3], q[..., 3:4]), dim=-1)
+
+
+def quat_from_angle_axis(angle: torch.Tensor, axis: torch.Tensor) -> torch.Tensor:
+    """Rotations by `angle` [...] about the unit `axis` [..., 3]."""
+    half = 0.5 * angle[..., None]
+    return torch.cat((axis * torch.sin(half), torch.cos(half)), dim=-1)
+
+
+def rotation_angle(q: torch.Tensor) -> torch.Tensor:
+    """The angle of rotation of q in [0, π] (the seed's 2·asin of the vector part's norm)."""
+    return 2.0 * torch.asin(torch.clamp(torch.norm(q[..., :3], dim=-1), max=1.0))
+
+
+def unscale(x: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
+    """Map [lower, upper] to [-1, 1]."""
+    return (2.0 * x - upper - lower) / (upper - lower)
+
+
+def scale(x: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
+    """Map [-1, 1] to [lower, upper]."""
+    return lower + 0.5 * (x + 1.0) * (upper - lower)
+
+
 def wrap_angle(a: torch.Tensor) -> torch.Tensor:
     """To (-π, π]."""
     return torch.atan2(torch.sin(a), torch.cos(a))
@@ -64,10 +96,6 @@ def where_rows(mask: torch.Tensor, new: torch.Tensor, old: torch.Tensor) -> torc
     return torch.where(mask.view(-1, *[1] * (new.dim() - 1)), new, old)
 
 
-def unscale(x: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
-    """Map [lower, upper] to [-1, 1]."""
-    return (2.0 * x - upper - lower) / (upper - lower)
-
-
-__all__ = ["quat_rotate", "quat_rotate_inverse", "wrap_angle", "euler_xyz",
-           "heading_up_and_angles", "env_mask", "unit_axis", "unscale", "where_rows"]
+__all__ = ["quat_rotate", "quat_rotate_inverse", "quat_mul", "quat_conjugate",
+           "quat_from_angle_axis", "rotation_angle", "wrap_angle", "euler_xyz",
+           "heading_up_and_angles", "env_mask", "unit_axis", "scale", "unscale", "where_rows"]

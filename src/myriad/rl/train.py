@@ -102,11 +102,18 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.stop_signal = None
         self.last_save = time.monotonic()
         self.curve_path = os.path.join(self.experiment_dir, "progress.csv")
+        # a task's own scalars (`metrics()`, e.g. the hands' consecutive_successes): columns
+        # of progress.csv after ours, in the progress line, summary.json and TensorBoard
+        self.metric_names = sorted(self.task_metrics())
         with open(self.curve_path, "a", newline="") as f:
             if f.tell() == 0:
                 csv.writer(f).writerow(["epoch", "env_steps", "wall_s", "mean_reward",
                                         "env_steps_per_s", "physics_s", "policy_s", "update_s",
-                                        "nonfinite_actions"])
+                                        "nonfinite_actions"] + self.metric_names)
+
+    def task_metrics(self) -> dict[str, float]:
+        metrics = getattr(self.vec_env.env, "metrics", None)
+        return metrics() if metrics is not None else {}
 
     # ---------------------------------------------------------------- checkpoints
     def save(self, fn) -> bool:
@@ -143,6 +150,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             "best_mean_reward": self.best_mean_reward,
             "best_saved_reward": self.best_saved_reward,
             "nonfinite_actions": self.nonfinite_actions,
+            **{k: round(v, 4) for k, v in getattr(self, "metrics", {}).items()},
             "rng": {"torch": torch.get_rng_state(), "cuda": cuda,
                     "numpy": np.random.get_state(), "python": random.getstate()}}
         return state
@@ -209,15 +217,21 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         reward = "  (no episode finished yet)" if mean is None else \
             f"  reward {mean:9.1f}  best {self.best_mean_reward:9.1f}"
         flags = f"  non-finite actions {bad_now}" if bad_now else ""
+        self.metrics = self.task_metrics()
+        shown = "".join(f"  {k} {v:.2f}" for k, v in self.metrics.items())
         print(f"epoch {self.epoch_num:5d}/{self.max_epochs}  {env_steps:>11,d} steps  "
-              f"{rate:9,.0f} steps/s  {wall:7.0f} s{reward}{flags}", flush=True)
+              f"{rate:9,.0f} steps/s  {wall:7.0f} s{reward}{shown}{flags}", flush=True)
         self.writer.add_scalar("myriad/env_steps_per_s", rate, env_steps)
         self.writer.add_scalar("myriad/nonfinite_actions", bad_now, env_steps)
+        for k, v in self.metrics.items():
+            self.writer.add_scalar(f"myriad/{k}", v, env_steps)
         with open(self.curve_path, "a", newline="") as f:
             csv.writer(f).writerow([self.epoch_num, env_steps, f"{wall:.2f}",
                                     "" if mean is None else f"{mean:.3f}", f"{rate:.0f}",
                                     f"{step_time:.4f}", f"{play_time - step_time:.4f}",
-                                    f"{update_time:.4f}", bad_now])
+                                    f"{update_time:.4f}", bad_now]
+                                   + [f"{self.metrics.get(k, math.nan):.4f}"
+                                      for k in self.metric_names])
         if not self.weights_finite():
             self.write_summary(env_steps, wall, mean)
             self.raise_diverged()

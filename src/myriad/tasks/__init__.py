@@ -14,8 +14,10 @@ from .anymal import Anymal
 from .base import VecTask
 from .humanoid import Humanoid
 from .ingenuity import Ingenuity
+from .shadow_hand import ShadowHand
 
-TASKS = {"Ant": Ant, "Anymal": Anymal, "Humanoid": Humanoid, "Ingenuity": Ingenuity}
+TASKS = {"Ant": Ant, "Anymal": Anymal, "Humanoid": Humanoid, "Ingenuity": Ingenuity,
+         "ShadowHand": ShadowHand}
 
 
 def config_int(value, key: str, minimum: int | None = None) -> int:

@@ -1,0 +1,263 @@
+"""Shadow Hand: in-hand reorientation of a cube to goal after goal (seed A.2.3, Tables 10, 11,
+14, 15; reference task-specs §1-§2). `ShadowHand` is the standard task; `ShadowHandOpenAI_FF`
+and `ShadowHandOpenAI_LSTM` are the same task class with their own configs (20 Hz control,
+action moving average 0.3, actor observations of Table 11 and the critic's of Table 10, domain
+randomization, random forces on the cube).
+
+The hand is OpenAI's, from gymnasium-robotics (`myriad.assets.shadow_hand_spec`), fixed at
+(0, 0, 0.5) with gravity off (the original's), driven by its own 20 position actuators (kp 1,
+the wrist 5); its 24 joints include the four distal joints coupled to their middle joints by
+the tendons T_{FF,MF,RF,LF}J1c (limit stiffness 30, damping 0.1). The cube (5 cm, density 567)
+starts at (0, -0.39, 0.60) over the palm; the goal is an orientation only, at the fixed target
+position (0, -0.39, 0.56).
+
+Actions (20) in [-1, 1]: target = scale(a, lower, upper) of each actuated joint, then
+target = α·target + (1 - α)·previous target (α = actionsMovingAverage), clamped to the limits.
+
+Observation "full_state" (211), Table 10 in the original's code order:
+    [0:24]     joint positions unscaled to [-1, 1] by their limits
+    [24:48]    joint velocities × velObsScale (0.2)
+    [48:72]    joint forces × forceTorqueObsScale (10)
+    [72:79]    cube position, quaternion (x, y, z, w)
+    [79:82]    cube linear velocity
+    [82:85]    cube angular velocity × velObsScale
+    [85:92]    goal position, quaternion
+    [92:96]    q_cube · conj(q_goal)
+    [96:161]   five fingertips (ff, mf, rf, lf, th) × [position 3, quaternion 4, linear velocity
+               3, angular velocity 3]
+    [161:191]  five fingertip force/torque sensors × forceTorqueObsScale
+    [191:211]  last actions
+Observation "openai" (42), Table 11: fingertip positions 15, cube position 3,
+q_cube · conj(q_goal) 4, last actions 20.
+
+Reward, with θ = 2·asin(min(|vector part of q_cube · conj(q_goal)|, 1)) and d = |p_cube - p_goal|:
+    distRewardScale·d + rotRewardScale/(|θ| + rotEps) + actionPenaltyScale·Σa²
+    + reachGoalBonus when θ ≤ successTolerance (a success: a new goal is drawn, the cube is left
+      where it is), + fallPenalty when d ≥ fallDistance (the episode ends).
+With maxConsecutiveSuccesses > 0 the episode clock restarts at each success, the episode ends
+after that many, and running out of time adds fallPenalty / 2.
+`consecutive_successes`: whenever envs finish episodes, cs ← a·(mean successes of those envs) +
+(1 - a)·cs with a = averFactor (0.1); the trainer reports it (`metrics`).
+
+Deviations from the original: a success draws the new goal in the same step (the original
+draws it at the start of the next step), so the observation after a success already shows the
+new goal; the goal is not a body in the simulation (the original's goal cube touches nothing
+and feels no gravity: it only draws the goal).
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import torch
+
+from ..api import Scene
+from ..assets import (SHADOW_COUPLINGS, SHADOW_FINGERTIPS, SHADOW_TENDON_LIMIT_STIFFNESS,
+                      shadow_hand_spec)
+from ..torch_utils import (env_mask, quat_conjugate, quat_from_angle_axis, quat_mul,
+                           rotation_angle, scale, unit_axis, unscale, where_rows)
+from .base import VecTask
+
+OBSERVATION_SIZES = {"full_state": 211, "openai": 42}
+HAND_POS = (0.0, 0.0, 0.5)
+CUBE_SIZE = 0.05              # m, edge
+CUBE_DENSITY = 567.0          # kg/m³
+
+
+def cube_spec(size: float = CUBE_SIZE, density: float = CUBE_DENSITY) -> mujoco.MjSpec:
+    """The manipulated cube: one free box (the original's cube_multicolor)."""
+    spec = mujoco.MjSpec()
+    body = spec.worldbody.add_body(name="object")
+    body.add_freejoint(name="root")
+    body.add_geom(name="object", type=mujoco.mjtGeom.mjGEOM_BOX, size=[size / 2] * 3,
+                  density=density, rgba=[0.9, 0.5, 0.1, 1.0])
+    return spec
+
+
+class ShadowHand(VecTask):
+    num_actions = 20
+
+    def __init__(self, cfg: dict, device: str = "cpu"):
+        env = cfg["env"]
+        self.obs_type = env["observationType"]
+        if self.obs_type not in OBSERVATION_SIZES:
+            raise ValueError(f"env.observationType={self.obs_type!r}; valid: "
+                             f"{sorted(OBSERVATION_SIZES)}")
+        self.num_obs = OBSERVATION_SIZES[self.obs_type]
+        self.num_states = OBSERVATION_SIZES["full_state"] if env["asymmetric_observations"] else 0
+        self.rewards = {k: float(env[k]) for k in (
+            "distRewardScale", "rotRewardScale", "rotEps", "actionPenaltyScale",
+            "reachGoalBonus", "fallDistance", "fallPenalty", "successTolerance")}
+        self.max_consecutive_successes = int(env["maxConsecutiveSuccesses"])
+        self.aver_factor = float(env["averFactor"])
+        self.moving_average = float(env["actionsMovingAverage"])
+        self.vel_obs_scale = float(env["velObsScale"])
+        self.force_torque_obs_scale = float(env["forceTorqueObsScale"])
+        self.reset_position_noise = float(env["resetPositionNoise"])
+        self.reset_dof_pos_noise = float(env["resetDofPosRandomInterval"])
+        self.reset_dof_vel_noise = float(env["resetDofVelRandomInterval"])
+        self.cube_start = tuple(env["objectStartPos"])
+        if not 0.0 < self.moving_average <= 1.0:
+            raise ValueError(f"env.actionsMovingAverage={self.moving_average}: must be in (0, 1]")
+        super().__init__(cfg, device)
+
+        e, dev, N = self.envs, self.device, self.num_envs
+        m = e.model
+        limits = e.dof_limits()[0]
+        self.dof_lower, self.dof_upper = limits[:, 0], limits[:, 1]
+        # the DOF each actuator drives (the hand's 20 position actuators, in the model's order)
+        dof_cols = e.dof_columns.tolist()
+        self.actuated = torch.tensor([dof_cols.index(int(d)) for d in m.actuator_dof],
+                                     device=dev)
+        self.hand = e.actor_index("hand")
+        self.cube = e.actor_index("object")
+        self.fingertips = torch.tensor([e.body_index(f"hand/robot0:{t}")
+                                        for t in SHADOW_FINGERTIPS], device=dev)
+        self.fingertip_sensors = torch.tensor([e.sensor_index(f"hand/robot0:{t}_wrench")
+                                               for t in SHADOW_FINGERTIPS], device=dev)
+        couplings = [m.tendon_names.index(f"hand/robot0:T_{f}J1c") for f in SHADOW_COUPLINGS]
+        e.sim.tendon_limit_stiffness[:, couplings] = SHADOW_TENDON_LIMIT_STIFFNESS
+
+        self.cube_start_pos = torch.tensor(self.cube_start, device=dev)
+        self.goal_pos = (self.cube_start_pos - torch.tensor([0.0, 0.0, 0.04], device=dev)
+                         ).repeat(N, 1)
+        self.goal_rot = torch.zeros(N, 4, device=dev)
+        self.goal_rot[:, 3] = 1.0
+        self.prev_targets = torch.zeros(N, e.num_dofs, device=dev)
+        self.successes = torch.zeros(N, device=dev)
+        self.consecutive_successes = torch.zeros((), device=dev)
+        self.initial_root_states = e.root_states.clone()
+        self.reset()
+
+    # ------------------------------------------------------------------ scene
+    def create_envs(self):
+        scene = Scene().add_ground()
+        scene.add_actor("hand", shadow_hand_spec(), pos=HAND_POS, quat=None, fix_base=True,
+                        dof_mode="none", gravity=False)
+        scene.add_actor("object", cube_spec(), pos=self.cube_start)
+        return scene.build(self.num_envs, self.device, self.sim_params)
+
+    # ------------------------------------------------------------------ step
+    def pre_physics_step(self, actions):
+        self.actions[:] = actions
+        lower, upper = self.dof_lower[self.actuated], self.dof_upper[self.actuated]
+        targets = scale(actions, lower, upper)
+        targets = (self.moving_average * targets
+                   + (1.0 - self.moving_average) * self.prev_targets[:, self.actuated])
+        targets = torch.clamp(targets, lower, upper)
+        self.prev_targets[:, self.actuated] = targets
+        self.envs.sim.ctrl[:] = targets
+
+    def post_physics_step(self):
+        cube = self.envs.root_states[:, self.cube]
+        self.rew_buf[:], reset, reached, self.successes[:] = compute_hand_reward(
+            cube[:, 0:3], cube[:, 3:7], self.goal_pos, self.goal_rot, self.actions,
+            self.successes, self.progress_buf, self.max_episode_length,
+            self.max_consecutive_successes, **self.rewards)
+        self.reset_buf[:] = reset.long()
+        if self.max_consecutive_successes > 0:         # each goal gets the whole episode
+            self.progress_buf.masked_fill_(reached, 0)
+        self._new_goals(reached)
+        self._count_finished(reset | (self.progress_buf >= self.max_episode_length))
+        self.compute_observations()
+
+    def _new_goals(self, envs: torch.Tensor) -> None:
+        self.goal_rot[:] = where_rows(envs, random_orientation(self.num_envs, self.device),
+                                      self.goal_rot)
+
+    def _count_finished(self, finished: torch.Tensor) -> None:
+        """The original's running average of the successes of envs that finished an episode
+        (kept on the device: no step waits for it)."""
+        count = finished.sum()
+        mean = (self.successes * finished).sum() / count.clamp(min=1)
+        updated = self.aver_factor * mean + (1.0 - self.aver_factor) * self.consecutive_successes
+        self.consecutive_successes = torch.where(count > 0, updated, self.consecutive_successes)
+
+    def metrics(self) -> dict[str, float]:
+        """Scalars the trainer reports with each epoch."""
+        return {"consecutive_successes": float(self.consecutive_successes)}
+
+    # ------------------------------------------------------------------ observations
+    def compute_observations(self):
+        e = self.envs
+        cube = e.root_states[:, self.cube]
+        tips = e.rigid_body_states[:, self.fingertips]                   # [N, 5, 13]
+        relative = quat_mul(cube[:, 3:7], quat_conjugate(self.goal_rot))
+        full = torch.cat((
+            unscale(e.dof_pos, self.dof_lower, self.dof_upper),
+            self.vel_obs_scale * e.dof_vel,
+            self.force_torque_obs_scale * e.dof_forces,
+            cube[:, 0:7],
+            cube[:, 7:10],
+            self.vel_obs_scale * cube[:, 10:13],
+            self.goal_pos, self.goal_rot,
+            relative,
+            tips.reshape(self.num_envs, -1),
+            self.force_torque_obs_scale * e.force_sensors[:, self.fingertip_sensors].reshape(
+                self.num_envs, -1),
+            self.actions,
+        ), dim=-1)
+        if self.obs_type == "full_state":
+            self.obs_buf[:] = full
+        else:
+            self.obs_buf[:] = torch.cat((tips[..., 0:3].reshape(self.num_envs, -1),
+                                         cube[:, 0:3], relative, self.actions), dim=-1)
+        if self.num_states:
+            self.states_buf[:] = full
+
+    # ------------------------------------------------------------------ resets
+    def reset_idx(self, env_ids):
+        done, N, dev = env_mask(env_ids, self.num_envs), self.num_envs, self.device
+        e = self.envs
+        roots = self.initial_root_states.clone()
+        noise = self.reset_position_noise * (2.0 * torch.rand(N, 3, device=dev) - 1.0)
+        roots[:, self.cube, 0:3] = self.cube_start_pos + noise
+        roots[:, self.cube, 3:7] = random_orientation(N, dev)
+        roots[:, self.cube, 7:13] = 0.0
+        e.set_root_states(roots, done, forward=False)
+        # joints: the original's 0.2 of a uniform draw over each range, from the zero pose
+        delta = self.dof_lower + (self.dof_upper - self.dof_lower) * torch.rand(
+            N, e.num_dofs, device=dev)
+        pos = self.reset_dof_pos_noise * delta
+        vel = self.reset_dof_vel_noise * (2.0 * torch.rand(N, e.num_dofs, device=dev) - 1.0)
+        e.set_dof_state(pos, vel, done)
+        self.prev_targets[:] = where_rows(done, pos, self.prev_targets)
+        e.sim.ctrl[:] = self.prev_targets[:, self.actuated]
+        self._new_goals(done)
+        self.successes.masked_fill_(done, 0.0)
+        self.actions.masked_fill_(done[:, None], 0.0)
+        self.progress_buf.masked_fill_(done, 0)
+
+
+def random_orientation(n: int, device) -> torch.Tensor:
+    """The original's random rotation R_x(π·u1)·R_y(π·u2), u ~ U(-1, 1) (not uniform on SO(3))."""
+    u = 2.0 * torch.rand(n, 2, device=device) - 1.0
+    x = unit_axis(torch.zeros(n, 3, device=device), 0)
+    y = unit_axis(x, 1)
+    return quat_mul(quat_from_angle_axis(math.pi * u[:, 0], x),
+                    quat_from_angle_axis(math.pi * u[:, 1], y))
+
+
+def compute_hand_reward(cube_pos, cube_rot, goal_pos, goal_rot, actions, successes,
+                        progress, max_episode_length, max_consecutive_successes,
+                        distRewardScale, rotRewardScale, rotEps, actionPenaltyScale,
+                        reachGoalBonus, fallDistance, fallPenalty, successTolerance):
+    """(reward, episode ends, goal reached, successes) as the seed's A.2.3 and the original's
+    code: position and orientation terms, an action penalty, the success bonus and the fall
+    penalty."""
+    distance = torch.norm(cube_pos - goal_pos, dim=-1)
+    angle = rotation_angle(quat_mul(cube_rot, quat_conjugate(goal_rot)))
+    reward = (distRewardScale * distance + rotRewardScale / (torch.abs(angle) + rotEps)
+              + actionPenaltyScale * torch.sum(actions ** 2, dim=-1))
+    reached = torch.abs(angle) <= successTolerance
+    successes = successes + reached.float()
+    reward = reward + reachGoalBonus * reached.float()
+    fell = distance >= fallDistance
+    reward = reward + fallPenalty * fell.float()
+    ends = fell
+    if max_consecutive_successes > 0:
+        ends = ends | (successes >= max_consecutive_successes)
+        timed_out = (progress >= max_episode_length) & ~reached
+        reward = reward + 0.5 * fallPenalty * timed_out.float()
+    return reward, ends, reached, successes
