@@ -176,8 +176,11 @@ class Scene:
             names.append(act.name)
         return names
 
-    def build(self, num_envs: int, device="cpu", params: SimParams | None = None):
-        """Compile the scene and allocate `num_envs` copies of it: returns `myriad.api.Envs`."""
+    def build(self, num_envs: int, device="cpu", params: SimParams | None = None,
+              fix_model=None):
+        """Compile the scene and allocate `num_envs` copies of it: returns `myriad.api.Envs`.
+        `fix_model(model)`, if given, changes the `myriad.Model` in place before the envs are
+        made: for what MJCF cannot say (PhysX tendon semantics, say)."""
         from .envs import Envs
 
         spec, drives = self.compose()
@@ -186,4 +189,6 @@ class Scene:
         except Exception as err:
             raise ModelError(f"scene {spec.modelname!r}: MuJoCo rejected it: {err}") from err
         model: Model = from_mujoco(mj_model, source=f"scene {spec.modelname!r}")
+        if fix_model is not None:
+            fix_model(model)
         return Envs(model, self.actors, drives, self.ground, num_envs, device, params)

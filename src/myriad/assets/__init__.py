@@ -107,8 +107,8 @@ def shadow_hand_spec() -> mujoco.MjSpec:
     the task's. Fixes, in memory:
     - a 6-axis force sensor (`<force>` and `<torque>` at a site on the body origin) on each
       fingertip body robot0:{ff,mf,rf,lf,th}distal, as the original adds;
-    - the coupling tendons robot0:T_{FF,MF,RF,LF}J1c get the original's damping 0.1 (their limit
-      stiffness 30 is not an MJCF attribute: `shadow_hand_tendon_fixes` sets it once built);
+    - the coupling tendons robot0:T_{FF,MF,RF,LF}J1c get PhysX's semantics, which MJCF cannot
+      say: pass `shadow_hand_tendons` to `Scene.build(fix_model=...)`;
     - the file's <size> memory and user-data counts are dropped (they are MuJoCo C's buffer
       sizes, which Myriad does not use and which clash with the scene's when attached).
     The root body robot0:hand mount keeps the file's pose (the palm up, fingers along -y, after
@@ -141,6 +141,29 @@ def shadow_hand_spec() -> mujoco.MjSpec:
                         objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site.name)
         spec.add_sensor(name=f"robot0:{tip}_torque", type=mujoco.mjtSensor.mjSENS_TORQUE,
                         objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site.name)
-    for finger in SHADOW_COUPLINGS:
-        spec.tendon(f"robot0:T_{finger}J1c").damping = [SHADOW_TENDON_DAMPING, 0.0, 0.0]
     return spec
+
+
+def physx_tendons(model, names: list[str], limit_stiffness: float, damping: float) -> None:
+    """Give the fixed tendons `names` of `model` (in place) PhysX's semantics as Isaac Gym's
+    importer sets them: each joint receives the tendon force times its recipCoefficient, 1/coef
+    (the MJCF import's N·coef gives MuJoCo's coef·force instead), a limit spring of stiffness
+    `limit_stiffness` outside the tendon's range and `damping` (both per the tendon's N joints,
+    `docs/physics.md`). For the Shadow Hand's couplings (coefs 0.007, range ±0.001), MuJoCo's
+    weighting turned the original's limit stiffness 30 into about 0.001 N·m per mm of slack,
+    and the distal joints hung loose."""
+    for name in names:
+        if name not in model.tendon_names:
+            raise ModelError(f"{model.source}: no tendon {name!r} to give PhysX semantics")
+        t = model.tendon_names.index(name)
+        wraps = slice(model.tendon_adr[t], model.tendon_adr[t] + model.tendon_num[t])
+        model.wrap_recip[wraps] = 1.0 / model.wrap_coef[wraps]
+        model.tendon_limit_stiffness[t] = limit_stiffness
+        model.tendon_damping[t] = damping
+
+
+def shadow_hand_tendons(model, prefix: str = "hand/") -> None:
+    """The original's settings of the Shadow Hand's four coupling tendons (limit stiffness 30,
+    damping 0.1, PhysX semantics), for `Scene.build(fix_model=...)`; `prefix`: the actor's."""
+    physx_tendons(model, [f"{prefix}robot0:T_{f}J1c" for f in SHADOW_COUPLINGS],
+                  SHADOW_TENDON_LIMIT_STIFFNESS, SHADOW_TENDON_DAMPING)

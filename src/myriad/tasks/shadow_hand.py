@@ -53,8 +53,7 @@ import mujoco
 import torch
 
 from ..api import Scene
-from ..assets import (SHADOW_COUPLINGS, SHADOW_FINGERTIPS, SHADOW_TENDON_LIMIT_STIFFNESS,
-                      shadow_hand_spec)
+from ..assets import SHADOW_FINGERTIPS, shadow_hand_spec, shadow_hand_tendons
 from ..torch_utils import (env_mask, quat_conjugate, quat_from_angle_axis, quat_mul,
                            rotation_angle, scale, unit_axis, unscale, where_rows)
 from .base import VecTask
@@ -116,8 +115,6 @@ class ShadowHand(VecTask):
                                         for t in SHADOW_FINGERTIPS], device=dev)
         self.fingertip_sensors = torch.tensor([e.sensor_index(f"hand/robot0:{t}_wrench")
                                                for t in SHADOW_FINGERTIPS], device=dev)
-        couplings = [m.tendon_names.index(f"hand/robot0:T_{f}J1c") for f in SHADOW_COUPLINGS]
-        e.sim.tendon_limit_stiffness[:, couplings] = SHADOW_TENDON_LIMIT_STIFFNESS
 
         self.cube_start_pos = torch.tensor(self.cube_start, device=dev)
         self.goal_pos = (self.cube_start_pos - torch.tensor([0.0, 0.0, 0.04], device=dev)
@@ -136,7 +133,8 @@ class ShadowHand(VecTask):
         scene.add_actor("hand", shadow_hand_spec(), pos=HAND_POS, quat=None, fix_base=True,
                         dof_mode="none", gravity=False)
         scene.add_actor("object", cube_spec(), pos=self.cube_start)
-        return scene.build(self.num_envs, self.device, self.sim_params)
+        return scene.build(self.num_envs, self.device, self.sim_params,
+                           fix_model=shadow_hand_tendons)
 
     # ------------------------------------------------------------------ step
     def pre_physics_step(self, actions):
