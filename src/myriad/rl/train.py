@@ -150,7 +150,6 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             "best_mean_reward": self.best_mean_reward,
             "best_saved_reward": self.best_saved_reward,
             "nonfinite_actions": self.nonfinite_actions,
-            **{k: round(v, 4) for k, v in getattr(self, "metrics", {}).items()},
             "rng": {"torch": torch.get_rng_state(), "cuda": cuda,
                     "numpy": np.random.get_state(), "python": random.getstate()}}
         return state
@@ -264,6 +263,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             "env_steps_per_s": round(env_steps / max(wall, 1e-9)),
             **{k: round(v, 2) for k, v in self.time_split.items()},
             "nonfinite_actions": self.nonfinite_actions,
+            **{k: round(v, 4) for k, v in getattr(self, "metrics", {}).items()},
             "checkpoint": os.path.join(self.nn_dir, "last.pth"),
             "checkpoint_epoch": self.checkpoint_epoch})
 
