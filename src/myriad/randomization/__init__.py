@@ -233,8 +233,9 @@ class Randomizer:
         dof_v = envs.dof_columns[dofs]
         dof_jnt = index(m.dof_jnt[dof_v.cpu().numpy()])
         tendons = [t for t, n in enumerate(m.tendon_names) if n.startswith(prefix)]
-        drive_ctrl = [int(c) for d, c in zip(envs._drive_dofs.tolist(), envs._drive_ctrl.tolist())
-                      if d in dofs]
+        # the actuators on the actor's DOFs: its scene drives, or its model's own (the hands')
+        actor_dofs = set(dof_v.tolist())
+        drive_ctrl = [a for a in range(m.nu) if int(m.actuator_dof[a]) in actor_dofs]
         targets = {
             "rigid_body_properties": {"mass": ("body_mass", index(bodies))},
             "rigid_shape_properties": {"friction": ("geom_friction", index(geoms)),

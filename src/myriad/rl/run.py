@@ -13,6 +13,16 @@ import time
 from omegaconf import OmegaConf
 
 
+def _merge(into: dict, changes: dict) -> None:
+    """Set `changes` in `into`, descending into nested sections (a central_value_config's
+    minibatch_size changes alone)."""
+    for key, value in changes.items():
+        if isinstance(value, dict) and isinstance(into.get(key), dict):
+            _merge(into[key], value)
+        else:
+            into[key] = value
+
+
 def compose(overrides: list[str]):
     """config.yaml + task/<T>.yaml + train/<T>PPO.yaml with command-line overrides (Hydra).
 
@@ -191,7 +201,7 @@ def task_and_train_configs(cfg) -> tuple[dict, dict, str]:
         # CPU profile: fewer envs and a minibatch to match (unless the user chose num_envs)
         if cfg.num_envs is None:
             task_cfg["env"].update(cpu_task)
-            train_cfg["params"]["config"].update(cpu_train)
+            _merge(train_cfg["params"]["config"], cpu_train)
     if cfg.num_envs is not None:
         task_cfg["env"]["numEnvs"] = cfg.num_envs
     env, ppo = task_cfg["env"], train_cfg["params"]["config"]

@@ -17,7 +17,8 @@ from .ingenuity import Ingenuity
 from .shadow_hand import ShadowHand
 
 TASKS = {"Ant": Ant, "Anymal": Anymal, "Humanoid": Humanoid, "Ingenuity": Ingenuity,
-         "ShadowHand": ShadowHand}
+         "ShadowHand": ShadowHand, "ShadowHandOpenAI_FF": ShadowHand,
+         "ShadowHandOpenAI_LSTM": ShadowHand}
 
 
 def config_int(value, key: str, minimum: int | None = None) -> int:
