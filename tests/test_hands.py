@@ -14,7 +14,7 @@ import torch
 
 import myriad
 from myriad import cli
-from myriad.tasks.shadow_hand import compute_hand_reward
+from myriad.tasks.hands import compute_hand_reward
 from myriad.torch_utils import quat_from_angle_axis
 
 pytestmark = pytest.mark.skipif(importlib.util.find_spec("gymnasium_robotics") is None,
@@ -202,3 +202,27 @@ def test_shadow_hand_trains_and_reports_consecutive_successes(tmp_path):
     header = (tmp_path / "hand" / "progress.csv").read_text().splitlines()[0]
     assert header.endswith(",consecutive_successes")
     assert math.isfinite(summary["consecutive_successes"])
+
+
+def test_allegro_observation_is_table_10_without_fingertips_and_the_cube_rests_in_the_palm():
+    """88 values: joint positions, velocities and forces (16 each), cube pose and velocities,
+    goal pose, relative rotation, last actions; with zero actions the cube, let go 4 cm above
+    the palm, stays on it (within the fall distance, below the start, still)."""
+    task = myriad.make("AllegroHand", num_envs=2)
+    obs = task.reset()["obs"]
+    assert obs.shape == (2, 88) and task.num_actions == 16
+    actions = torch.linspace(-0.5, 0.5, 32).reshape(2, 16)
+    obs = task.step(actions)[0]["obs"]
+    cube = task.envs.root_states[:, task.cube]
+    torch.testing.assert_close(obs[:, 48:55], cube[:, 0:7])
+    torch.testing.assert_close(obs[:, 61:64], task.goal_pos)
+    torch.testing.assert_close(obs[:, 72:88], actions)
+    path = []
+    for _ in range(120):                                       # 4 s at 30 Hz
+        task.step(torch.zeros(2, 16))
+        path.append(task.envs.root_states[:, task.cube, 0:3].clone())
+    assert task.reset_buf.sum() == 0
+    rest = path[-1]
+    assert (rest[:, 2] < task.cube_start_pos[2] - 0.02).all()     # it came down onto the palm
+    assert (rest - task.goal_pos).norm(dim=-1).max() < 0.05
+    assert (path[-1] - path[-31]).norm(dim=-1).max() < 1e-3     # still over the last second

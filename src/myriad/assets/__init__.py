@@ -7,6 +7,7 @@ gets its robot from here.
 |-------------|------------------|---------------------------------------------------------------------|
 | ANYmal C    | `myriad[anymal]` | example-robot-data: robots/anymal_c_simple_description/urdf/anymal.urdf |
 | Shadow Hand | `myriad[hands]`  | gymnasium-robotics: envs/assets/hand/{robot,shared,shared_asset}.xml (OpenAI's) |
+| Allegro     | `myriad[hands]`  | example-robot-data: robots/allegro_hand_description/urdf/allegro_right_hand.urdf |
 
 Nothing is downloaded at run time: a missing package is a `ModelError` naming the extra that
 installs it.
@@ -66,7 +67,10 @@ def urdf_spec(path: str, header: str, root_link: str | None = None,
     with tempfile.TemporaryDirectory() as folder:
         saved = os.path.join(folder, "model.xml")
         mujoco.mj_saveLastXML(saved, model)
-        return mujoco.MjSpec.from_file(saved)
+        spec = mujoco.MjSpec.from_file(saved)
+    # the saved file forgets this flag, and its rounded inertias can fail the check again
+    spec.compiler.balanceinertia = 'balanceinertia="true"' in header
+    return spec
 
 
 # ---------------------------------------------------------------------------- ANYmal C
@@ -167,3 +171,31 @@ def shadow_hand_tendons(model, prefix: str = "hand/") -> None:
     damping 0.1, PhysX semantics), for `Scene.build(fix_model=...)`; `prefix`: the actor's."""
     physx_tendons(model, [f"{prefix}robot0:T_{f}J1c" for f in SHADOW_COUPLINGS],
                   SHADOW_TENDON_LIMIT_STIFFNESS, SHADOW_TENDON_DAMPING)
+
+
+# ---------------------------------------------------------------------------- Allegro
+ALLEGRO_HAND = "robots/allegro_hand_description/urdf/allegro_right_hand.urdf"
+
+
+def allegro_hand_spec(damping: float = 0.1, friction: float = 0.01, armature: float = 0.001,
+                      effort: float = 0.5) -> mujoco.MjSpec:
+    """Wonik's Allegro right hand of example-robot-data (16 joints, boxes and sphere tips), with
+    the original's joint settings in place of the URDF's: damping 0.1, dry friction 0.01 (the
+    URDF's 5-12 N·m would hold every finger still against its 0.5 N·m drives), armature 0.001
+    and the drive effort limit 0.5 N·m (each joint's actuatorfrcrange). Fixed links are fused;
+    the palm gets a free joint (so that it stays one body: `Scene.add_actor(fix_base=True)`
+    removes the joint). The thumb's second link overlaps the palm by 0.6 mm at every pose near
+    the start: the pair is excluded."""
+    spec = urdf_spec(installed_file("example-robot-data", ALLEGRO_HAND, "hands"),
+                     '<mujoco><compiler discardvisual="true" balanceinertia="true" '
+                     'fusestatic="true"/></mujoco>', root_link="palm_link")
+    for joint in spec.joints:
+        if joint.type == mujoco.mjtJoint.mjJNT_FREE:
+            continue
+        joint.damping = [damping, 0.0, 0.0]     # (MuJoCo 4: a polynomial in the speed)
+        joint.frictionloss = friction
+        joint.armature = armature
+        joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        joint.actfrcrange = [-effort, effort]
+    spec.add_exclude(bodyname1="palm_link", bodyname2="link_13.0")
+    return spec

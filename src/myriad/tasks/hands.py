@@ -1,8 +1,9 @@
-"""Shadow Hand: in-hand reorientation of a cube to goal after goal (seed A.2.3, Tables 10, 11,
-14, 15; reference task-specs §1-§2). `ShadowHand` is the standard task; `ShadowHandOpenAI_FF`
-and `ShadowHandOpenAI_LSTM` are the same task class with their own configs (20 Hz control,
-action moving average 0.3, actor observations of Table 11 and the critic's of Table 10, domain
-randomization, random forces on the cube).
+"""In-hand reorientation of a cube to goal after goal (seed A.2.3, Tables 10, 11, 14, 15;
+reference task-specs §1-§3): the Shadow Hand and the Allegro hand. `ShadowHand` is the standard
+task; `ShadowHandOpenAI_FF` and `ShadowHandOpenAI_LSTM` are the same class with their own
+configs (20 Hz control, action moving average 0.3, actor observations of Table 11 and the
+critic's of Table 10, domain randomization, random forces on the cube). `AllegroHand` is the
+Shadow formulation on the Allegro hand (below).
 
 The hand is OpenAI's, from gymnasium-robotics (`myriad.assets.shadow_hand_spec`), fixed at
 (0, 0, 0.5) with gravity off (the original's), driven by its own 20 position actuators (kp 1,
@@ -39,6 +40,14 @@ after that many, and running out of time adds fallPenalty / 2.
 `consecutive_successes`: whenever envs finish episodes, cs ← a·(mean successes of those envs) +
 (1 - a)·cs with a = averFactor (0.1); the trainer reports it (`metrics`).
 
+Allegro (task-specs §3): Wonik's 16-joint hand of example-robot-data
+(`myriad.assets.allegro_hand_spec`), position drives kp 3, kd 0.1, effort 0.5 N·m, at
+(0, 0, 0.5) with the palm up and the fingers along -y, gravity off; a 6.5 cm cube (density 400)
+let go 4 cm above where it rests on the palm, (0, 0.04, 0.59) (the original's (0, -0.2, 0.56) is
+in its own URDF's frame, whose palm origin lies at the wrist); 30 Hz control; no fingertip terms, so "full_state" is 88 values: joint
+positions, velocities and forces (16 each), cube pose 7, linear and angular velocity 6, goal
+pose 7, relative rotation 4, last actions 16. Reward, success and resets as the Shadow Hand's.
+
 Deviations from the original: a success draws the new goal in the same step (the original
 draws it at the start of the next step), so the observation after a success already shows the
 new goal; the goal is not a body in the simulation (the original's goal cube touches nothing
@@ -53,18 +62,17 @@ import mujoco
 import torch
 
 from ..api import Scene
-from ..assets import SHADOW_FINGERTIPS, shadow_hand_spec, shadow_hand_tendons
+from ..assets import (SHADOW_FINGERTIPS, allegro_hand_spec, shadow_hand_spec,
+                      shadow_hand_tendons)
 from ..torch_utils import (env_mask, quat_conjugate, quat_from_angle_axis, quat_mul,
                            rotation_angle, scale, unit_axis, unscale, where_rows)
 from .base import VecTask
 
-OBSERVATION_SIZES = {"full_state": 211, "openai": 42}
+OBSERVATION_TYPES = ("full_state", "openai")
 HAND_POS = (0.0, 0.0, 0.5)
-CUBE_SIZE = 0.05              # m, edge
-CUBE_DENSITY = 567.0          # kg/m³
 
 
-def cube_spec(size: float = CUBE_SIZE, density: float = CUBE_DENSITY) -> mujoco.MjSpec:
+def cube_spec(size: float, density: float) -> mujoco.MjSpec:
     """The manipulated cube: one free box (the original's cube_multicolor)."""
     spec = mujoco.MjSpec()
     body = spec.worldbody.add_body(name="object")
@@ -74,17 +82,27 @@ def cube_spec(size: float = CUBE_SIZE, density: float = CUBE_DENSITY) -> mujoco.
     return spec
 
 
-class ShadowHand(VecTask):
-    num_actions = 20
+class InHandTask(VecTask):
+    """A hand fixed in space turns a cube to random goal orientations; a subclass names the
+    hand (`hand_actor`), its fingertips and its cube."""
+    fingertips_names: tuple = ()
+    cube_size: float
+    cube_density: float
+
+    def hand_actor(self, scene: Scene) -> Scene:
+        raise NotImplementedError
+
+    def fix_model(self, model) -> None:
+        """Changes to the built model that MJCF cannot say (PhysX semantics)."""
 
     def __init__(self, cfg: dict, device: str = "cpu"):
         env = cfg["env"]
         self.obs_type = env["observationType"]
-        if self.obs_type not in OBSERVATION_SIZES:
-            raise ValueError(f"env.observationType={self.obs_type!r}; valid: "
-                             f"{sorted(OBSERVATION_SIZES)}")
-        self.num_obs = OBSERVATION_SIZES[self.obs_type]
-        self.num_states = OBSERVATION_SIZES["full_state"] if env["asymmetric_observations"] else 0
+        if self.obs_type not in OBSERVATION_TYPES or (self.obs_type == "openai"
+                                                      and not self.fingertips_names):
+            valid = OBSERVATION_TYPES if self.fingertips_names else OBSERVATION_TYPES[:1]
+            raise ValueError(f"env.observationType={self.obs_type!r}; valid: {list(valid)}")
+        self.asymmetric = bool(env["asymmetric_observations"])
         self.rewards = {k: float(env[k]) for k in (
             "distRewardScale", "rotRewardScale", "rotEps", "actionPenaltyScale",
             "reachGoalBonus", "fallDistance", "fallPenalty", "successTolerance")}
@@ -111,10 +129,6 @@ class ShadowHand(VecTask):
                                      device=dev)
         self.hand = e.actor_index("hand")
         self.cube = e.actor_index("object")
-        self.fingertips = torch.tensor([e.body_index(f"hand/robot0:{t}")
-                                        for t in SHADOW_FINGERTIPS], device=dev)
-        self.fingertip_sensors = torch.tensor([e.sensor_index(f"hand/robot0:{t}_wrench")
-                                               for t in SHADOW_FINGERTIPS], device=dev)
 
         self.cube_start_pos = torch.tensor(self.cube_start, device=dev)
         self.goal_pos = (self.cube_start_pos - torch.tensor([0.0, 0.0, 0.04], device=dev)
@@ -129,12 +143,22 @@ class ShadowHand(VecTask):
 
     # ------------------------------------------------------------------ scene
     def create_envs(self):
-        scene = Scene().add_ground()
-        scene.add_actor("hand", shadow_hand_spec(), pos=HAND_POS, quat=None, fix_base=True,
-                        dof_mode="none", gravity=False)
-        scene.add_actor("object", cube_spec(), pos=self.cube_start)
-        return scene.build(self.num_envs, self.device, self.sim_params,
-                           fix_model=shadow_hand_tendons)
+        scene = self.hand_actor(Scene().add_ground())
+        scene.add_actor("object", cube_spec(self.cube_size, self.cube_density),
+                        pos=self.cube_start)
+        e = scene.build(self.num_envs, self.device, self.sim_params, fix_model=self.fix_model)
+        # the observation sizes follow from the hand: Table 10's layout (211 for the Shadow
+        # Hand, 88 for Allegro), or Table 11's (42)
+        self.fingertips = torch.tensor([e.body_index(f"hand/{t}") for t in self.fingertips_names],
+                                       dtype=torch.long, device=e.device)
+        self.fingertip_sensors = torch.tensor(
+            [e.sensor_index(f"hand/{t}_wrench") for t in self.fingertips_names],
+            dtype=torch.long, device=e.device)
+        tips = len(self.fingertips_names)
+        full = 3 * e.num_dofs + 13 + 11 + 13 * tips + 6 * tips + self.num_actions
+        self.num_obs = full if self.obs_type == "full_state" else 3 * tips + 3 + 4 + self.num_actions
+        self.num_states = full if self.asymmetric else 0
+        return e
 
     # ------------------------------------------------------------------ step
     def pre_physics_step(self, actions):
@@ -259,3 +283,35 @@ def compute_hand_reward(cube_pos, cube_rot, goal_pos, goal_rot, actions, success
         timed_out = (progress >= max_episode_length) & ~reached
         reward = reward + 0.5 * fallPenalty * timed_out.float()
     return reward, ends, reached, successes
+
+
+class ShadowHand(InHandTask):
+    num_actions = 20
+    fingertips_names = tuple(f"robot0:{t}" for t in SHADOW_FINGERTIPS)
+    cube_size, cube_density = 0.05, 567.0
+
+    def hand_actor(self, scene: Scene) -> Scene:
+        return scene.add_actor("hand", shadow_hand_spec(), pos=HAND_POS, quat=None,
+                               fix_base=True, dof_mode="none", gravity=False)
+
+    def fix_model(self, model) -> None:
+        shadow_hand_tendons(model)
+
+
+class AllegroHand(InHandTask):
+    num_actions = 16
+    cube_size, cube_density = 0.065, 400.0
+
+    def hand_actor(self, scene: Scene) -> Scene:
+        y, x, z = (torch.tensor([[0.0, 1.0, 0.0]]), torch.tensor([[1.0, 0.0, 0.0]]),
+                   torch.tensor([[0.0, 0.0, 1.0]]))
+        # the original's R_y(π)·R_x(0.47π)·R_z(π/4) turns its own URDF's palm up; this URDF's
+        # palm frame sits a quarter turn further about the fingers' axis, so -π/2 here
+        turn = quat_mul(quat_mul(quat_from_angle_axis(torch.tensor([math.pi]), y),
+                                 quat_from_angle_axis(torch.tensor([0.47 * math.pi]), x)),
+                        quat_from_angle_axis(torch.tensor([-0.5 * math.pi]), z))[0]
+        control = self.cfg["env"]["control"]
+        return scene.add_actor("hand", allegro_hand_spec(), pos=HAND_POS,
+                               quat=tuple(turn.tolist()), fix_base=True, dof_mode="position",
+                               stiffness=control["stiffness"], damping=control["damping"],
+                               gravity=False)
