@@ -360,7 +360,7 @@ def play(overrides: list[str]) -> int:
     fps = round(1.0 / task.dt)
     obs = task.reset()["obs"]
     episode_reward, finished = torch.zeros(task.num_envs, device=task.device), []
-    with VideoWriter(video, task.envs, fps=fps, size=tuple(cfg.video_size)) as writer:
+    with VideoWriter(video, task.envs, fps=fps, size=tuple(cfg.video_size), task=task) as writer:
         writer.add_frame()
         for step in range(int(cfg.num_steps)):
             with torch.no_grad():

@@ -196,6 +196,18 @@ class InHandTask(VecTask):
         updated = self.aver_factor * mean + (1.0 - self.aver_factor) * self.consecutive_successes
         self.consecutive_successes = torch.where(count > 0, updated, self.consecutive_successes)
 
+    # the goal drawn beside the hand in videos (the original's goal cube: the target position
+    # plus this offset), and a camera on the hand
+    goal_display_offset = (-0.2, -0.06, 0.12)
+    video_camera = {"lookat": (-0.05, -0.33, 0.56), "distance": 0.75, "elevation": -30.0,
+                    "azimuth": 90.0}
+
+    def video_markers(self) -> list[dict]:
+        """Env 0's goal orientation, as a cube beside the hand (not simulated)."""
+        pos = self.goal_pos[0].cpu() + torch.tensor(self.goal_display_offset)
+        return [{"type": "box", "size": [self.cube_size / 2] * 3, "pos": pos.tolist(),
+                 "quat": self.goal_rot[0].tolist(), "rgba": [0.2, 0.8, 0.3, 0.6]}]
+
     def metrics(self) -> dict[str, float]:
         """Scalars the trainer reports with each epoch."""
         return {"consecutive_successes": float(self.consecutive_successes)}
@@ -301,6 +313,8 @@ class ShadowHand(InHandTask):
 class AllegroHand(InHandTask):
     num_actions = 16
     cube_size, cube_density = 0.065, 400.0
+    video_camera = {"lookat": (-0.05, -0.03, 0.56), "distance": 0.6, "elevation": -30.0,
+                    "azimuth": 90.0}
 
     def hand_actor(self, scene: Scene) -> Scene:
         y, x, z = (torch.tensor([[0.0, 1.0, 0.0]]), torch.tensor([[1.0, 0.0, 0.0]]),
