@@ -154,8 +154,8 @@ def physx_tendons(model, names: list[str], limit_stiffness: float, damping: floa
     (the MJCF import's N·coef gives MuJoCo's coef·force instead), a limit spring of stiffness
     `limit_stiffness` outside the tendon's range and `damping` (both per the tendon's N joints,
     `docs/physics.md`). For the Shadow Hand's couplings (coefs 0.007, range ±0.001), MuJoCo's
-    weighting turned the original's limit stiffness 30 into about 0.001 N·m per mm of slack,
-    and the distal joints hung loose."""
+    weighting turned the original's limit stiffness 30 into 0.0002 N·m per mm of stretch
+    (PhysX's: about 2), and the distal joints hung loose."""
     for name in names:
         if name not in model.tendon_names:
             raise ModelError(f"{model.source}: no tendon {name!r} to give PhysX semantics")
