@@ -16,7 +16,7 @@ def ant(device):
 
 
 def test_make_rejects_unknown_tasks_and_keys():
-    with pytest.raises(KeyError, match=r"unknown task 'Ants'; the tasks are \['Ant'"):
+    with pytest.raises(KeyError, match=r"unknown task 'Ants'; the tasks are \[.*'Ant', "):
         myriad.make("Ants")
     with pytest.raises(KeyError, match="no config key 'episodeLen'.*episodeLength"):
         myriad.make("Ant", num_envs=2, episodeLen=10)

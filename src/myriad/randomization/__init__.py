@@ -233,9 +233,11 @@ class Randomizer:
         dof_v = envs.dof_columns[dofs]
         dof_jnt = index(m.dof_jnt[dof_v.cpu().numpy()])
         tendons = [t for t, n in enumerate(m.tendon_names) if n.startswith(prefix)]
-        # the actuators on the actor's DOFs: its scene drives, or its model's own (the hands')
+        # the position and velocity actuators on the actor's DOFs: its scene drives, or its
+        # model's own (the hands'); motors have no gains to randomize
         actor_dofs = set(dof_v.tolist())
-        drive_ctrl = [a for a in range(m.nu) if int(m.actuator_dof[a]) in actor_dofs]
+        drive_ctrl = [a for a in range(m.nu) if int(m.actuator_dof[a]) in actor_dofs
+                      and (m.actuator_kp[a] != 0 or m.actuator_kv[a] != 0)]
         targets = {
             "rigid_body_properties": {"mass": ("body_mass", index(bodies))},
             "rigid_shape_properties": {"friction": ("geom_friction", index(geoms)),
