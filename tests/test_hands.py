@@ -226,3 +226,18 @@ def test_allegro_observation_is_table_10_without_fingertips_and_the_cube_rests_i
     assert (rest[:, 2] < task.cube_start_pos[2] - 0.02).all()     # it came down onto the palm
     assert (rest - task.goal_pos).norm(dim=-1).max() < 0.05
     assert (path[-1] - path[-31]).norm(dim=-1).max() < 1e-3     # still over the last second
+
+
+@pytest.mark.parametrize("name", ["ShadowHandOpenAI_FF", "ShadowHandOpenAI_LSTM"])
+def test_the_openai_variants_build_randomized_and_step(name):
+    """Their configs: 20 Hz, moving average 0.3, tolerance 0.4, 50 successes at most, Table 15's
+    randomization with random cube forces; the actor sees 42 values, the critic 211."""
+    task = myriad.make(name, num_envs=4)
+    assert (task.control_freq_inv, task.moving_average, task.max_consecutive_successes) == (3, 0.3, 50)
+    assert task.rewards["successTolerance"] == 0.4 and task.rewards["fallPenalty"] == -50.0
+    assert task.randomizer is not None and task.randomizer.forces is not None
+    out = task.reset()
+    for _ in range(10):
+        out = task.step(2 * torch.rand(4, 20) - 1)[0]
+    assert out["obs"].shape == (4, 42) and out["states"].shape == (4, 211)
+    assert torch.isfinite(out["obs"]).all() and torch.isfinite(out["states"]).all()
