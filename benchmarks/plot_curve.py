@@ -3,7 +3,8 @@
     python benchmarks/plot_curve.py runs/bench_cpu_ant/progress.csv docs/img/ant_cpu_curve.svg \
         --title "Ant, 2-core CPU" --target 3000
 
-x: wall-clock minutes; y: mean episode reward (rl_games' mean over the last finished episodes).
+x: wall-clock minutes; y: mean episode reward (rl_games' mean over the last finished episodes),
+or another column of progress.csv (`--column consecutive_successes` for the hand tasks).
 """
 
 import argparse
@@ -22,16 +23,18 @@ def main() -> None:
     ap.add_argument("csv")
     ap.add_argument("svg")
     ap.add_argument("--title", default="")
-    ap.add_argument("--target", type=float, default=None, help="draw a dashed reward line")
+    ap.add_argument("--target", type=float, default=None, help="draw a dashed target line")
+    ap.add_argument("--column", default="mean_reward", help="the progress.csv column to draw")
     args = ap.parse_args()
 
     points = []
     with open(args.csv) as f:
         for row in csv.DictReader(f):
-            if row["mean_reward"]:
-                points.append((float(row["wall_s"]) / 60.0, float(row["mean_reward"])))
+            if row.get(args.column):
+                points.append((float(row["wall_s"]) / 60.0, float(row[args.column])))
     if not points:
-        raise SystemExit(f"{args.csv}: no epoch with a finished episode yet")
+        raise SystemExit(f"{args.csv}: no epoch with a value of {args.column} yet")
+    label = "mean episode reward" if args.column == "mean_reward" else args.column.replace("_", " ")
     stride = max(1, len(points) // 400)          # a few hundred points draw the same curve
     points = points[::stride] + ([points[-1]] if (len(points) - 1) % stride else [])
     W, H, L, R, T, B = 640, 360, 60, 20, 36, 44
@@ -64,7 +67,7 @@ def main() -> None:
     out.append(f'<text x="{(L + W - R) / 2}" y="{H - 8}" text-anchor="middle">wall-clock minutes'
                '</text>')
     out.append(f'<text x="14" y="{(T + H - B) / 2}" text-anchor="middle" '
-               f'transform="rotate(-90 14 {(T + H - B) / 2})">mean episode reward</text>')
+               f'transform="rotate(-90 14 {(T + H - B) / 2})">{label}</text>')
     if args.target:
         out.append(f'<line x1="{L}" x2="{W - R}" y1="{sy(args.target):.1f}" '
                    f'y2="{sy(args.target):.1f}" stroke="#c33" stroke-dasharray="6 4"/>')
@@ -77,7 +80,7 @@ def main() -> None:
     out.append("</svg>")
     with open(args.svg, "w") as f:
         f.write("\n".join(out) + "\n")
-    print(f"wrote {args.svg}: {len(points)} points, last reward {points[-1][1]:.1f} at "
+    print(f"wrote {args.svg}: {len(points)} points, last {args.column} {points[-1][1]:.2f} at "
           f"{points[-1][0]:.1f} min")
 
 

@@ -199,7 +199,7 @@ class InHandTask(VecTask):
     # the goal drawn beside the hand in videos (the original's goal cube: the target position
     # plus this offset), and a camera on the hand
     goal_display_offset = (-0.2, -0.06, 0.12)
-    video_camera = {"lookat": (-0.05, -0.33, 0.56), "distance": 0.75, "elevation": -30.0,
+    video_camera = {"lookat": (-0.1, -0.38, 0.58), "distance": 0.5, "elevation": -25.0,
                     "azimuth": 90.0}
 
     def video_markers(self) -> list[dict]:
