@@ -1,7 +1,10 @@
-"""Time per stage of one `Simulator.step`, for the ant, the humanoid and a hand-and-cube model.
+"""Time per stage of one `Simulator.step`, for the ant, the humanoid and hand-and-cube models.
 
     python benchmarks/stage_profile.py [--envs 1024] [--steps 20] [--device cpu] [--threads 1]
-        [--models ant,humanoid,hand-and-cube]
+        [--models ant,humanoid,hand-and-cube,shadow-hand]
+
+`shadow-hand` is the ShadowHand task's composed scene (OpenAI's hand, the cube, the ground;
+needs gymnasium-robotics), at the timing below rather than the task's 8 iterations.
 
 Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on), fresh random controls before
 every step (as `step_rate.py`), after a 30-step settle. Each stage of `Simulator._step_kernels`
@@ -67,12 +70,13 @@ def main() -> None:
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--threads", type=int, default=1, help="CPU threads (default 1)")
     ap.add_argument("--models", default="ant,humanoid,hand-and-cube",
-                    help="comma-separated subset of ant, humanoid, hand-and-cube")
+                    help="comma-separated subset of ant, humanoid, hand-and-cube, shadow-hand")
     args = ap.parse_args()
     wp.config.log_level = wp.LOG_WARNING
     models = {"ant": lambda: myriad.load(myriad.asset_path("ant.xml")),
               "humanoid": lambda: myriad.load(myriad.asset_path("humanoid.xml")),
-              "hand-and-cube": lambda: myriad.load_xml(hand_and_cube_xml(), "hand-and-cube")}
+              "hand-and-cube": lambda: myriad.load_xml(hand_and_cube_xml(), "hand-and-cube"),
+              "shadow-hand": lambda: myriad.make("ShadowHand", num_envs=1).envs.model}
     chosen = args.models.split(",")
     if unknown := set(chosen) - set(models):
         ap.error(f"--models: unknown {sorted(unknown)}; choose from {list(models)}")
