@@ -127,7 +127,6 @@ class InHandTask(VecTask):
         dof_cols = e.dof_columns.tolist()
         self.actuated = torch.tensor([dof_cols.index(int(d)) for d in m.actuator_dof],
                                      device=dev)
-        self.hand = e.actor_index("hand")
         self.cube = e.actor_index("object")
 
         self.cube_start_pos = torch.tensor(self.cube_start, device=dev)
@@ -218,6 +217,11 @@ class InHandTask(VecTask):
         cube = e.root_states[:, self.cube]
         tips = e.rigid_body_states[:, self.fingertips]                   # [N, 5, 13]
         relative = quat_mul(cube[:, 3:7], quat_conjugate(self.goal_rot))
+        if self.obs_type == "openai":
+            self.obs_buf[:] = torch.cat((tips[..., 0:3].reshape(self.num_envs, -1),
+                                         cube[:, 0:3], relative, self.actions), dim=-1)
+        if self.obs_type != "full_state" and not self.num_states:
+            return                           # Table 10's layout is not needed
         full = torch.cat((
             unscale(e.dof_pos, self.dof_lower, self.dof_upper),
             self.vel_obs_scale * e.dof_vel,
@@ -234,9 +238,6 @@ class InHandTask(VecTask):
         ), dim=-1)
         if self.obs_type == "full_state":
             self.obs_buf[:] = full
-        else:
-            self.obs_buf[:] = torch.cat((tips[..., 0:3].reshape(self.num_envs, -1),
-                                         cube[:, 0:3], relative, self.actions), dim=-1)
         if self.num_states:
             self.states_buf[:] = full
 
