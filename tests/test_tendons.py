@@ -60,6 +60,27 @@ def test_hard_tendon_limit_holds(device):
     assert sim.q[0, 1].item() > 1.0 and sim.q[1, 1].item() < -1.0
 
 
+def test_hard_tendon_limit_in_small_length_units(device):
+    """Coefficients of 0.01 (the Shadow Hand's): the limit L = 0.01 (q1 - q2) <= 0.004 still
+    holds q1 - q2 at 0.4 rad, and its rows stay unbuilt while the joints are far from it."""
+    xml = PAIR.format(k=0.0, k2=0.0, limit='limited="true" range="-0.004 0.004"')
+    xml = xml.replace('coef="1"', 'coef="0.01"').replace('coef="-1"', 'coef="-0.01"')
+    sim = myriad.Simulator(myriad.load_xml(xml, "pair"), num_envs=2, device=device,
+                           params=PARAMS)
+    sim.step()
+    layout = sim._rows_at
+    limit_rows = sim._rows.type.numpy()[:, layout.tendon_limits:layout.equalities]
+    assert (limit_rows == -1).all(), limit_rows      # L = 0: 0.4 rad from either side
+    sim.ctrl = torch.tensor([[2.0], [-2.0]], device=sim.torch_device)
+    worst = 0.0
+    for _ in range(300):
+        sim.step()
+        gap = (sim.q[:, 0] - sim.q[:, 1]).cpu().numpy()
+        worst = max(worst, gap[0] - 0.4, -0.4 - gap[1])
+    assert worst < 0.02, worst
+    assert sim.q[0, 1].item() > 1.0 and sim.q[1, 1].item() < -1.0
+
+
 def test_soft_tendon_limit_is_a_spring(device):
     """With a limit stiffness the limit is a spring outside [lower, upper] (PhysX)."""
     tau, k_lim = 0.5, 25.0

@@ -366,7 +366,13 @@ def tendon_limit_rows(m: ModelArrays, e: int, base: int, h: float,
         t = limit_tendon[lt]
         beg = m.tendon_adr[t]
         length_speed = tendon_length(m, p, s, e, t)
-        reach = LIMIT_MARGIN + 2.0 * h * wp.abs(length_speed[1])
+        # the margin in the tendon's length units: what its joints travel in LIMIT_MARGIN
+        # each (coefficients of 0.01 made 0.1 of length 10 rad, and the Shadow Hand's 40
+        # limits that its joints' own limits never let it reach were built every substep)
+        per_joint = float(0.0)
+        for w in range(beg, beg + m.tendon_num[t]):
+            per_joint = per_joint + wp.abs(m.wrap_coef[w])
+        reach = LIMIT_MARGIN * per_joint + 2.0 * h * wp.abs(length_speed[1])
         for side in range(2):
             r = base + 2 * lt + side
             _limit_row(e, r, side, length_speed[0], p.tendon_range[e, t], reach, rows)
