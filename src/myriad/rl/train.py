@@ -76,6 +76,35 @@ class MyriadVecEnv(vecenv.IVecEnv):
         return info
 
 
+def use_bfloat16_mlps(model: torch.nn.Module, device) -> bool:
+    """Run the hidden MLPs of an rl_games network (`actor_mlp`, `critic_mlp`) under CPU
+    bfloat16 autocast, on a CPU with native bfloat16 matrix products (AVX-512 BF16 or AMX):
+    their matrix products in bfloat16, everything after them (action means, values, log
+    probabilities, losses, the optimizer, the weights) in float32. The modules and their
+    state_dict keys are unchanged, so checkpoints load either way. On such a CPU the Shadow
+    Hand's 512-512-256-128 update runs 1.8x faster (forward, backward and Adam on 2048
+    samples, two cores: 43 -> 23 ms); elsewhere bfloat16 is emulated and slower, so nothing
+    changes. Returns whether anything runs in bfloat16."""
+    if torch.device(device).type != "cpu" or not torch.ops.mkldnn._is_mkldnn_bf16_supported():
+        print("mlp_bfloat16: no native bfloat16 matrix products here; float32 kept")
+        return False
+    wrapped = False
+    for net in model.modules():
+        for name in ("actor_mlp", "critic_mlp"):
+            mlp = getattr(net, name, None)
+            if isinstance(mlp, torch.nn.Sequential) and len(mlp) > 0:
+                mlp.forward = _in_bfloat16(mlp.forward)
+                wrapped = True
+    return wrapped
+
+
+def _in_bfloat16(forward):
+    def run(x):
+        with torch.autocast("cpu", dtype=torch.bfloat16):
+            return forward(x).float()
+    return run
+
+
 class TrainingStopped(Exception):
     """A stop signal arrived; the run was saved at the end of an epoch."""
 
@@ -90,7 +119,12 @@ class MyriadAgent(a2c_continuous.A2CAgent):
 
     def __init__(self, base_name, params):
         self.run_cfg = params["config"].pop("myriad")
+        mlp_bfloat16 = params["config"].pop("mlp_bfloat16", False)
         super().__init__(base_name, params)
+        if mlp_bfloat16:
+            use_bfloat16_mlps(self.model, self.device)
+            if getattr(self, "central_value_net", None) is not None:
+                use_bfloat16_mlps(self.central_value_net.model, self.device)
         self.started = time.monotonic()
         self.time_split = {"physics_s": 0.0, "policy_s": 0.0, "update_s": 0.0}
         self.best_mean_reward = None        # best mean episode reward seen, any epoch
