@@ -1,13 +1,13 @@
 """Time per stage of one `Simulator.step`, for the ant, the humanoid and hand-and-cube models.
 
     python benchmarks/stage_profile.py [--envs 1024] [--steps 20] [--device cpu] [--threads 1]
-        [--models ant,humanoid,hand-and-cube,shadow-hand]
+        [--models ant,humanoid,hand-and-cube,shadow-hand] [--iterations 4] [--settle 30]
 
 `shadow-hand` is the ShadowHand task's composed scene (OpenAI's hand, the cube, the ground;
 needs gymnasium-robotics), at the timing below rather than the task's 8 iterations.
 
-Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on), fresh random controls before
-every step (as `step_rate.py`), after a 30-step settle. Each stage of `Simulator._step_kernels`
+Isaac Gym timing (dt 1/60 s in 2 substeps, TGS `--iterations`/0, contacts on), fresh random
+controls before every step (as `step_rate.py`), after `--settle` steps of them. Each stage of `Simulator._step_kernels`
 is timed on its own (the device is synchronized after each, so on CUDA this runs without the
 step's CUDA graph and the sum exceeds a graph-captured step); the table gives ms per step and
 the share of the total.
@@ -28,15 +28,17 @@ STAGES = ["_kinematics", "_collision", "_dynamics", "_applied_forces", "_solve_u
           "_constraint_rows", "_solve_constraints", "_integrate", "_constraint_outputs"]
 
 
-def profile(model, n: int, steps: int, device: str, threads: int | None) -> dict:
-    params = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=4, velocity_iterations=0)
+def profile(model, n: int, steps: int, device: str, threads: int | None, iterations: int = 4,
+            settle: int = 30) -> dict:
+    params = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=iterations,
+                              velocity_iterations=0)
     sim = myriad.Simulator(model, num_envs=n, device=device, params=params, cpu_threads=threads)
     gen = torch.Generator(device=sim.torch_device).manual_seed(0)
 
     def new_controls():
         if model.nu:
             sim.ctrl = torch.rand(n, model.nu, generator=gen, device=sim.torch_device) * 2 - 1
-    for _ in range(30):
+    for _ in range(settle):
         new_controls()
         sim.step()
     spent = collections.Counter()
@@ -69,6 +71,8 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=20)
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--threads", type=int, default=1, help="CPU threads (default 1)")
+    ap.add_argument("--iterations", type=int, default=4, help="TGS position iterations")
+    ap.add_argument("--settle", type=int, default=30, help="steps before the timed ones")
     ap.add_argument("--models", default="ant,humanoid,hand-and-cube",
                     help="comma-separated subset of ant, humanoid, hand-and-cube, shadow-hand")
     args = ap.parse_args()
@@ -80,7 +84,8 @@ def main() -> None:
     chosen = args.models.split(",")
     if unknown := set(chosen) - set(models):
         ap.error(f"--models: unknown {sorted(unknown)}; choose from {list(models)}")
-    rows = {name: profile(models[name](), args.envs, args.steps, args.device, args.threads)
+    rows = {name: profile(models[name](), args.envs, args.steps, args.device, args.threads,
+                          args.iterations, args.settle)
             for name in chosen}
     print(f"ms per step ({args.envs} envs, {args.device}, {args.threads} thread(s)); share of "
           "the step in brackets\n")

@@ -256,3 +256,33 @@ def test_play_names_an_unreadable_checkpoint(tmp_path, capsys):
     assert f"checkpoint {bad}: not a readable rl_games checkpoint" in capsys.readouterr().err
     assert cli.main(["train", *train_args(tmp_path, f"checkpoint={bad}")]) == 2
     assert f"checkpoint {bad}: cannot resume from it" in capsys.readouterr().err
+
+
+def test_bfloat16_mlps_keep_float32_outputs_weights_and_checkpoint_keys():
+    """`mlp_bfloat16`: the hidden layers run in bfloat16 on a CPU that has it natively; what
+    comes out, the weights, their gradients and the state_dict stay float32 and unchanged."""
+    from myriad.rl.train import use_bfloat16_mlps
+
+    class Network(torch.nn.Module):       # rl_games' layout: trunks, then float32 heads
+        def __init__(self):
+            super().__init__()
+            self.actor_mlp = torch.nn.Sequential(torch.nn.Linear(16, 64), torch.nn.ELU())
+            self.critic_mlp = torch.nn.Sequential()
+            self.mu = torch.nn.Linear(64, 4)
+
+        def forward(self, x):
+            return self.mu(self.actor_mlp(x))
+
+    torch.manual_seed(0)
+    net, x = Network(), torch.randn(32, 16)
+    plain = net(x).detach()
+    keys = list(net.state_dict())
+    if not use_bfloat16_mlps(net, "cpu"):
+        pytest.skip("this CPU has no native bfloat16 matrix products")
+    out = net(x)
+    assert out.dtype == torch.float32
+    assert list(net.state_dict()) == keys
+    # bfloat16 keeps 8 bits of mantissa: the outputs agree to a few parts in a hundred
+    assert torch.allclose(out, plain, atol=0.05 * plain.abs().max().item()), (out - plain).abs().max()
+    out.square().mean().backward()
+    assert all(p.grad is not None and p.grad.dtype == torch.float32 for p in net.parameters())
