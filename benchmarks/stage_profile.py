@@ -4,13 +4,13 @@
         [--models ant,humanoid,hand-and-cube,shadow-hand] [--iterations 4] [--settle 30]
 
 `shadow-hand` is the ShadowHand task's composed scene (OpenAI's hand, the cube, the ground;
-needs gymnasium-robotics), at the timing below rather than the task's 8 iterations.
+needs gymnasium-robotics); the task itself runs `--iterations 8`.
 
 Isaac Gym timing (dt 1/60 s in 2 substeps, TGS `--iterations`/0, contacts on), fresh random
-controls before every step (as `step_rate.py`), after `--settle` steps of them. Each stage of `Simulator._step_kernels`
-is timed on its own (the device is synchronized after each, so on CUDA this runs without the
-step's CUDA graph and the sum exceeds a graph-captured step); the table gives ms per step and
-the share of the total.
+controls before every step (as `step_rate.py`), after `--settle` steps of them. Each stage of
+`Simulator._step_kernels` is timed on its own (the device is synchronized after each, so on
+CUDA this runs without the step's CUDA graph and the sum exceeds a graph-captured step); the
+table gives ms per step and the share of the total.
 """
 
 from __future__ import annotations

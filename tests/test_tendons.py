@@ -46,18 +46,24 @@ def test_coupled_pair_keeps_its_coupling(device):
     assert worst < 0.01, worst  # coupling error below 0.01 rad throughout
 
 
-def test_hard_tendon_limit_holds(device):
-    model = myriad.load_xml(PAIR.format(k=0.0, k2=0.0, limit='limited="true" range="-0.1 0.1"'), "pair")
-    sim = myriad.Simulator(model, num_envs=2, device=device, params=PARAMS)
+def push_against_limit(sim, gap_limit: float) -> float:
+    """Drive j1 with +2 in env 0 and -2 in env 1 for 300 steps: the most q1 - q2 went past
+    ±gap_limit. The limit must drag the second joint along."""
     sim.ctrl = torch.tensor([[2.0], [-2.0]], device=sim.torch_device)
     worst = 0.0
     for _ in range(300):
         sim.step()
-        length = (sim.q[:, 0] - sim.q[:, 1]).cpu().numpy()
-        worst = max(worst, length[0] - 0.1, -0.1 - length[1])
-    assert worst < 0.02, worst
-    # the limit drags the second joint along
+        gap = (sim.q[:, 0] - sim.q[:, 1]).cpu().numpy()
+        worst = max(worst, gap[0] - gap_limit, -gap_limit - gap[1])
     assert sim.q[0, 1].item() > 1.0 and sim.q[1, 1].item() < -1.0
+    return worst
+
+
+def test_hard_tendon_limit_holds(device):
+    model = myriad.load_xml(PAIR.format(k=0.0, k2=0.0, limit='limited="true" range="-0.1 0.1"'), "pair")
+    sim = myriad.Simulator(model, num_envs=2, device=device, params=PARAMS)
+    worst = push_against_limit(sim, 0.1)
+    assert worst < 0.02, worst
 
 
 def test_hard_tendon_limit_in_small_length_units(device):
@@ -71,14 +77,8 @@ def test_hard_tendon_limit_in_small_length_units(device):
     layout = sim._rows_at
     limit_rows = sim._rows.type.numpy()[:, layout.tendon_limits:layout.equalities]
     assert (limit_rows == -1).all(), limit_rows      # L = 0: 0.4 rad from either side
-    sim.ctrl = torch.tensor([[2.0], [-2.0]], device=sim.torch_device)
-    worst = 0.0
-    for _ in range(300):
-        sim.step()
-        gap = (sim.q[:, 0] - sim.q[:, 1]).cpu().numpy()
-        worst = max(worst, gap[0] - 0.4, -0.4 - gap[1])
+    worst = push_against_limit(sim, 0.4)
     assert worst < 0.02, worst
-    assert sim.q[0, 1].item() > 1.0 and sim.q[1, 1].item() < -1.0
 
 
 def test_soft_tendon_limit_is_a_spring(device):

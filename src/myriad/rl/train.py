@@ -123,10 +123,10 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.run_cfg = params["config"].pop("myriad")
         mlp_bfloat16 = params["config"].pop("mlp_bfloat16", False)
         super().__init__(base_name, params)
-        if mlp_bfloat16:
-            use_bfloat16_mlps(self.model, self.device)
-            if getattr(self, "central_value_net", None) is not None:
-                use_bfloat16_mlps(self.central_value_net.model, self.device)
+        if mlp_bfloat16:       # the policy's network and the asymmetric critic's, if any
+            critic = getattr(self, "central_value_net", None)
+            use_bfloat16_mlps(torch.nn.ModuleList(
+                [self.model] + ([critic.model] if critic is not None else [])), self.device)
         self.started = time.monotonic()
         self.time_split = {"physics_s": 0.0, "policy_s": 0.0, "update_s": 0.0}
         self.best_mean_reward = None        # best mean episode reward seen, any epoch
