@@ -106,6 +106,14 @@ def test_cpu_profile_applies_only_without_num_envs():
     assert train_cfg["params"]["config"]["minibatch_size"] == 64, "512 samples: 8 of 64"
 
 
+def test_an_asymmetric_critics_minibatch_follows_num_envs_too():
+    """rl_games refuses a central_value_config minibatch that does not divide the batch."""
+    cfg = run.compose(["task=ShadowHandOpenAI_FF", "device=cpu", "num_envs=64"])
+    _, train_cfg, _ = run.task_and_train_configs(cfg)
+    ppo = train_cfg["params"]["config"]
+    assert ppo["minibatch_size"] == 512 and ppo["central_value_config"]["minibatch_size"] == 512
+
+
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_a_stop_signal_saves_a_checkpoint_and_a_consistent_summary(tmp_path, device, signum):
     """SIGINT (Ctrl-C) or SIGTERM (docker stop, Slurm) sent to a real training process: it

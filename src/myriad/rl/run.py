@@ -212,16 +212,22 @@ def task_and_train_configs(cfg) -> tuple[dict, dict, str]:
         for key in keys:
             if key in section:
                 section[key] = config_int(section[key], f"{prefix}.{key}", minimum=1)
-    # PPO splits num_envs × horizon_length samples into equal minibatches: keep the minibatch
-    # size a divisor, as close as possible below the configured one
+    # PPO splits num_envs × horizon_length samples into equal minibatches, and so does an
+    # asymmetric critic (central_value_config): keep each minibatch size a divisor, as close
+    # as possible below the configured one
     batch = env["numEnvs"] * ppo["horizon_length"]
-    count = max(1, math.ceil(batch / ppo["minibatch_size"]))
-    while batch % count:
-        count += 1
-    if batch // count != ppo["minibatch_size"]:
-        print(f"minibatch_size {ppo['minibatch_size']} -> {batch // count}: {count} equal "
-              f"minibatches of num_envs × horizon_length = {batch} samples")
-        ppo["minibatch_size"] = batch // count
+    for name, section in (("minibatch_size", ppo),
+                          ("central_value_config.minibatch_size",
+                           ppo.get("central_value_config") or {})):
+        if "minibatch_size" not in section:
+            continue
+        count = max(1, math.ceil(batch / section["minibatch_size"]))
+        while batch % count:
+            count += 1
+        if batch // count != section["minibatch_size"]:
+            print(f"{name} {section['minibatch_size']} -> {batch // count}: {count} equal "
+                  f"minibatches of num_envs × horizon_length = {batch} samples")
+            section["minibatch_size"] = batch // count
     if cfg.max_iterations is not None:
         ppo["max_epochs"] = cfg.max_iterations
     return task_cfg, train_cfg, device
