@@ -274,12 +274,15 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         if out_of_time and self.max_epochs != self.epoch_num:
             print(f"max_time_s={self.run_cfg['max_time_s']} reached: stopping after this epoch")
             self.max_epochs = self.epoch_num       # rl_games' loop then saves and stops cleanly
-        if self.stop_signal is not None or out_of_time or \
+        # read the flag once: a signal arriving after the save decision must wait for the next
+        # epoch, not stop this one without a checkpoint
+        stop = self.stop_signal
+        if stop is not None or out_of_time or \
                 time.monotonic() - self.last_save > 60 or self.epoch_num >= self.max_epochs:
             self.save_last()
         self.write_summary(env_steps, wall, mean)
-        if self.stop_signal is not None:
-            raise TrainingStopped(self.stop_signal)
+        if stop is not None:
+            raise TrainingStopped(stop)
         self.frames_not_counted = 0
         return out
 
