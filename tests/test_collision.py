@@ -108,6 +108,32 @@ def test_contacts_match_mujoco(seed, device):
                     np.testing.assert_allclose(p1, p2, atol=1e-4)
 
 
+@pytest.mark.parametrize("gap", [-0.004, 0.0, 0.006, 0.03])
+def test_a_capsule_across_a_box_edge_touches_at_its_middle(gap, device):
+    """A finger lying across the cube's edge: both ends far from the box (7 cm), the contact
+    in the middle of the segment. Its distance is MuJoCo's to the search's 1e-4 m; beyond the
+    contact offset (gap 3 cm), neither reports a contact."""
+    s = 1 / math.sqrt(2)
+    at = 0.05 + (gap + 0.01) * s          # the capsule's axis passes the edge at gap + radius
+    model = myriad.load_xml(f"""<mujoco><option gravity="0 0 0"/><worldbody>
+      <body name="cube"><freejoint/><geom name="cube" type="box" size="0.05 0.05 0.05"
+        margin="{MARGIN}"/></body>
+      <body name="finger" pos="{at} 0 {at}" euler="0 -45 0"><freejoint/>
+        <geom name="finger" type="capsule" size="0.01 0.1" margin="{MARGIN}"/></body>
+      </worldbody></mujoco>""", "edge")
+    sim = myriad.Simulator(model, device=device,
+                           params=myriad.SimParams(contact_offset=MARGIN, contacts_per_env=8))
+    sim.collide()
+    ours = sim.contact_dist[0, :int(sim.contact_count[0])].tolist()
+    theirs = [c[0] for pair in _mujoco_contacts(model).values() for c in pair]
+    if gap >= MARGIN:
+        assert ours == [] and theirs == []
+        return
+    assert len(ours) == 1, "the middle contact alone: the ends are 7 cm away"
+    assert ours[0] == pytest.approx(gap, abs=1e-4)
+    assert ours[0] == pytest.approx(min(theirs), abs=1e-4)
+
+
 def test_overlap_depth_is_mujocos_minimum_translation():
     """Overlapping convex shapes (the GJK/EPA path): our depth is MuJoCo's minimum-translation
     depth to 1e-3 at the median and never below it by more than 1%. Above it in three pairs of

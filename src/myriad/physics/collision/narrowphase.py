@@ -139,10 +139,14 @@ def _spheres(c1: wp.vec3, r1: float, c2: wp.vec3, r2: float):
     return n, dist, c1 + n * (r1 + 0.5 * dist)
 
 
+# 1/φ: a golden-section step keeps this fraction of the interval
+GOLDEN = wp.constant(0.6180339887)
+
+
 @wp.func
-def _box_point_distance(x: wp.transform, half: wp.vec3, p: wp.vec3):
-    """Signed distance from p to the box surface (negative inside); convex in p."""
-    local = wp.transform_point(wp.transform_inverse(x), p)
+def _local_box_distance(half: wp.vec3, local: wp.vec3):
+    """Signed distance from a point in the box's frame to the box surface (negative inside);
+    convex and 1-Lipschitz in the point."""
     q = wp.vec3(wp.abs(local[0]) - half[0], wp.abs(local[1]) - half[1], wp.abs(local[2]) - half[2])
     outside = wp.vec3(wp.max(q[0], 0.0), wp.max(q[1], 0.0), wp.max(q[2], 0.0))
     return wp.length(outside) + wp.min(wp.max(q[0], wp.max(q[1], q[2])), 0.0)
@@ -372,26 +376,49 @@ def _capsule_box(e: int, pair: wp.vec2i, key: int, x1: wp.transform, s1: wp.vec3
                  x2: wp.transform, h2: wp.vec3, margin: float, out: ContactSlots):
     """Both end spheres, plus the segment's closest point when it lies between the ends.
 
-    The signed distance from the segment to the box is convex along the segment: a ternary search
-    finds its minimum (the deepest point when the segment enters the box). A capsule lying on a face touches at its two ends (a stable pair of contacts).
+    The signed distance from the segment to the box is convex along the segment: a golden-section
+    search finds its minimum (the deepest point when the segment enters the box). A capsule
+    lying on a face touches at its two ends (a stable pair of contacts). Distances are taken in
+    the box's frame; since the distance is 1-Lipschitz, a segment of length L whose ends lie at
+    d_a and d_b from the box comes no closer than (d_a + d_b - L) / 2 anywhere, and then the
+    search is skipped (most candidate pairs of a hand: fingers near the cube, not on it).
     """
     a = _segment(x1, s1[1], -1.0)
     b = _segment(x1, s1[1], 1.0)
-    for k in range(2):
-        c = a
-        if k == 1:
-            c = b
-        n, dist, pos = _sphere_box(c, s1[0], x2, h2)
-        _emit(e, pair, key + k, pos, n, dist, margin, out)
+    to_box = wp.transform_inverse(x2)
+    la = wp.transform_point(to_box, a)
+    lb = wp.transform_point(to_box, b)
+    reach = s1[0] + margin
+    da = _local_box_distance(h2, la)
+    db = _local_box_distance(h2, lb)
+    if da < reach:
+        n, dist, pos = _sphere_box(a, s1[0], x2, h2)
+        _emit(e, pair, key, pos, n, dist, margin, out)
+    if db < reach:
+        n, dist, pos = _sphere_box(b, s1[0], x2, h2)
+        _emit(e, pair, key + 1, pos, n, dist, margin, out)
+    if da + db - 2.0 * s1[1] >= 2.0 * reach:
+        return
+    # golden section on [0, 1]: one new distance per step, the interval shrinks to 6e-5
     lo = float(0.0)
     hi = float(1.0)
-    for it in range(24):
-        m1 = lo + (hi - lo) / 3.0
-        m2 = hi - (hi - lo) / 3.0
-        if _box_point_distance(x2, h2, a + (b - a) * m1) < _box_point_distance(x2, h2, a + (b - a) * m2):
+    m1 = hi - GOLDEN * (hi - lo)
+    m2 = lo + GOLDEN * (hi - lo)
+    f1 = _local_box_distance(h2, la + (lb - la) * m1)
+    f2 = _local_box_distance(h2, la + (lb - la) * m2)
+    for it in range(20):
+        if f1 < f2:
             hi = m2
+            m2 = m1
+            f2 = f1
+            m1 = hi - GOLDEN * (hi - lo)
+            f1 = _local_box_distance(h2, la + (lb - la) * m1)
         else:
             lo = m1
+            m1 = m2
+            f1 = f2
+            m2 = lo + GOLDEN * (hi - lo)
+            f2 = _local_box_distance(h2, la + (lb - la) * m2)
     t = 0.5 * (lo + hi)
     if t > 0.02 and t < 0.98:
         n, dist, pos = _sphere_box(a + (b - a) * t, s1[0], x2, h2)
