@@ -64,15 +64,17 @@ def _row_in_use(i: int, used: int, layout: RowLayout):
 
 
 @wp.func
-def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int, c: Contacts,
-           limit_jnt: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int, hs: float,
+def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int, tendon_limits: wp.vec2i,
+           c: Contacts, limit_jnt: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int,
+           hs: float,
            h: float, max_depenetration: float, factor: wp.array2d(dtype=float), rows: Rows,
            v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
     """One Gauss-Seidel sweep over the rows in use, updating v and the impulses rows.lam.
 
     The contacts' normal rows, patch by patch, and the tendon limits; the contacts' friction
     rows, whose bounds then hold this sweep's normal impulses; the joint limits, solved
-    together; tendon springs and dofs; the equality constraints (each one's rows together)."""
+    together; tendon springs and dofs; the equality constraints (each one's rows together).
+    `tendon_limits`: the range of tendon-limit rows that holds the active ones (`_in_use`)."""
     k = int(0)
     while k < ncontact:      # contact patches: the run of contacts of one geom pair
         end = k + 1
@@ -89,7 +91,7 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int, c: Contacts
             if change < PATCH_SETTLED:
                 break
         k = end
-    for r in range(layout.tendon_limits, layout.equalities):
+    for r in range(tendon_limits[0], tendon_limits[1]):
         _normal_row(m, e, r, biased, tgs, hs, h, max_depenetration, factor, rows, v, dq)
     for k in range(ncontact):
         _friction_rows(e, 3 * k + 1, biased, tgs, hs, rows, c, v, dq)
@@ -116,6 +118,18 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int, c: Contacts
         for i in range(m.neq):
             _equality(m, e, layout.equalities, i, biased, tgs, hs, max_depenetration, rows, v,
                       dq)
+
+
+@wp.func
+def _in_use(rows: Rows, e: int, lo: int, hi: int):
+    """The smallest range [first, last + 1) within [lo, hi) that holds every row in use."""
+    first = hi
+    last = lo - 1
+    for r in range(lo, hi):
+        if rows.type[e, r] >= 0:
+            first = wp.min(first, r)
+            last = r
+    return wp.vec2i(first, wp.max(first, last + 1))
 
 
 @wp.func
@@ -526,11 +540,13 @@ def solve(m: ModelArrays, layout: RowLayout, limit_jnt: wp.array(dtype=wp.int32)
             dense.row_apply(s.qd, e, rows.lam[e, r], rows.minv_jt, r, rows.span[e, r])
     for k in range(ncontact):
         c.slid[e, k] = 0
+    # a hand has 80 tendon-limit rows, seldom one active: the sweeps visit only their span
+    tendon_limits = _in_use(rows, e, layout.tendon_limits, layout.equalities)
     hs = h
     if tgs != 0:
         hs = h / float(position_iterations)
     for it in range(position_iterations):
-        _sweep(m, e, layout, ncontact, c, limit_jnt, int(it == 0), 1, tgs, hs, h,
+        _sweep(m, e, layout, ncontact, tendon_limits, c, limit_jnt, int(it == 0), 1, tgs, hs, h,
                max_depenetration, d.factor, rows, s.qd, s.dq)
         if tgs != 0:
             for i in range(nv):
@@ -539,7 +555,7 @@ def solve(m: ModelArrays, layout: RowLayout, limit_jnt: wp.array(dtype=wp.int32)
         for i in range(nv):
             s.dq[e, i] = h * s.qd[e, i]
     for it in range(velocity_iterations):
-        _sweep(m, e, layout, ncontact, c, limit_jnt, 0, 0, tgs, hs, h,
+        _sweep(m, e, layout, ncontact, tendon_limits, c, limit_jnt, 0, 0, tgs, hs, h,
                max_depenetration, d.factor, rows, s.qd, s.dq)
     # the speed caps hold exactly: a dof's row is swept before the contacts that follow it can
     # push the dof past its cap again, and one velocity sweep leaves that overshoot in place.
