@@ -31,7 +31,8 @@ class Actor:
     quat: tuple | None          # x, y, z, w; None: the file's
     fix_base: bool
     self_collisions: bool
-    dof_mode: str               # effort: set_dof_efforts; position / velocity: implicit PD drives
+    dof_mode: str | tuple       # effort: set_dof_efforts; position / velocity: implicit PD
+                                # drives; one for all DOFs, or one per DOF
     stiffness: float | list     # drive gains, one value or one per DOF of the actor
     damping: float | list
     gravity: bool = True        # False: Isaac Gym's disable_gravity (each body's gravcomp 1)
@@ -61,7 +62,9 @@ class Scene:
 
         dof_mode: "effort" (forces from `Envs.set_dof_efforts`), "position" (implicit PD drive to
         `set_dof_position_targets` with `stiffness`, `damping`), "velocity" (drive to
-        `set_dof_velocity_targets` with `damping`) or "none" (passive joints).
+        `set_dof_velocity_targets` with `damping`) or "none" (passive joints); or a list of
+        them, one per DOF of the actor in file order (an arm in effort mode with a position-
+        driven gripper). A DOF without a drive keeps the effort it is given.
         gravity=False: gravity does not act on the actor's bodies (Isaac Gym's disable_gravity;
         MuJoCo's gravcomp 1 on each of them).
         """
@@ -69,12 +72,22 @@ class Scene:
             raise ValueError(f"actor name {name!r}: must be non-empty and contain no '/'")
         if any(a.name == name for a in self.actors):
             raise ValueError(f"actor name {name!r} is used twice; actor names must be unique")
-        if dof_mode not in DOF_MODES:
-            raise ValueError(f"actor {name!r}: dof_mode={dof_mode!r}; valid: {DOF_MODES}")
-        if dof_mode == "position" and np.any(np.asarray(stiffness) <= 0):
-            raise ValueError(f"actor {name!r}: a position drive needs stiffness > 0")
-        if dof_mode == "velocity" and np.any(np.asarray(damping) <= 0):
-            raise ValueError(f"actor {name!r}: a velocity drive needs damping > 0")
+        modes = [dof_mode] if isinstance(dof_mode, str) else list(dof_mode)
+        if not modes or any(mode not in DOF_MODES for mode in modes):
+            raise ValueError(f"actor {name!r}: dof_mode={dof_mode!r}; valid: {DOF_MODES}, or a "
+                             "list of them (one per DOF)")
+        if not isinstance(dof_mode, str):
+            dof_mode = tuple(modes)
+        for mode, gain, what in (("position", stiffness, "stiffness"),
+                                 ("velocity", damping, "damping")):
+            gain = np.asarray(gain, float)
+            if not isinstance(dof_mode, str) and gain.size > 1 and gain.shape != (len(modes),):
+                raise ValueError(f"actor {name!r}: {what} must be one value or one per DOF "
+                                 f"({len(modes)}, as dof_mode)")
+            driven = gain if isinstance(dof_mode, str) or gain.size == 1 else \
+                gain[np.array(modes) == mode]
+            if mode in modes and np.any(driven <= 0):
+                raise ValueError(f"actor {name!r}: a {mode} drive needs {what} > 0")
         if (quat is not None and np.shape(quat) != (4,)) or (pos is not None
                                                               and np.shape(pos) != (3,)):
             raise ValueError(f"actor {name!r}: pos must be 3 numbers and quat 4 (x, y, z, w)")
@@ -161,15 +174,25 @@ class Scene:
                 spec.delete(pair)
         joints = [j for b in bodies for j in b.joints
                   if j.type in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)]
-        if actor.dof_mode not in ("position", "velocity"):
-            return []
-        stiffness = np.broadcast_to(np.asarray(actor.stiffness, float), (len(joints),))
-        damping = np.broadcast_to(np.asarray(actor.damping, float), (len(joints),))
+        modes = actor.dof_mode
+        if isinstance(modes, str):
+            modes = (modes,) * len(joints)
+        elif len(modes) != len(joints):
+            raise ValueError(f"actor {actor.name!r}: dof_mode lists {len(modes)} modes for its "
+                             f"{len(joints)} DOFs")
+        try:
+            stiffness = np.broadcast_to(np.asarray(actor.stiffness, float), (len(joints),))
+            damping = np.broadcast_to(np.asarray(actor.damping, float), (len(joints),))
+        except ValueError:
+            raise ValueError(f"actor {actor.name!r}: stiffness and damping must be one value or "
+                             f"one per DOF ({len(joints)})") from None
         names = []
-        for j, kp, kv in zip(joints, stiffness, damping):
+        for j, mode, kp, kv in zip(joints, modes, stiffness, damping):
+            if mode not in ("position", "velocity"):
+                continue
             act = spec.add_actuator(name=f"{j.name}/drive", target=j.name,
                                     trntype=mujoco.mjtTrn.mjTRN_JOINT)
-            if actor.dof_mode == "position":
+            if mode == "position":
                 act.set_to_position(kp=float(kp), kv=float(kv))
             else:
                 act.set_to_velocity(kv=float(kv))

@@ -8,6 +8,7 @@ gets its robot from here.
 | ANYmal C    | `myriad[anymal]` | example-robot-data: robots/anymal_c_simple_description/urdf/anymal.urdf |
 | Shadow Hand | `myriad[hands]`  | gymnasium-robotics: envs/assets/hand/{robot,shared,shared_asset}.xml (OpenAI's) |
 | Allegro     | `myriad[hands]`  | example-robot-data: robots/allegro_hand_description/urdf/allegro_right_hand.urdf |
+| Franka Panda | `myriad[arms]`  | example-robot-data: robots/panda_description/urdf/panda.urdf (arm, hand, fingers) |
 
 Nothing is downloaded at run time: a missing package is a `ModelError` naming the extra that
 installs it.
@@ -198,4 +199,38 @@ def allegro_hand_spec(damping: float = 0.1, friction: float = 0.01, armature: fl
         joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_TRUE
         joint.actfrcrange = [-effort, effort]
     spec.add_exclude(bodyname1="palm_link", bodyname2="link_13.0")
+    return spec
+
+
+# ---------------------------------------------------------------------------- Franka Panda
+FRANKA = "robots/panda_description/urdf/panda.urdf"
+FRANKA_ROBOTS = "package://example-robot-data/robots/"
+FRANKA_GRIP_SITE = 0.1025            # the original's grip point, along the hand's z (m)
+FRANKA_FINGERTIP = (0.0015, 0.0441)  # the original's fingertip points: toward the other finger
+                                     # (y, its sign per finger) and along the finger's z (m)
+
+
+def franka_spec() -> mujoco.MjSpec:
+    """The Franka Panda with its gripper, as example-robot-data ships it: 7 arm joints, two
+    finger joints of which the second mimics the first (a joint equality), collision meshes for
+    the links and boxes for the fingers. Fixed links stay bodies (`panda_hand` is the body whose
+    Jacobian an operational-space controller uses), and the points the original adds are sites:
+    `panda_grip_site` 0.1025 m along the hand's z, and `panda_{left,right}finger_tip` 0.0441 m
+    along each finger's z, 1.5 mm toward the other finger. The base is fixed (no free joint);
+    the URDF's mesh paths are resolved to the installed package's folder. Three pairs of wrist
+    links whose meshes overlap in every pose (5 to 41 mm) are excluded from colliding."""
+    path = installed_file("example-robot-data", FRANKA, "arms")
+    robots = path[: -len(FRANKA)]
+    spec = urdf_spec(path, '<mujoco><compiler discardvisual="true" balanceinertia="true" '
+                           'fusestatic="false"/></mujoco>',
+                     text_fixes={FRANKA_ROBOTS: robots + "robots/"})
+    spec.body("panda_hand").add_site(name="panda_grip_site", pos=[0, 0, FRANKA_GRIP_SITE])
+    toward, along = FRANKA_FINGERTIP
+    spec.body("panda_leftfinger").add_site(name="panda_leftfinger_tip", pos=[0, toward, along])
+    spec.body("panda_rightfinger").add_site(name="panda_rightfinger_tip",
+                                            pos=[0, -toward, along])
+    # collision meshes that overlap in every pose (the wrist's links round the hand)
+    for one, two in (("panda_link5", "panda_hand"), ("panda_link7", "panda_hand"),
+                     ("panda_link5", "panda_link7")):
+        spec.add_exclude(bodyname1=one, bodyname2=two)
     return spec

@@ -14,11 +14,13 @@ from .anymal import Anymal
 from .base import VecTask
 from .humanoid import Humanoid
 from .ingenuity import Ingenuity
+from .franka import FrankaCubeStack
 from .hands import AllegroHand, ShadowHand
 
 TASKS = {"Ant": Ant, "Anymal": Anymal, "Humanoid": Humanoid, "Ingenuity": Ingenuity,
          "ShadowHand": ShadowHand, "ShadowHandOpenAI_FF": ShadowHand,
-         "ShadowHandOpenAI_LSTM": ShadowHand, "AllegroHand": AllegroHand}
+         "ShadowHandOpenAI_LSTM": ShadowHand, "AllegroHand": AllegroHand,
+         "FrankaCubeStack": FrankaCubeStack}
 
 
 def config_int(value, key: str, minimum: int | None = None) -> int:
