@@ -191,6 +191,34 @@ def test_drives_efforts_fixed_base_and_self_collisions(device):
         Scene().add_actor("x", "/nonexistent/robot.xml")
 
 
+def test_a_drive_mode_per_dof(device):
+    """Hips in effort mode, knees position-driven: only the knees get drives, the hips keep the
+    efforts they are given; wrong lists name what is wrong."""
+    modes = ["effort", "position"] * 4
+    e = Scene().add_actor("mixed", ANT, pos=(0, 0, 1), fix_base=True, dof_mode=modes,
+                          stiffness=[0.0, 20.0] * 4, damping=[0.0, 1.0] * 4).build(
+        1, device, myriad.SimParams(dt=1 / 60, substeps=2, gravity=(0, 0, 0)))
+    drives = [n for n in e.model.actuator_names if n.endswith("/drive")]
+    assert drives == [f"{e.dof_names[k]}/drive" for k in range(1, 8, 2)], "the knees' alone"
+    e.set_dof_position_targets(torch.full((1, 8), 0.5, device=device))
+    e.set_dof_efforts(torch.tensor([[0.2, 0.0] * 4], device=device))
+    for _ in range(30):
+        e.step()
+    knees, hips = e.dof_pos[0, 1::2], e.dof_pos[0, 0::2]
+    assert torch.allclose(knees, torch.full_like(knees, 0.5), atol=0.05), "driven to 0.5"
+    assert (hips > 0.05).all(), f"pushed by their efforts, held by no drive: {hips}"
+
+    with pytest.raises(ValueError, match="a position drive needs stiffness > 0"):
+        Scene().add_actor("x", ANT, dof_mode=modes, stiffness=[20.0, 0.0] * 4)
+    with pytest.raises(ValueError, match="one per DOF"):
+        Scene().add_actor("x", ANT, dof_mode=modes, stiffness=[20.0] * 3)
+    with pytest.raises(ValueError, match="valid"):
+        Scene().add_actor("x", ANT, dof_mode=["effort", "torque"])
+    with pytest.raises(ValueError, match="lists 2 modes for its 8 DOFs"):
+        Scene().add_actor("x", ANT, fix_base=True, dof_mode=["effort", "position"],
+                          stiffness=10.0).build(1, device)
+
+
 def test_an_actor_without_self_collisions_loses_its_explicit_pairs_too():
     """An explicit <contact><pair> collides whatever <exclude> says (MuJoCo's rule), so an
     actor added with self_collisions=False drops its pairs as well as getting the excludes."""
