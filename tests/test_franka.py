@@ -125,6 +125,21 @@ def test_operational_space_law_produces_the_commanded_acceleration(task):
 DOWN = torch.tensor([1.0, 0.0, 0.0, 0.0])      # the hand pointing down, fingers along y (xyzw)
 
 
+def test_the_controller_survives_singular_matrices():
+    """A rank-deficient Jacobian (a kinematic singularity) gives finite torques; a mass matrix
+    that cannot be inverted gives none, instead of an exception that stops training."""
+    jacobian = torch.eye(6, 7).expand(2, 6, 7).clone()
+    jacobian[:, 5] = 0.0                               # one task direction lost
+    mass = torch.eye(7).expand(2, 7, 7).clone()
+    mass[1] = 0.0
+    tau = osc_torques(torch.ones(2, 6), torch.zeros(2, 6), jacobian, mass, torch.zeros(2, 7),
+                      torch.zeros(2, 7), torch.zeros(2, 7), kp=150.0, kd=24.5, kp_null=10.0,
+                      kd_null=6.3)
+    assert torch.isfinite(tau).all()
+    torch.testing.assert_close(tau[0, :5], torch.full((5,), 150.0), rtol=1e-4, atol=0)
+    assert (tau[1] == 0).all()
+
+
 def _move(task, target, gripper: float, steps: int):
     """Drive the grip point toward `target` (env coordinates), the hand pointing down, with the
     task's own actions (Δpose = the remaining error, at most the command limit)."""
@@ -165,6 +180,7 @@ def test_a_grasped_cube_is_lifted_20_cm_without_slipping():
     slip = (task.envs.root_states[:, task.cube_a, 0:3] - grip - held).norm()
     assert slip < 0.005, f"the cube slipped {slip * 1000:.1f} mm in the gripper"
     assert task.rew_buf[0] >= 1.5                                      # lifted
+    assert task.lifted_ever[0], "lifted in the gripper: counted for lift_rate"
 
 
 def test_a_cube_set_on_the_other_stands_still_for_10_s(task):
