@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 
 import gymnasium as gym
+import mujoco
 import numpy as np
 import torch
 
@@ -48,6 +49,16 @@ def sim_params(sim_cfg: dict) -> SimParams:
     return SimParams(dt=float(sim_cfg["dt"]), substeps=int(sim_cfg.get("substeps", 1)),
                      gravity=tuple(sim_cfg.get("gravity", (0.0, 0.0, -9.81))), solver=solver,
                      **{keys[k]: v for k, v in physx.items()})
+
+
+def box_spec(name: str, size, density: float = 1000.0, rgba=(0.6, 0.6, 0.6, 1.0)) -> mujoco.MjSpec:
+    """One box body (size: full edge lengths, m; density kg/m³) as an actor's model: free, or
+    fixed with `Scene.add_actor(fix_base=True)` (a cube to handle, a table)."""
+    spec = mujoco.MjSpec()
+    spec.worldbody.add_body(name=name).add_geom(
+        name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[s / 2 for s in size], density=density,
+        rgba=list(rgba))
+    return spec
 
 
 class VecTask:

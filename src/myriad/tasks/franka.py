@@ -53,13 +53,12 @@ from __future__ import annotations
 
 import math
 
-import mujoco
 import torch
 
 from ..api import Scene
 from ..assets import franka_spec
 from ..torch_utils import env_mask, quat_from_angle_axis, unit_axis, where_rows, wrap_angle
-from .base import VecTask
+from .base import VecTask, box_spec
 
 CONTROL_TYPES = {"osc": 7, "joint_tor": 8}
 TABLE_SIZE, TABLE_POS = (1.2, 1.2, 0.05), (0.0, 0.0, 1.0)
@@ -71,18 +70,6 @@ FINGER_KP, FINGER_KD = 5000.0, 100.0
 FINGER_OPEN, FINGER_START = 0.04, 0.035
 HELD = 0.02       # m: cube A's centre this close to the grip point is in the gripper (lift_rate)
 SINGULAR_DAMPING = 1e-6   # added to J M⁻¹ Jᵀ's diagonal (1/kg, 1/(kg·m²); its entries: 0.1-100)
-
-
-def box_spec(name: str, size, density: float = 1000.0, free: bool = True,
-             rgba=(0.6, 0.6, 0.6, 1.0)) -> mujoco.MjSpec:
-    """One box body (size: full edge lengths), free or to be fixed by its actor."""
-    spec = mujoco.MjSpec()
-    body = spec.worldbody.add_body(name=name)
-    if free:
-        body.add_freejoint(name="root")
-    body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[s / 2 for s in size],
-                  density=density, rgba=list(rgba))
-    return spec
 
 
 def osc_torques(dpose: torch.Tensor, eef_vel: torch.Tensor, jacobian: torch.Tensor,
@@ -161,9 +148,9 @@ class FrankaCubeStack(VecTask):
     # ------------------------------------------------------------------ scene
     def create_envs(self):
         scene = Scene().add_ground()
-        scene.add_actor("table", box_spec("table", TABLE_SIZE, free=False), pos=TABLE_POS,
+        scene.add_actor("table", box_spec("table", TABLE_SIZE), pos=TABLE_POS,
                         fix_base=True)
-        scene.add_actor("stand", box_spec("stand", STAND_SIZE, free=False), pos=STAND_POS,
+        scene.add_actor("stand", box_spec("stand", STAND_SIZE), pos=STAND_POS,
                         fix_base=True)
         scene.add_actor("franka", franka_spec(), pos=ROBOT_POS, fix_base=True, gravity=False,
                         dof_mode=["effort"] * 7 + ["position"] * 2,

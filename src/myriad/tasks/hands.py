@@ -58,7 +58,6 @@ from __future__ import annotations
 
 import math
 
-import mujoco
 import torch
 
 from ..api import Scene
@@ -66,20 +65,10 @@ from ..assets import (SHADOW_FINGERTIPS, allegro_hand_spec, shadow_hand_spec,
                       shadow_hand_tendons)
 from ..torch_utils import (env_mask, quat_conjugate, quat_from_angle_axis, quat_mul,
                            rotation_angle, scale, unit_axis, unscale, where_rows)
-from .base import VecTask
+from .base import VecTask, box_spec
 
 OBSERVATION_TYPES = ("full_state", "openai")
 HAND_POS = (0.0, 0.0, 0.5)
-
-
-def cube_spec(size: float, density: float) -> mujoco.MjSpec:
-    """The manipulated cube: one free box (the original's cube_multicolor)."""
-    spec = mujoco.MjSpec()
-    body = spec.worldbody.add_body(name="object")
-    body.add_freejoint(name="root")
-    body.add_geom(name="object", type=mujoco.mjtGeom.mjGEOM_BOX, size=[size / 2] * 3,
-                  density=density, rgba=[0.9, 0.5, 0.1, 1.0])
-    return spec
 
 
 class InHandTask(VecTask):
@@ -143,7 +132,8 @@ class InHandTask(VecTask):
     # ------------------------------------------------------------------ scene
     def create_envs(self):
         scene = self.hand_actor(Scene().add_ground())
-        scene.add_actor("object", cube_spec(self.cube_size, self.cube_density),
+        scene.add_actor("object", box_spec("object", [self.cube_size] * 3, self.cube_density,
+                                           rgba=(0.9, 0.5, 0.1, 1.0)),
                         pos=self.cube_start)
         e = scene.build(self.num_envs, self.device, self.sim_params, fix_model=self.fix_model)
         # the observation sizes follow from the hand: Table 10's layout (211 for the Shadow
