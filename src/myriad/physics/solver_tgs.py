@@ -540,7 +540,7 @@ def solve(m: ModelArrays, layout: RowLayout, limit_jnt: wp.array(dtype=wp.int32)
             dense.row_apply(s.qd, e, rows.lam[e, r], rows.minv_jt, r, rows.span[e, r])
     for k in range(ncontact):
         c.slid[e, k] = 0
-    # a hand has 80 tendon-limit rows, seldom one active: the sweeps visit only their span
+    # a hand has 88 tendon-limit rows, seldom one active: the sweeps visit only their span
     tendon_limits = _in_use(rows, e, layout.tendon_limits, layout.equalities)
     hs = h
     if tgs != 0:

@@ -68,6 +68,7 @@ TABLE_TOP = TABLE_POS[2] + TABLE_SIZE[2] / 2
 ARM_EFFORT = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)      # N·m, the Panda's limits
 FINGER_KP, FINGER_KD = 5000.0, 100.0
 FINGER_OPEN, FINGER_START = 0.04, 0.035
+CUBE_A, CUBE_B = 0.05, 0.07      # m, edge lengths
 HELD = 0.02       # m: cube A's centre this close to the grip point is in the gripper (lift_rate)
 SINGULAR_DAMPING = 1e-6   # added to J M⁻¹ Jᵀ's diagonal (1/kg, 1/(kg·m²); its entries: 0.1-100)
 
@@ -107,7 +108,6 @@ class FrankaCubeStack(VecTask):
                              f"{sorted(CONTROL_TYPES)}")
         self.num_actions = CONTROL_TYPES[self.control_type]
         self.num_obs = 19 if self.control_type == "osc" else 26
-        self.cube_a_size, self.cube_b_size = 0.05, 0.07
         self.rewards = {k: float(env[k]) for k in (
             "distRewardScale", "liftRewardScale", "alignRewardScale", "stackRewardScale")}
         self.osc = {k: float(env[k]) for k in ("kp", "kp_null")}
@@ -156,28 +156,31 @@ class FrankaCubeStack(VecTask):
                         dof_mode=["effort"] * 7 + ["position"] * 2,
                         stiffness=[0.0] * 7 + [FINGER_KP] * 2,
                         damping=[0.0] * 7 + [FINGER_KD] * 2)
-        scene.add_actor("cubeA", box_spec("cubeA", [0.05] * 3, rgba=(0.6, 0.1, 0.0, 1.0)),
-                        pos=(0.1, 0.0, TABLE_TOP + 0.025))
-        scene.add_actor("cubeB", box_spec("cubeB", [0.07] * 3, rgba=(0.0, 0.4, 0.1, 1.0)),
-                        pos=(-0.1, 0.0, TABLE_TOP + 0.035))
+        scene.add_actor("cubeA", box_spec("cubeA", [CUBE_A] * 3, rgba=(0.6, 0.1, 0.0, 1.0)),
+                        pos=(0.1, 0.0, TABLE_TOP + CUBE_A / 2))
+        scene.add_actor("cubeB", box_spec("cubeB", [CUBE_B] * 3, rgba=(0.0, 0.4, 0.1, 1.0)),
+                        pos=(-0.1, 0.0, TABLE_TOP + CUBE_B / 2))
         return scene.build(self.num_envs, self.device, self.sim_params)
 
     # ------------------------------------------------------------------ state
-    def grip_state(self):
-        """(pose [N, 3, 7] of the grip point and the two fingertips, grip point 6D velocity)."""
-        e = self.envs
-        sites = e.sim.site_pose[:, self.sites]
-        hand = e.rigid_body_states[:, self.hand]
+    def grip_poses(self) -> torch.Tensor:
+        """[N, 3, 7] poses of the grip point and the two fingertips."""
+        return self.envs.sim.site_pose[:, self.sites]
+
+    def grip_velocity(self) -> torch.Tensor:
+        """[N, 6] linear and angular velocity of the grip point."""
+        hand = self.envs.rigid_body_states[:, self.hand]
         angular = hand[:, 10:13]
-        linear = hand[:, 7:10] + torch.cross(angular, sites[:, 0, 0:3] - hand[:, 0:3], dim=-1)
-        return sites, torch.cat((linear, angular), dim=-1)
+        grip = self.envs.sim.site_pose[:, self.sites[0], 0:3]
+        return torch.cat((hand[:, 7:10] + torch.cross(angular, grip - hand[:, 0:3], dim=-1),
+                          angular), dim=-1)
 
     # ------------------------------------------------------------------ step
     def pre_physics_step(self, actions):
         self.actions[:] = actions
         e = self.envs
         if self.control_type == "osc":
-            _, eef_vel = self.grip_state()
+            eef_vel = self.grip_velocity()
             jacobian = e.jacobians("franka")[:, self.hand_in_actor, :, :7]
             mass = e.mass_matrix("franka")[:, :7, :7]
             tau = osc_torques(actions[:, :6] * self.action_scale, eef_vel, jacobian, mass,
@@ -194,10 +197,10 @@ class FrankaCubeStack(VecTask):
     def post_physics_step(self):
         a = self.envs.root_states[:, self.cube_a, 0:3]
         b = self.envs.root_states[:, self.cube_b, 0:3]
-        sites, _ = self.grip_state()
+        sites = self.grip_poses()
         self.rew_buf[:], stacked, lifted = compute_franka_reward(
-            a, b, sites[:, 0, 0:3], sites[:, 1, 0:3], sites[:, 2, 0:3], self.cube_a_size,
-            self.cube_b_size, **self.rewards)
+            a, b, sites[:, 0, 0:3], sites[:, 1, 0:3], sites[:, 2, 0:3], CUBE_A, CUBE_B,
+            **self.rewards)
         # a lift counts for lift_rate with the cube in the gripper (its centre within 2 cm of the
         # grip point): the reward's `lifted` also pays a cube knocked into the air
         held = torch.norm(a - sites[:, 0, 0:3], dim=-1) < HELD
@@ -228,7 +231,7 @@ class FrankaCubeStack(VecTask):
         e = self.envs
         a = e.root_states[:, self.cube_a]
         b = e.root_states[:, self.cube_b]
-        sites, _ = self.grip_state()
+        sites = self.grip_poses()
         joints = e.dof_pos[:, 7:9] if self.control_type == "osc" else e.dof_pos
         self.obs_buf[:] = torch.cat((a[:, 3:7], a[:, 0:3], b[:, 0:3] - a[:, 0:3],
                                      sites[:, 0, 0:3], sites[:, 0, 3:7], joints), dim=-1)
@@ -242,12 +245,12 @@ class FrankaCubeStack(VecTask):
         # cube A: the first of 100 draws at least 0.17 m (twice the two cubes' half diagonals)
         # from B
         tries = self._cube_xy(N * 100).view(N, 100, 2)
-        apart = (tries - b_xy[:, None]).norm(dim=-1) >= (self.cube_a_size + self.cube_b_size) \
+        apart = (tries - b_xy[:, None]).norm(dim=-1) >= (CUBE_A + CUBE_B) \
             * math.sqrt(2)
         first = torch.where(apart.any(dim=1), apart.float().argmax(dim=1), 99)
         a_xy = tries[torch.arange(N, device=dev), first]
-        for cube, xy, size in ((self.cube_a, a_xy, self.cube_a_size),
-                               (self.cube_b, b_xy, self.cube_b_size)):
+        for cube, xy, size in ((self.cube_a, a_xy, CUBE_A),
+                               (self.cube_b, b_xy, CUBE_B)):
             roots[:, cube, 0:2] = xy
             roots[:, cube, 2] = TABLE_TOP + size / 2
             yaw = self.rotation_noise * (2.0 * torch.rand(N, device=dev) - 1.0)
