@@ -179,6 +179,41 @@ def test_candidate_pairs_follow_mujoco_filters():
                      ("ga", "gc"), ("gb", "gd"), ("gc", "gd")}
 
 
+def test_bodies_welded_to_the_world_do_not_collide_with_each_other():
+    """A jointless table and a jointless wall standing on it move no more than the world: their
+    pair (or either with the floor) would only fill contact slots (TriFinger's wall and table
+    took 60 of 64 and pushed the fingertip's contact out); a jointless body below a moving one
+    is not static, and each still meets what moves."""
+    model = myriad.load_xml("""<mujoco><worldbody>
+      <geom name="floor" type="plane" size="1 1 0.1"/>
+      <body name="table"><geom name="gt" type="box" size="0.5 0.5 0.01"/>
+        <body name="wall"><geom name="gw" type="box" size="0.01 0.5 0.1" pos="0.49 0 0.1"/></body>
+      </body>
+      <body name="cube" pos="0 0 0.05"><freejoint/><geom name="gcube" type="box" size="0.03 0.03 0.03"/>
+        <body name="sticker"><geom name="gs" size="0.01" pos="0 0 0.03"/></body></body>
+      </worldbody></mujoco>""")
+    names = model.geom_names
+    pairs = {tuple(sorted((names[a], names[b]))) for a, b in candidate_pairs(model)}
+    assert pairs == {("floor", "gcube"), ("gcube", "gt"), ("gcube", "gw"), ("floor", "gs"),
+                     ("gs", "gt"), ("gs", "gw")}
+
+
+def test_collision_reads_only_the_corners_of_a_mesh_hull():
+    """A mesh's vertices inside its hull (or on its faces) can never be a support point: the
+    collision stage keeps the hull's corners alone, so a cube mesh with a point at its centre and
+    one in a face's middle has 8."""
+    from myriad.physics.collision import shape_data
+
+    corners = " ".join(f"{x} {y} {z}" for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1))
+    model = myriad.load_xml(f"""<mujoco><asset>
+      <mesh name="m" vertex="{corners} 0 0 0 0.1 0 0"/></asset><worldbody>
+      <body><freejoint/><geom type="mesh" mesh="m"/></body></worldbody></mujoco>""")
+    meshes, _ = shape_data(model, "cpu")
+    assert meshes.vertnum.numpy().tolist() == [8]
+    assert np.allclose(np.abs(meshes.vert.numpy()), 0.1, atol=1e-6)
+    assert meshes.rbound.numpy()[0] == pytest.approx(0.1 * math.sqrt(3), rel=1e-5)
+
+
 def test_parts_of_one_robot_that_overlap_at_rest_do_not_collide_and_are_named(device):
     """A fixed arm whose second link reaches 2 cm into its base (a grandparent, so MuJoCo's
     parent-child filter keeps the pair), and whose first link is sunk into the table it stands

@@ -15,19 +15,24 @@ __all__ = ["CANDIDATES_PER_SLOT", "HFields", "Meshes", "candidate_pairs", "geom_
 
 
 def shape_data(model, device) -> tuple[Meshes, HFields]:
-    """The model's mesh vertices (with each mesh's bounding radius) and height fields on the
-    device, shared by all envs."""
+    """The vertices of each mesh's convex hull (with its bounding radius) and the height fields
+    on the device, shared by all envs. Collision reads only the hull's corners (supports,
+    probes, plane contacts): a scanned robot mesh has 10-20 times as many vertices inside or on
+    its hull faces, and every support query would visit them all."""
     def arr(a, dtype):
         return wp.array(np.ascontiguousarray(a), dtype=dtype, device=device)
 
-    meshes = Meshes()
     verts = model.mesh_vert.reshape(-1, 3)
-    meshes.vert = arr(verts, wp.vec3)
-    meshes.vertadr = arr(model.mesh_vertadr, wp.int32)
-    meshes.vertnum = arr(model.mesh_vertnum, wp.int32)
-    meshes.rbound = arr(np.asarray([np.linalg.norm(verts[a:a + k], axis=1).max(initial=0.0)
-                                    for a, k in zip(model.mesh_vertadr, model.mesh_vertnum)],
-                                   np.float32), float)
+    hulls = [np.unique(model.mesh_hull_face[a:a + k]) for a, k in
+             zip(model.mesh_hull_faceadr, model.mesh_hull_facenum)]
+    corners = np.concatenate([verts[ids] for ids in hulls] + [np.zeros((0, 3), np.float32)])
+    counts = np.asarray([len(ids) for ids in hulls], np.int32)
+    meshes = Meshes()
+    meshes.vert = arr(corners.astype(np.float32), wp.vec3)
+    meshes.vertadr = arr(np.cumsum(counts) - counts, wp.int32)
+    meshes.vertnum = arr(counts, wp.int32)
+    meshes.rbound = arr(np.asarray([np.linalg.norm(verts[ids], axis=1).max(initial=0.0)
+                                    for ids in hulls], np.float32), float)
     hfields = HFields()
     hfields.size = arr(model.hfield_size.reshape(-1, 4), wp.vec4)
     hfields.nrow = arr(model.hfield_nrow, wp.int32)

@@ -57,7 +57,7 @@ epa_edges = wp.types.vector(length=EPA_VERTS, dtype=wp.int32)
 
 @wp.struct
 class Meshes:
-    vert: wp.array(dtype=wp.vec3)      # all mesh vertices, mesh frame
+    vert: wp.array(dtype=wp.vec3)      # every mesh's convex hull corners, mesh frame
     vertadr: wp.array(dtype=wp.int32)
     vertnum: wp.array(dtype=wp.int32)
     rbound: wp.array(dtype=float)      # per mesh: largest vertex distance from the mesh origin

@@ -1,6 +1,7 @@
 """Candidate geom pairs, decided once at model build (MuJoCo's filtering rules).
 
-A pair (g1, g2) can touch when its geoms are on different bodies, not both static, pass the
+A pair (g1, g2) can touch when its geoms are on different bodies, not both static (on the world
+or on bodies joined to it by no joint: a fixed-base table and the wall beside it), pass the
 contype/conaffinity test ((contype1 & conaffinity2) | (contype2 & conaffinity1)), are not a
 parent-child body pair (unless the parent is the world), and are not excluded by an MJCF
 <exclude>. Bodies joined by a connect or weld equality do not collide either (PhysX's default
@@ -52,11 +53,17 @@ def candidate_pairs(model, self_collision=True) -> np.ndarray:
     excluded |= {tuple(sorted(p)) for p in
                  np.stack([model.eq_obj1, model.eq_obj2], 1)[jointed].tolist()}
     explicit = _explicit(model)
+    # bodies welded to the world (no joint between them and it) move no more than the world
+    fixed = np.zeros(model.nbody, dtype=bool)
+    for b in range(model.nbody):               # parents come before their children
+        p = model.body_parent[b]
+        fixed[b] = model.body_jntnum[b] == 0 and (p < 0 or fixed[p])
+    static = np.where(body >= 0, fixed[np.maximum(body, 0)], True)
     pairs = []
     for g1 in range(model.ngeom):
         for g2 in range(g1 + 1, model.ngeom):
             b1, b2 = body[g1], body[g2]
-            if b1 == b2:                       # same body, or both static
+            if b1 == b2 or (static[g1] and static[g2]):     # same body, or both static
                 continue
             if (g1, g2) not in explicit:       # an explicit pair passes the model's filters
                 if not ((model.geom_contype[g1] & model.geom_conaffinity[g2])
