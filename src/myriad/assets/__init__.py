@@ -9,6 +9,7 @@ gets its robot from here.
 | Shadow Hand | `myriad[hands]`  | gymnasium-robotics: envs/assets/hand/{robot,shared,shared_asset}.xml (OpenAI's) |
 | Allegro     | `myriad[hands]`  | example-robot-data: robots/allegro_hand_description/urdf/allegro_right_hand.urdf |
 | Franka Panda | `myriad[arms]`  | example-robot-data: robots/panda_description/urdf/panda.urdf (arm, hand, fingers) |
+| TriFinger Pro | `myriad[arms]` | robot-properties-fingers: urdf/pro/trifingerpro.urdf, meshes/high_table_boundary.stl |
 
 Nothing is downloaded at run time: a missing package is a `ModelError` naming the extra that
 installs it.
@@ -25,6 +26,7 @@ import sys
 import tempfile
 
 import mujoco
+import numpy as np
 
 from ..physics import ModelError
 
@@ -233,4 +235,74 @@ def franka_spec() -> mujoco.MjSpec:
     for one, two in (("panda_link5", "panda_hand"), ("panda_link7", "panda_hand"),
                      ("panda_link5", "panda_link7")):
         spec.add_exclude(bodyname1=one, bodyname2=two)
+    return spec
+
+
+# ---------------------------------------------------------------------------- TriFinger Pro
+TRIFINGER = "urdf/pro/trifingerpro.urdf"
+TRIFINGER_PACKAGE = "package://robot_properties_fingers/"
+TRIFINGER_ANGLES = (0, 120, 240)          # the fingers' suffixes: their mounting angle (deg)
+TRIFINGER_ARENA_RADIUS = 0.195            # m: the boundary wall's inner radius at the floor
+
+
+def trifinger_spec(friction: float = 1.0, hull_vertices: int = 64) -> mujoco.MjSpec:
+    """TriFinger Pro of robot-properties-fingers: three 3-joint fingers hanging from a frame
+    0.29 m above the floor, their links collided as the convex hulls of their meshes, each hull
+    cut to `hull_vertices` corners (64: within 1.2 mm of the full hull; the original decomposes
+    the links with V-HACD into hulls of up to 256; the upper, middle and tip links are nearly
+    convex), with `friction`. Fixed links stay bodies: finger_tip_link_{0,120,240} are the
+    fingertips whose poses, velocities and wrenches the task observes, each with a force and a
+    torque sensor at its origin. The base is fixed to the world (no free joint); the URDF's mesh
+    paths are resolved to the installed package's folder."""
+    path = installed_file("robot_properties_fingers", TRIFINGER, "arms")
+    package = os.path.dirname(os.path.dirname(os.path.dirname(path)))
+    spec = urdf_spec(path, '<mujoco><compiler discardvisual="true" balanceinertia="true" '
+                           'fusestatic="false"/></mujoco>',
+                     text_fixes={TRIFINGER_PACKAGE: package + "/"})
+    for mesh in spec.meshes:
+        mesh.maxhullvert = hull_vertices
+    for geom in spec.geoms:
+        geom.friction = [friction, geom.friction[1], geom.friction[2]]
+    for angle in TRIFINGER_ANGLES:
+        tip = spec.body(f"finger_tip_link_{angle}")
+        site = tip.add_site(name=f"finger_tip_{angle}_wrench", pos=[0, 0, 0])
+        for kind, name in ((mujoco.mjtSensor.mjSENS_FORCE, "force"),
+                           (mujoco.mjtSensor.mjSENS_TORQUE, "torque")):
+            spec.add_sensor(name=f"finger_tip_{angle}_{name}", type=kind,
+                            objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site.name)
+    return spec
+
+
+def stl_vertices(path: str) -> np.ndarray:
+    """[n, 3] distinct vertices of a binary STL file."""
+    data = open(path, "rb").read()
+    count = int(np.frombuffer(data, np.uint32, 1, 80)[0]) if len(data) >= 84 else -1
+    if count < 0 or len(data) != 84 + 50 * count:
+        raise ModelError(f"{path}: not a binary STL file ({len(data)} bytes)")
+    rows = np.frombuffer(data, np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)),
+                                         ("attribute", "<u2")]), count, 84)
+    return np.unique(rows["corners"].reshape(-1, 3), axis=0)
+
+
+def trifinger_boundary_spec(sectors: int = 32) -> mujoco.MjSpec:
+    """The wall round TriFinger's arena (robot-properties-fingers' high_table_boundary.stl: a
+    ring 0.195 m inside at the floor, widening in steps to 0.28 m at its top, 0.175 m high) as
+    one static body of `sectors` convex pieces: the hull of the mesh's vertices within each
+    sector of angle (sectors overlap by a third of their width, leaving no gap between them).
+    A hull fills the steps of the wall's inside into a smooth cone, and its flat inner face
+    lies at most 0.195·(1 - cos(π/sectors)) (1 mm for 32) inside the round wall."""
+    points = stl_vertices(installed_file("robot_properties_fingers",
+                                         "meshes/high_table_boundary.stl", "arms"))
+    radius = np.hypot(points[:, 0], points[:, 1])
+    points = points[radius > 0.9 * TRIFINGER_ARENA_RADIUS]   # the file's few stray points inside
+    angle = np.arctan2(points[:, 1], points[:, 0])
+    width = 2 * np.pi / sectors
+    spec = mujoco.MjSpec()
+    body = spec.worldbody.add_body(name="boundary")
+    for k in range(sectors):
+        offset = np.angle(np.exp(1j * (angle - (k + 0.5) * width)))   # from the sector's middle
+        piece = points[np.abs(offset) <= width * (0.5 + 1 / 6)]
+        spec.add_mesh(name=f"boundary_{k}", uservert=piece.astype(np.float64).ravel().tolist())
+        body.add_geom(name=f"boundary_{k}", type=mujoco.mjtGeom.mjGEOM_MESH,
+                      meshname=f"boundary_{k}", rgba=[0.3, 0.3, 0.35, 1.0])
     return spec

@@ -16,11 +16,12 @@ from .humanoid import Humanoid
 from .ingenuity import Ingenuity
 from .franka import FrankaCubeStack
 from .hands import AllegroHand, ShadowHand
+from .trifinger import Trifinger
 
 TASKS = {"Ant": Ant, "Anymal": Anymal, "Humanoid": Humanoid, "Ingenuity": Ingenuity,
          "ShadowHand": ShadowHand, "ShadowHandOpenAI_FF": ShadowHand,
          "ShadowHandOpenAI_LSTM": ShadowHand, "AllegroHand": AllegroHand,
-         "FrankaCubeStack": FrankaCubeStack}
+         "FrankaCubeStack": FrankaCubeStack, "Trifinger": Trifinger}
 
 
 def config_int(value, key: str, minimum: int | None = None) -> int:

@@ -1,0 +1,287 @@
+"""Trifinger: the three fingers of a TriFinger Pro move a cube to a goal position and orientation
+(seed A.2.3, Tables 12, 13; reference task-specs §4, the original's trifinger.py at difficulty 4,
+the setup whose policy went to the real robot).
+
+The scene, in env coordinates: the robot of robot-properties-fingers (`myriad.assets.
+trifinger_spec`) fixed at the origin, its fingers hanging from 0.29 m; a table (0.71 × 0.76 ×
+0.01 m, friction 0.1) whose top is the floor z = 0; the arena's wall round it (inner radius
+0.195 m at the floor, 0.175 m high, `trifinger_boundary_spec`); the cube (6.5 cm, 0.08 kg,
+friction 1). Physics: 0.02 s per step in 4 substeps (50 Hz control), TGS 8 + 0.
+
+Actions (9) in [-1, 1], torques: τ = 0.36·a, clamped to ±0.36 N·m, less a safety damping
+(0.08, 0.08, 0.04)·q̇ per finger, clamped again.
+
+Observation (41, each value mapped to [-1, 1]; Table 12, the original's code order):
+    [0:9]    joint positions, unscaled by the joint limits (per finger: [-0.33, 1.0], [0, 1.57],
+             [-2.7, 0])
+    [9:18]   joint velocities / 10 rad/s
+    [18:25]  cube position (x, y / 0.3; z unscaled from [0, 0.3]), quaternion (x, y, z, w)
+    [25:32]  goal position (as the cube's), quaternion
+    [32:41]  last actions
+Critic states (113, Table 13): the 41 above (without the observation noise), the cube's linear
+and angular velocity 6, the three fingertips' position, quaternion, linear and angular velocity
+(3 × 13), the joint torques 9 and the fingertips' force/torque sensors (3 × 6).
+
+Reward per step, with f_i the fingertips, c the cube, dt = 0.02:
+    finger movement: fingerMovePenalty (-0.5) · Σ_i ‖(f_i,t − f_i,t−1)/dt‖²
+    reach rate:      fingerReachObjectRate (-250) · Σ_i (‖f_i,t − c_t‖ − ‖f_i,t−1 − c_t−1‖),
+                     only while env steps × num_envs ≤ reachStepsThreshold (5e7)
+    pose, "keypoints" (the original's config): poseWeight (2000) · dt · mean over the cube's 8
+                     corners of K_30(‖k_cube − k_goal‖), K_a(x) = 1 / (e^(a·x) + 2 + e^(−a·x))
+    pose, "position_rotation" (the paper's formula): poseWeight · dt · K_50(‖p − p*‖)
+                     + poseWeight · dt / (3·|θ| + 0.01), θ the angle between the orientations
+An episode lasts 750 steps (15 s) and has no early end. `success_rate` (progress line,
+TensorBoard, summary.json): the share of the last finished episodes (at least num_envs) whose
+cube ended within 2 cm and 0.4 rad of the goal.
+
+Resets: the fingers at (0, 0.9, -2.0) each, at rest; the cube on the floor at a uniform point of
+the disk of radius 0.195 − 0.0563 (the arena less the cube's half diagonal), turned about z
+uniformly; the goal at a uniform point of that disk, 0.0563-0.1 m high, uniformly oriented.
+Domain randomization (cfg `randomization`): observation and action noise, gravity, the joint
+limits, the cube's size, mass and friction, the table's friction.
+
+Deviations from the original, on purpose: the links collide as one convex hull each (64
+corners), not V-HACD's decompositions; the wall is 32 convex sectors of its mesh; no restitution
+on the fingers (PhysX 0.8) and no 10 rad/s joint speed cap; no ground plane under the table (a
+cube thrown over the wall falls); no extra physics step after a reset.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from ..api import Scene
+from ..assets import (TRIFINGER_ANGLES, TRIFINGER_ARENA_RADIUS, trifinger_boundary_spec,
+                      trifinger_spec)
+from ..torch_utils import (env_mask, quat_conjugate, quat_from_angle_axis, quat_mul, quat_rotate,
+                           rotation_angle, unit_axis, unscale, where_rows)
+from .base import VecTask, box_spec
+
+POSE_FORMS = ("keypoints", "position_rotation")
+JOINT_LOWER = (-0.33, 0.0, -2.7)          # per finger (rad)
+JOINT_UPPER = (1.0, 1.57, 0.0)
+JOINT_START = (0.0, 0.9, -2.0)
+MAX_VELOCITY = 10.0                       # rad/s, the observation's scale
+MAX_TORQUE = 0.36                         # N·m
+SAFETY_DAMPING = (0.08, 0.08, 0.04)       # N·m·s/rad, per finger joint
+TABLE_SIZE = (0.71, 0.76, 0.01)
+TABLE_FRICTION = 0.1
+POSITION_BOUND = (0.3, 0.3, 0.3)          # |x|, |y| ≤ 0.3; 0 ≤ z ≤ 0.3 (m)
+
+
+class Trifinger(VecTask):
+    num_actions = 9
+    num_obs = 41
+
+    def __init__(self, cfg: dict, device: str = "cpu"):
+        env = cfg["env"]
+        self.num_states = 113 if env["asymmetric_obs"] else 0
+        self.cube_size = float(env["cubeSize"])
+        self.cube_density = float(env["cubeDensity"])
+        self.pose_form = env["poseRewardForm"]
+        if self.pose_form not in POSE_FORMS:
+            raise ValueError(f"env.poseRewardForm={self.pose_form!r}; valid: {list(POSE_FORMS)}")
+        self.rewards = {k: float(env[k]) for k in (
+            "fingerMovePenalty", "fingerReachObjectRate", "poseWeight", "keypointsKernelScale",
+            "positionKernelScale")}
+        self.reach_steps = float(env["reachStepsThreshold"])
+        self.position_tolerance = float(env["successPositionTolerance"])
+        self.orientation_tolerance = float(env["successOrientationTolerance"])
+        super().__init__(cfg, device)
+
+        e, dev, N = self.envs, self.device, self.num_envs
+        self.joint_lower = torch.tensor(JOINT_LOWER * 3, device=dev)
+        self.joint_upper = torch.tensor(JOINT_UPPER * 3, device=dev)
+        self.joint_start = torch.tensor(JOINT_START * 3, device=dev)
+        self.safety_damping = torch.tensor(SAFETY_DAMPING * 3, device=dev)
+        self.position_bound = torch.tensor(POSITION_BOUND, device=dev)
+        self.cube = e.actor_index("object")
+        self.fingertips = torch.tensor([e.body_index(f"robot/finger_tip_link_{a}")
+                                        for a in TRIFINGER_ANGLES], device=dev)
+        self.fingertip_sensors = torch.tensor([e.sensor_index(f"robot/finger_tip_{a}_wrench")
+                                               for a in TRIFINGER_ANGLES], device=dev)
+        self.torques = torch.zeros(N, e.num_dofs, device=dev)
+        self.goal_pos = torch.zeros(N, 3, device=dev)
+        self.goal_rot = torch.zeros(N, 4, device=dev)
+        self.prev_tips = torch.zeros(N, 3, 3, device=dev)
+        self.prev_cube = torch.zeros(N, 3, device=dev)
+        self.steps_taken = 0                  # env steps since the task was built (reach term)
+        # episodes finished and successful since the trainer last read the metrics
+        self.finished = torch.zeros((), device=dev)
+        self.succeeded = torch.zeros((), device=dev)
+        self.shown = {"success_rate": 0.0}
+        self.initial_root_states = e.root_states.clone()
+        self.reset()
+
+    # ------------------------------------------------------------------ scene
+    def create_envs(self):
+        table = box_spec("table", TABLE_SIZE, rgba=(0.75, 0.75, 0.72, 1.0))
+        table.geoms[0].friction = [TABLE_FRICTION, 0.005, 0.0001]
+        scene = (Scene()
+                 .add_actor("robot", trifinger_spec(), pos=(0.0, 0.0, 0.0), fix_base=True)
+                 .add_actor("table", table, pos=(0.0, 0.0, -TABLE_SIZE[2] / 2), fix_base=True)
+                 .add_actor("boundary", trifinger_boundary_spec(), pos=(0.0, 0.0, 0.0),
+                            fix_base=True)
+                 .add_actor("object", box_spec("object", [self.cube_size] * 3,
+                                               self.cube_density, rgba=(0.9, 0.5, 0.1, 1.0)),
+                            pos=(0.0, 0.0, self.cube_size / 2)))
+        return scene.build(self.num_envs, self.device, self.sim_params)
+
+    # ------------------------------------------------------------------ step
+    def pre_physics_step(self, actions):
+        self.actions[:] = actions
+        tau = torch.clamp(MAX_TORQUE * actions, -MAX_TORQUE, MAX_TORQUE)
+        tau = tau - self.safety_damping * self.envs.dof_vel
+        self.torques[:] = torch.clamp(tau, -MAX_TORQUE, MAX_TORQUE)
+        self.envs.set_dof_efforts(self.torques)
+
+    def post_physics_step(self):
+        e = self.envs
+        self.steps_taken += 1
+        cube = e.root_states[:, self.cube]
+        tips = e.rigid_body_states[:, self.fingertips, 0:3]
+        reach_active = self.steps_taken * self.num_envs <= self.reach_steps
+        self.rew_buf[:] = compute_trifinger_reward(
+            tips, self.prev_tips, cube[:, 0:3], cube[:, 3:7], self.prev_cube, self.goal_pos,
+            self.goal_rot, self.dt, reach_active, self.cube_size, self.pose_form, **self.rewards)
+        self.prev_tips[:] = tips
+        self.prev_cube[:] = cube[:, 0:3]
+        done = self.progress_buf >= self.max_episode_length
+        self.reset_buf[:] = done.long()
+        success = reached_goal(cube[:, 0:3], cube[:, 3:7], self.goal_pos, self.goal_rot,
+                               self.position_tolerance, self.orientation_tolerance)
+        self.finished += done.sum()
+        self.succeeded += (done & success).sum()
+        self.compute_observations()
+
+    def metrics(self) -> dict[str, float]:
+        """The share of the last finished episodes (at least num_envs of them) whose cube ended
+        at the goal; the last value until that many more have finished."""
+        finished = float(self.finished)
+        if finished >= self.num_envs:
+            self.shown = {"success_rate": float(self.succeeded) / finished}
+            self.finished.zero_()
+            self.succeeded.zero_()
+        return dict(self.shown)
+
+    # ------------------------------------------------------------------ observations
+    def compute_observations(self):
+        e = self.envs
+        cube = e.root_states[:, self.cube]
+        lower, upper = -self.position_bound * torch.tensor([1.0, 1.0, 0.0], device=self.device), \
+            self.position_bound
+        self.obs_buf[:] = torch.cat((
+            unscale(e.dof_pos, self.joint_lower, self.joint_upper),
+            e.dof_vel / MAX_VELOCITY,
+            unscale(cube[:, 0:3], lower, upper), cube[:, 3:7],
+            unscale(self.goal_pos, lower, upper), self.goal_rot,
+            self.actions), dim=-1)
+        if self.num_states:
+            N = self.num_envs
+            self.states_buf[:] = torch.cat((
+                self.obs_buf,
+                cube[:, 7:13],
+                e.rigid_body_states[:, self.fingertips].reshape(N, -1),
+                e.dof_forces,
+                e.force_sensors[:, self.fingertip_sensors].reshape(N, -1)), dim=-1)
+
+    # ------------------------------------------------------------------ resets
+    def reset_idx(self, env_ids):
+        done, N, dev = env_mask(env_ids, self.num_envs), self.num_envs, self.device
+        e = self.envs
+        roots = self.initial_root_states.clone()
+        half_diagonal = self.cube_size * math.sqrt(3) / 2
+        spawn = TRIFINGER_ARENA_RADIUS - half_diagonal
+        roots[:, self.cube, 0:2] = disk_points(N, spawn, dev)
+        roots[:, self.cube, 2] = self.cube_size / 2 + 0.0015
+        yaw = 2 * math.pi * torch.rand(N, device=dev)
+        roots[:, self.cube, 3:7] = quat_from_angle_axis(yaw, unit_axis(roots[:, self.cube, 0:3],
+                                                                       2))
+        roots[:, self.cube, 7:13] = 0.0
+        e.set_root_states(roots, done, forward=False)
+        pos = self.joint_start.expand(N, -1)
+        e.set_dof_state(pos, torch.zeros_like(pos), done)
+        goal_pos = torch.cat((disk_points(N, spawn, dev),
+                              half_diagonal + (0.1 - half_diagonal) * torch.rand(N, 1, device=dev)),
+                             dim=-1)
+        self.goal_pos[:] = where_rows(done, goal_pos, self.goal_pos)
+        self.goal_rot[:] = where_rows(done, uniform_orientation(N, dev), self.goal_rot)
+        self.prev_tips[:] = where_rows(done, e.rigid_body_states[:, self.fingertips, 0:3],
+                                       self.prev_tips)
+        self.prev_cube[:] = where_rows(done, e.root_states[:, self.cube, 0:3], self.prev_cube)
+        self.torques.masked_fill_(done[:, None], 0.0)
+        e.set_dof_efforts(self.torques)
+        self.actions.masked_fill_(done[:, None], 0.0)
+        self.progress_buf.masked_fill_(done, 0)
+
+    # videos: the goal drawn where it is, as a see-through cube, and a camera on the arena
+    video_camera = {"lookat": (0.0, 0.0, 0.06), "distance": 0.75, "elevation": -40.0,
+                    "azimuth": 60.0}
+
+    def video_markers(self) -> list[dict]:
+        return [{"type": "box", "size": [self.cube_size / 2] * 3,
+                 "pos": self.goal_pos[0].tolist(), "quat": self.goal_rot[0].tolist(),
+                 "rgba": [0.2, 0.8, 0.3, 0.4]}]
+
+
+def disk_points(n: int, radius: float, device) -> torch.Tensor:
+    """[n, 2] points uniform in the disk of `radius` about the origin."""
+    r = radius * torch.sqrt(torch.rand(n, device=device))
+    phi = 2 * math.pi * torch.rand(n, device=device)
+    return torch.stack((r * torch.cos(phi), r * torch.sin(phi)), dim=-1)
+
+
+def uniform_orientation(n: int, device) -> torch.Tensor:
+    """[n, 4] rotations uniform on SO(3): normalized 4-D Gaussian samples."""
+    q = torch.randn(n, 4, device=device)
+    return q / q.norm(dim=-1, keepdim=True).clamp(min=1e-12)
+
+
+def logistic_kernel(x: torch.Tensor, scale: float) -> torch.Tensor:
+    """K(x) = 1 / (e^(scale·x) + 2 + e^(−scale·x)): 0.25 at x = 0, falling off over ~1/scale."""
+    sx = scale * x
+    return 1.0 / (torch.exp(sx) + 2.0 + torch.exp(-sx))
+
+
+def cube_corners(pos: torch.Tensor, rot: torch.Tensor, size: float) -> torch.Tensor:
+    """[N, 8, 3] the corners of cubes of edge `size` at `pos` [N, 3], turned by `rot` [N, 4]."""
+    signs = torch.tensor([[(k >> i & 1) * 2.0 - 1.0 for i in range(3)] for k in range(8)],
+                         device=pos.device)
+    local = 0.5 * size * signs.expand(pos.shape[0], 8, 3)
+    return pos[:, None] + quat_rotate(rot[:, None].expand(-1, 8, 4).reshape(-1, 4),
+                                      local.reshape(-1, 3)).view(-1, 8, 3)
+
+
+def reached_goal(cube_pos, cube_rot, goal_pos, goal_rot, position_tolerance,
+                 orientation_tolerance) -> torch.Tensor:
+    """The cube within `position_tolerance` (m) and `orientation_tolerance` (rad) of the goal."""
+    angle = rotation_angle(quat_mul(cube_rot, quat_conjugate(goal_rot)))
+    return ((torch.norm(cube_pos - goal_pos, dim=-1) <= position_tolerance)
+            & (torch.abs(angle) <= orientation_tolerance))
+
+
+def compute_trifinger_reward(tips, prev_tips, cube_pos, cube_rot, prev_cube_pos, goal_pos,
+                             goal_rot, dt, reach_active, cube_size, pose_form,
+                             fingerMovePenalty, fingerReachObjectRate, poseWeight,
+                             keypointsKernelScale, positionKernelScale):
+    """The reward of A.2.3 as the original's code computes it (module docstring): `tips`,
+    `prev_tips` [N, 3, 3] fingertip positions now and a step ago, the cube's position now and a
+    step ago, its orientation, and the goal pose."""
+    speed = (tips - prev_tips) / dt
+    reward = fingerMovePenalty * speed.pow(2).sum(dim=(1, 2))
+    if reach_active:
+        now = torch.norm(tips - cube_pos[:, None], dim=-1)
+        before = torch.norm(prev_tips - prev_cube_pos[:, None], dim=-1)
+        reward = reward + fingerReachObjectRate * (now - before).sum(dim=-1)
+    if pose_form == "keypoints":
+        gap = torch.norm(cube_corners(cube_pos, cube_rot, cube_size)
+                         - cube_corners(goal_pos, goal_rot, cube_size), dim=-1)
+        reward = reward + poseWeight * dt * logistic_kernel(gap, keypointsKernelScale).mean(-1)
+    else:
+        angle = rotation_angle(quat_mul(cube_rot, quat_conjugate(goal_rot)))
+        distance = torch.norm(cube_pos - goal_pos, dim=-1)
+        reward = (reward + poseWeight * dt * logistic_kernel(distance, positionKernelScale)
+                  + poseWeight * dt / (3.0 * torch.abs(angle) + 0.01))
+    return reward
