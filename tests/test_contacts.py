@@ -63,6 +63,22 @@ def test_box_at_rest_drifts_less_than_a_millimetre_in_ten_seconds(device):
     np.testing.assert_allclose(sim.net_contact_force[0, 0].cpu().numpy(), [0, 0, 9.81], atol=1e-3)
 
 
+def test_a_box_rests_on_a_massless_body_welded_to_the_world(device):
+    """A table made of a jointless, massless body (a plane or a box on it: a task's fixed-base
+    actor) holds a box as the world's floor does; its contacts were once dropped, the table
+    counting as infinitely light."""
+    model = myriad.load_xml("""<mujoco><worldbody>
+      <body name="table"><geom type="plane" size="1 1 0.1" mass="0"/>
+        <geom type="box" size="0.1 0.1 0.05" pos="0.5 0 0.05" mass="0"/></body>
+      <body pos="0 0 0.2"><freejoint/><geom type="box" size="0.05 0.05 0.05" mass="1"/></body>
+      <body pos="0.5 0 0.3"><freejoint/><geom type="box" size="0.05 0.05 0.05" mass="1"/></body>
+      </worldbody></mujoco>""", "tables")
+    sim = myriad.Simulator(model, num_envs=1, device=device, params=ISAAC)
+    for _ in range(120):
+        sim.step()
+    np.testing.assert_allclose(sim.q[0, [2, 9]].cpu().numpy(), [0.05, 0.15], atol=2e-3)
+
+
 def test_dropped_sphere_never_tunnels_and_rests_at_its_radius(device):
     sim = myriad.Simulator(_scene('<body pos="0 0 1"><freejoint/><geom type="sphere" size="0.1" mass="1"/></body>'),
                            num_envs=1, device=device, params=ISAAC)

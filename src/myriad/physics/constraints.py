@@ -262,11 +262,12 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
             rows.bounce[e, r0 + d] = 0.0
             rows.lam_init[e, r0 + d] = 0.0
         rows.err[e, r0] = c.dist[e, k] - rest_offset
-        # 1/m1 + 1/m2: how easily the two bodies would move if nothing held them
+        # 1/m1 + 1/m2: how easily the two bodies would move if nothing held them (a body no
+        # joint moves, such as a massless fixed table, counts as the world)
         free = float(0.0)
-        if b1 >= 0:
+        if b1 >= 0 and _moves(m, b1):
             free = free + 1.0 / wp.max(p.body_mass[e, b1], 1.0e-9)
-        if b2 >= 0:
+        if b2 >= 0 and _moves(m, b2):
             free = free + 1.0 / wp.max(p.body_mass[e, b2], 1.0e-9)
         rows.k[e, r0] = free
         # approach speed before the solve (unconstrained velocity qd + h·qacc)
@@ -652,6 +653,13 @@ def dof_rows(m: ModelArrays, e: int, base: int, count: int, h: float, p: EnvPara
                 build_dof_row(m, e, r, dof, 1.0, DOF, factor, rows)
                 if rows.type[e, r] != INACTIVE:
                     rows.lam_init[e, r] = wp.clamp(warm, -bound, bound)
+
+
+@wp.func
+def _moves(m: ModelArrays, b: int):
+    """Whether any DOF moves body b (not welded to the world)."""
+    span = m.body_tree_span[b]
+    return span[1] > span[0]
 
 
 @wp.func
