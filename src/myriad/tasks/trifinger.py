@@ -3,13 +3,14 @@
 the setup whose policy went to the real robot).
 
 The scene, in env coordinates: the robot of robot-properties-fingers (`myriad.assets.
-trifinger_spec`) fixed at the origin, its fingers hanging from 0.29 m; a table (0.71 × 0.76 ×
-0.01 m, friction 0.1) whose top is the floor z = 0; the arena's wall round it (inner radius
+trifinger_spec`) fixed at the origin, its fingers hanging from 0.29 m; a table, friction 0.1, whose
+top is the floor z = 0 (a plane, drawn 0.71 × 0.76 m); the arena's wall round it (inner radius
 0.195 m at the floor, 0.175 m high, `trifinger_boundary_spec`); the cube (6.5 cm, 0.08 kg,
 friction 1). Physics: 0.02 s per step in 4 substeps (50 Hz control), TGS 8 + 0.
 
 Actions (9) in [-1, 1], torques: τ = 0.36·a, clamped to ±0.36 N·m, less a safety damping
-(0.08, 0.08, 0.04)·q̇ per finger, clamped again.
+(0.08, 0.08, 0.04)·q̇ per finger, clamped again. The joints' speed is capped at 10 rad/s (PhysX's
+maximum joint velocity, as the original sets it).
 
 Observation (41, each value mapped to [-1, 1]; Table 12, the original's code order):
     [0:9]    joint positions, unscaled by the joint limits (per finger: [-0.33, 1.0], [0, 1.57],
@@ -42,14 +43,15 @@ limits, the cube's size, mass and friction, the table's friction.
 
 Deviations from the original, on purpose: the links collide as one convex hull each (64
 corners), not V-HACD's decompositions; the wall is 32 convex sectors of its mesh; no restitution
-on the fingers (PhysX 0.8) and no 10 rad/s joint speed cap; no ground plane under the table (a
-cube thrown over the wall falls); no extra physics step after a reset.
+on the fingers (PhysX 0.8); the table's top reaches past its
+edges (a cube thrown over the wall lands beyond it); no extra physics step after a reset.
 """
 
 from __future__ import annotations
 
 import math
 
+import mujoco
 import torch
 
 from ..api import Scene
@@ -63,10 +65,10 @@ POSE_FORMS = ("keypoints", "position_rotation")
 JOINT_LOWER = (-0.33, 0.0, -2.7)          # per finger (rad)
 JOINT_UPPER = (1.0, 1.57, 0.0)
 JOINT_START = (0.0, 0.9, -2.0)
-MAX_VELOCITY = 10.0                       # rad/s, the observation's scale
+MAX_VELOCITY = 10.0                       # rad/s: the joints' speed cap, the observation's scale
 MAX_TORQUE = 0.36                         # N·m
 SAFETY_DAMPING = (0.08, 0.08, 0.04)       # N·m·s/rad, per finger joint
-TABLE_SIZE = (0.71, 0.76, 0.01)
+TABLE_SIZE = (0.71, 0.76)                 # m, as drawn: the plane z = 0 is unbounded
 TABLE_FRICTION = 0.1
 POSITION_BOUND = (0.3, 0.3, 0.3)          # |x|, |y| ≤ 0.3; 0 ≤ z ≤ 0.3 (m)
 
@@ -98,6 +100,7 @@ class Trifinger(VecTask):
         self.safety_damping = torch.tensor(SAFETY_DAMPING * 3, device=dev)
         self.position_bound = torch.tensor(POSITION_BOUND, device=dev)
         self.cube = e.actor_index("object")
+        e.sim.dof_max_velocity[:, e.dof_columns] = MAX_VELOCITY     # the motors' 10 rad/s
         self.fingertips = torch.tensor([e.body_index(f"robot/finger_tip_link_{a}")
                                         for a in TRIFINGER_ANGLES], device=dev)
         self.fingertip_sensors = torch.tensor([e.sensor_index(f"robot/finger_tip_{a}_wrench")
@@ -117,11 +120,16 @@ class Trifinger(VecTask):
 
     # ------------------------------------------------------------------ scene
     def create_envs(self):
-        table = box_spec("table", TABLE_SIZE, rgba=(0.75, 0.75, 0.72, 1.0))
-        table.geoms[0].friction = [TABLE_FRICTION, 0.005, 0.0001]
+        # the table's top as a plane (drawn 0.71 × 0.76 m): a box would put every finger link
+        # inside its bounding sphere, and through a convex-convex test each substep
+        table = mujoco.MjSpec()
+        table.worldbody.add_body(name="table").add_geom(
+            name="table", type=mujoco.mjtGeom.mjGEOM_PLANE,
+            size=[TABLE_SIZE[0] / 2, TABLE_SIZE[1] / 2, 0.01],
+            friction=[TABLE_FRICTION, 0.005, 0.0001], rgba=[0.75, 0.75, 0.72, 1.0])
         scene = (Scene()
                  .add_actor("robot", trifinger_spec(), pos=(0.0, 0.0, 0.0), fix_base=True)
-                 .add_actor("table", table, pos=(0.0, 0.0, -TABLE_SIZE[2] / 2), fix_base=True)
+                 .add_actor("table", table, pos=(0.0, 0.0, 0.0), fix_base=True)
                  .add_actor("boundary", trifinger_boundary_spec(), pos=(0.0, 0.0, 0.0),
                             fix_base=True)
                  .add_actor("object", box_spec("object", [self.cube_size] * 3,
