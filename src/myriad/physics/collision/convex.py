@@ -342,14 +342,18 @@ def _closest_on_triangle(a: wp.vec3, b: wp.vec3, c: wp.vec3):
 
 @wp.func
 def gjk(t1: int, s1: wp.vec3, m1: int, x1: wp.transform, t2: int, s2: wp.vec3, m2: int,
-        x2: wp.transform, meshes: Meshes, tol: float):
+        x2: wp.transform, meshes: Meshes, tol: float, cutoff: float):
     """Distance between the cores of two convex shapes (Gilbert-Johnson-Keerthi: a sphere's
     center, a capsule's segment, any other shape whole) and their closest points.
 
     Returns (separated, distance, point on A, point on B, simplex points of A, of B, their
     count); separated is 0 when the cores overlap, and the simplex (at most a tetrahedron of
     points of A - B, kept with their witnesses) is then where EPA starts. The distance is good
-    to `tol`: GJK stops when a step would gain less.
+    to `tol`: GJK stops when a step would gain less. Cores found farther apart than `cutoff`
+    (a support plane of A - B that far from the origin) end the search at once: the distance
+    returned is then that lower bound, and the points are not the closest ones. Most candidate
+    pairs that pass the broadphase are such (a finger link and the wall sector beside it), and
+    end in one or two steps instead of converging on a distance nobody reads.
     """
     va = mat43()
     vb = mat43()
@@ -395,6 +399,8 @@ def gjk(t1: int, s1: wp.vec3, m1: int, x1: wp.transform, t2: int, s2: wp.vec3, m
         pa = support_core(t1, s1, m1, meshes, x1, -v)
         pb = support_core(t2, s2, m2, meshes, x2, v)
         w = pa - pb
+        if wp.dot(v, w) > cutoff * wp.sqrt(vv):
+            return 1, wp.dot(v, w) / wp.sqrt(vv), ca, cb, va, vb, n
         if vv - wp.dot(v, w) <= tol * wp.sqrt(vv):
             break  # no progress (the distance is within tol): v is the closest point
         if line != 0:
@@ -840,7 +846,8 @@ def convex_contact(t1: int, s1: wp.vec3, m1: int, x1: wp.transform, t2: int, s2:
     r2 = core_radius(t2, s2)
     size = bounding_radius(t1, s1, m1, meshes) + bounding_radius(t2, s2, m2, meshes)
     tol = EPA_TOLERANCE * size
-    separated, gap, on_a, on_b, va, vb, count = gjk(t1, s1, m1, x1, t2, s2, m2, x2, meshes, tol)
+    separated, gap, on_a, on_b, va, vb, count = gjk(t1, s1, m1, x1, t2, s2, m2, x2, meshes, tol,
+                                                    margin + r1 + r2)
     if separated != 0 and gap > 1.0e-6:
         # apart cores: the shapes are apart or overlap by less than the radii, exactly
         dist = gap - r1 - r2
