@@ -106,6 +106,20 @@ def test_cpu_profile_applies_only_without_num_envs():
     assert train_cfg["params"]["config"]["minibatch_size"] == 64, "512 samples: 8 of 64"
 
 
+def test_the_command_line_wins_over_the_cpu_profile():
+    """ShadowHand's CPU profile sets a smaller network and a minibatch; either, set on the
+    command line, stays as set."""
+    cfg = run.compose(["task=ShadowHand", "device=cpu"])
+    _, train_cfg, _ = run.task_and_train_configs(cfg)
+    assert train_cfg["params"]["network"]["mlp"]["units"] == [512, 256, 128]
+    assert train_cfg["params"]["config"]["minibatch_size"] == 2048
+    overrides = ["task=ShadowHand", "device=cpu", "train.params.network.mlp.units=[64,64]",
+                 "train.params.config.minibatch_size=4096"]
+    _, train_cfg, _ = run.task_and_train_configs(run.compose(overrides), overrides)
+    assert train_cfg["params"]["network"]["mlp"]["units"] == [64, 64]
+    assert train_cfg["params"]["config"]["minibatch_size"] == 4096
+
+
 def test_an_asymmetric_critics_minibatch_follows_num_envs_too():
     """rl_games refuses a central_value_config minibatch that does not divide the batch."""
     cfg = run.compose(["task=ShadowHandOpenAI_FF", "device=cpu", "num_envs=64"])

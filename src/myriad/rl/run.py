@@ -13,12 +13,16 @@ import time
 from omegaconf import OmegaConf
 
 
-def _merge(into: dict, changes: dict) -> None:
+def _merge(into: dict, changes: dict, path: str = "", kept: tuple = ()) -> None:
     """Set `changes` in `into`, descending into nested sections (a central_value_config's
-    minibatch_size changes alone)."""
+    minibatch_size changes alone), except at the dotted paths `kept` and below them (what the
+    command line set; `path` is `into`'s own)."""
     for key, value in changes.items():
+        where = f"{path}.{key}"
+        if any(where == k or where.startswith(k + ".") for k in kept):
+            continue
         if isinstance(value, dict) and isinstance(into.get(key), dict):
-            _merge(into[key], value)
+            _merge(into[key], value, where, kept)
         else:
             into[key] = value
 
@@ -179,7 +183,7 @@ def resolve_device(device) -> str:
     return name
 
 
-def task_and_train_configs(cfg) -> tuple[dict, dict, str]:
+def task_and_train_configs(cfg, overrides=()) -> tuple[dict, dict, str]:
     """Plain dicts of the task and train configs with the top-level options applied.
 
     Numbers are checked here, before anything is built, each failure naming its key and value
@@ -198,10 +202,16 @@ def task_and_train_configs(cfg) -> tuple[dict, dict, str]:
     train_cfg = OmegaConf.to_container(cfg.train, resolve=True)
     cpu_task, cpu_train = task_cfg.pop("cpu", {}), train_cfg.pop("cpu", {})
     if not device.startswith("cuda"):
-        # CPU profile: fewer envs and a minibatch to match (unless the user chose num_envs)
+        # CPU profile: fewer envs and a minibatch to match, perhaps a smaller network (its
+        # `network` section; unless the user chose num_envs)
         if cfg.num_envs is None:
             task_cfg["env"].update(cpu_task)
-            _merge(train_cfg["params"]["config"], cpu_train)
+            cpu_train = dict(cpu_train)
+            # what the command line set wins over the profile
+            kept = tuple(o.split("=", 1)[0].lstrip("+~") for o in overrides if "=" in o)
+            _merge(train_cfg["params"]["network"], cpu_train.pop("network", {}),
+                   "train.params.network", kept)
+            _merge(train_cfg["params"]["config"], cpu_train, "train.params.config", kept)
     if cfg.num_envs is not None:
         task_cfg["env"]["numEnvs"] = cfg.num_envs
     env, ppo = task_cfg["env"], train_cfg["params"]["config"]
@@ -293,7 +303,7 @@ def train(overrides: list[str]) -> int:
     from .train import TrainingStopped, train as run_training
 
     cfg = compose(overrides)
-    task_cfg, train_cfg, device = task_and_train_configs(cfg)
+    task_cfg, train_cfg, device = task_and_train_configs(cfg, overrides)
     name = task_cfg["name"]
     checkpoint, experiment = checkpoint_and_experiment(cfg, name)
     max_time = math.inf if cfg.max_time_s is None else float(cfg.max_time_s)
@@ -354,7 +364,7 @@ def play(overrides: list[str]) -> int:
     from .video import VideoWriter
 
     cfg = compose(overrides)
-    task_cfg, train_cfg, device = task_and_train_configs(cfg)
+    task_cfg, train_cfg, device = task_and_train_configs(cfg, overrides)
     name = task_cfg["name"]
     checkpoint = cfg.checkpoint or latest_checkpoint(cfg.train_dir, name)
     if not os.path.isfile(checkpoint):

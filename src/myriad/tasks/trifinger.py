@@ -98,7 +98,8 @@ class Trifinger(VecTask):
         self.joint_upper = torch.tensor(JOINT_UPPER * 3, device=dev)
         self.joint_start = torch.tensor(JOINT_START * 3, device=dev)
         self.safety_damping = torch.tensor(SAFETY_DAMPING * 3, device=dev)
-        self.position_bound = torch.tensor(POSITION_BOUND, device=dev)
+        upper = torch.tensor(POSITION_BOUND, device=dev)
+        self.position_bounds = (upper * torch.tensor([-1.0, -1.0, 0.0], device=dev), upper)
         self.cube = e.actor_index("object")
         e.sim.dof_max_velocity[:, e.dof_columns] = MAX_VELOCITY     # the motors' 10 rad/s
         self.fingertips = torch.tensor([e.body_index(f"robot/finger_tip_link_{a}")
@@ -178,8 +179,7 @@ class Trifinger(VecTask):
     def compute_observations(self):
         e = self.envs
         cube = e.root_states[:, self.cube]
-        lower, upper = -self.position_bound * torch.tensor([1.0, 1.0, 0.0], device=self.device), \
-            self.position_bound
+        lower, upper = self.position_bounds
         self.obs_buf[:] = torch.cat((
             unscale(e.dof_pos, self.joint_lower, self.joint_upper),
             e.dof_vel / MAX_VELOCITY,
