@@ -15,7 +15,7 @@ __all__ = ["CANDIDATES_PER_SLOT", "HFields", "Meshes", "candidate_pairs", "geom_
 
 
 def shape_data(model, device) -> tuple[Meshes, HFields]:
-    """The vertices of each mesh's convex hull (with its bounding radius) and the height fields
+    """The vertices of each mesh's convex hull (with its bounding radius and box) and the height fields
     on the device, shared by all envs. Collision reads only the hull's corners (supports,
     probes, plane contacts): a scanned robot mesh has 10-20 times as many vertices inside or on
     its hull faces, and every support query would visit them all."""
@@ -33,6 +33,12 @@ def shape_data(model, device) -> tuple[Meshes, HFields]:
     meshes.vertnum = arr(counts, wp.int32)
     meshes.rbound = arr(np.asarray([np.linalg.norm(verts[ids], axis=1).max(initial=0.0)
                                     for ids in hulls], np.float32), float)
+    low = np.asarray([verts[ids].min(axis=0) if len(ids) else np.zeros(3) for ids in hulls],
+                     np.float32).reshape(-1, 3)
+    high = np.asarray([verts[ids].max(axis=0) if len(ids) else np.zeros(3) for ids in hulls],
+                      np.float32).reshape(-1, 3)
+    meshes.box_center = arr((low + high) / 2, wp.vec3)
+    meshes.box_half = arr((high - low) / 2, wp.vec3)
     hfields = HFields()
     hfields.size = arr(model.hfield_size.reshape(-1, 4), wp.vec4)
     hfields.nrow = arr(model.hfield_nrow, wp.int32)

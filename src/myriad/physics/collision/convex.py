@@ -21,7 +21,7 @@ boxes and cylinders then correct its depth where one of them needs less translat
 
 import warp as wp
 
-from ..types import BOX, CAPSULE, CYLINDER, ELLIPSOID, SPHERE
+from ..types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
 
 MPR_ITERATIONS = wp.constant(48)
 
@@ -61,6 +61,48 @@ class Meshes:
     vertadr: wp.array(dtype=wp.int32)
     vertnum: wp.array(dtype=wp.int32)
     rbound: wp.array(dtype=float)      # per mesh: largest vertex distance from the mesh origin
+    box_center: wp.array(dtype=wp.vec3)   # per mesh: the box round its hull, in the mesh frame
+    box_half: wp.array(dtype=wp.vec3)
+
+
+@wp.func
+def bounding_box(t: int, s: wp.vec3, dataid: int, meshes: Meshes):
+    """(center, half extents) of a box in the geom's frame that holds the whole shape."""
+    if t == MESH:
+        return meshes.box_center[dataid], meshes.box_half[dataid]
+    if t == SPHERE:
+        return wp.vec3(), wp.vec3(s[0], s[0], s[0])
+    if t == CAPSULE:
+        return wp.vec3(), wp.vec3(s[0], s[0], s[0] + s[1])
+    if t == CYLINDER:
+        return wp.vec3(), wp.vec3(s[0], s[0], s[1])
+    return wp.vec3(), s        # box, ellipsoid
+
+
+@wp.func
+def boxes_apart(x1: wp.transform, c1: wp.vec3, h1: wp.vec3, x2: wp.transform, c2: wp.vec3,
+                h2: wp.vec3, margin: float):
+    """Whether two oriented boxes (centers c, half extents h in the frames x) are farther apart
+    than `margin` along one of their six face normals (a separating axis: then the shapes they
+    hold cannot touch)."""
+    r1 = wp.quat_to_matrix(wp.transform_get_rotation(x1))
+    r2 = wp.quat_to_matrix(wp.transform_get_rotation(x2))
+    d = wp.transform_point(x2, c2) - wp.transform_point(x1, c1)
+    apart = False
+    for i in range(3):
+        a = wp.vec3(r1[0, i], r1[1, i], r1[2, i])
+        reach = h1[i] + margin
+        for j in range(3):
+            reach += h2[j] * wp.abs(a[0] * r2[0, j] + a[1] * r2[1, j] + a[2] * r2[2, j])
+        if wp.abs(wp.dot(d, a)) > reach:
+            apart = True
+        b = wp.vec3(r2[0, i], r2[1, i], r2[2, i])
+        reach = h2[i] + margin
+        for j in range(3):
+            reach += h1[j] * wp.abs(b[0] * r1[0, j] + b[1] * r1[1, j] + b[2] * r1[2, j])
+        if wp.abs(wp.dot(d, b)) > reach:
+            apart = True
+    return apart
 
 
 @wp.func

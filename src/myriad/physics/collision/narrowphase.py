@@ -19,7 +19,8 @@ import warp as wp
 from ..spatial import tangents
 from ..structs import Contacts, EnvParams, ModelArrays, State
 from ..types import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPHERE
-from .convex import Meshes, bounding_radius, box_corner, convex_contact, mat43, support
+from .convex import (Meshes, bounding_box, bounding_radius, box_corner, boxes_apart,
+                     convex_contact, mat43, support)
 from .heightfield import HFields, ellipsoid_probe, probe_point, surface
 
 
@@ -677,6 +678,13 @@ def _pair(m: ModelArrays, e: int, k: int, pairs: wp.array(dtype=wp.vec2i), p: En
         reach = b1[3] + b2[3] + margin
         if wp.length_sq(offset) > reach * reach:
             return
+        if t1 == MESH or t2 == MESH:
+            # a mesh's sphere holds much air round a long link: its box first (a few dot
+            # products against GJK's support scans)
+            c1, h1 = bounding_box(t1, p.geom_size[e, g1], m.geom_dataid[g1], meshes)
+            c2, h2 = bounding_box(t2, p.geom_size[e, g2], m.geom_dataid[g2], meshes)
+            if boxes_apart(s.geom_x[e, g1], c1, h1, s.geom_x[e, g2], c2, h2, margin):
+                return
     _collide_pair(e, k, pair, t1, t2, s.geom_x[e, g1], s.geom_x[e, g2], p.geom_size[e, g1],
                   p.geom_size[e, g2], m.geom_dataid, meshes, hfields, margin, out)
 
