@@ -80,6 +80,18 @@ def bounding_box(t: int, s: wp.vec3, dataid: int, meshes: Meshes):
 
 
 @wp.func
+def _face_axis_separates(d: wp.vec3, ra: wp.mat33, i: int, ha: wp.vec3, rb: wp.mat33, hb: wp.vec3,
+                         margin: float):
+    """Whether box A's i-th face normal separates boxes A and B (centers d apart) by more than
+    `margin`: their projections on it do not reach each other."""
+    a = wp.vec3(ra[0, i], ra[1, i], ra[2, i])
+    reach = ha[i] + margin
+    for j in range(3):
+        reach += hb[j] * wp.abs(a[0] * rb[0, j] + a[1] * rb[1, j] + a[2] * rb[2, j])
+    return wp.abs(wp.dot(d, a)) > reach
+
+
+@wp.func
 def boxes_apart(x1: wp.transform, c1: wp.vec3, h1: wp.vec3, x2: wp.transform, c2: wp.vec3,
                 h2: wp.vec3, margin: float):
     """Whether two oriented boxes (centers c, half extents h in the frames x) are farther apart
@@ -90,17 +102,8 @@ def boxes_apart(x1: wp.transform, c1: wp.vec3, h1: wp.vec3, x2: wp.transform, c2
     d = wp.transform_point(x2, c2) - wp.transform_point(x1, c1)
     apart = False
     for i in range(3):
-        a = wp.vec3(r1[0, i], r1[1, i], r1[2, i])
-        reach = h1[i] + margin
-        for j in range(3):
-            reach += h2[j] * wp.abs(a[0] * r2[0, j] + a[1] * r2[1, j] + a[2] * r2[2, j])
-        if wp.abs(wp.dot(d, a)) > reach:
-            apart = True
-        b = wp.vec3(r2[0, i], r2[1, i], r2[2, i])
-        reach = h2[i] + margin
-        for j in range(3):
-            reach += h1[j] * wp.abs(b[0] * r1[0, j] + b[1] * r1[1, j] + b[2] * r1[2, j])
-        if wp.abs(wp.dot(d, b)) > reach:
+        if (_face_axis_separates(d, r1, i, h1, r2, h2, margin)
+                or _face_axis_separates(d, r2, i, h2, r1, h1, margin)):
             apart = True
     return apart
 
