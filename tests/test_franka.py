@@ -52,10 +52,10 @@ def test_observations_hold_the_cubes_the_grip_point_and_the_fingers(task):
 def test_success_rate_waits_for_num_envs_finished_episodes(task):
     """One early stacked episode alone does not read as a success rate of 1."""
     task.metrics()
-    task.finished += 1
-    task.stacked_count += 1
+    task.shares.finished += 1
+    task.shares.counts["success_rate"] += 1
     before = task.metrics()["success_rate"]
-    task.finished += 1                   # num_envs (2) episodes finished: one stacked
+    task.shares.finished += 1            # num_envs (2) episodes finished: one stacked
     assert before != 1.0 and task.metrics() == {"success_rate": 0.5, "lift_rate": 0.0}
 
 

@@ -58,7 +58,7 @@ import torch
 from ..api import Scene
 from ..assets import franka_spec
 from ..torch_utils import env_mask, quat_from_angle_axis, unit_axis, where_rows, wrap_angle
-from .base import VecTask, box_spec
+from .base import EpisodeShares, VecTask, box_spec
 
 CONTROL_TYPES = {"osc": 7, "joint_tor": 8}
 TABLE_SIZE, TABLE_POS = (1.2, 1.2, 0.05), (0.0, 0.0, 1.0)
@@ -137,11 +137,7 @@ class FrankaCubeStack(VecTask):
         self.efforts = torch.zeros(N, e.num_dofs, device=dev)
         self.finger_targets = torch.full((N, e.num_dofs), FINGER_START, device=dev)
         self.lifted_ever = torch.zeros(N, dtype=torch.bool, device=dev)
-        # episodes finished, stacked and lifted since the trainer last read the metrics
-        self.finished = torch.zeros((), device=dev)
-        self.stacked_count = torch.zeros((), device=dev)
-        self.lifted_count = torch.zeros((), device=dev)
-        self.shown = {"success_rate": 0.0, "lift_rate": 0.0}
+        self.shares = EpisodeShares(("success_rate", "lift_rate"), N, dev)
         self.initial_root_states = e.root_states.clone()
         self.reset()
 
@@ -207,24 +203,13 @@ class FrankaCubeStack(VecTask):
         self.lifted_ever |= lifted & held
         self.reset_buf[:] = (stacked | (self.progress_buf >= self.max_episode_length - 1)).long()
         done = self.reset_buf.bool()
-        self.finished += done.sum()
-        self.stacked_count += (done & stacked).sum()
-        self.lifted_count += (done & self.lifted_ever).sum()
+        self.shares.count(done, success_rate=stacked, lift_rate=self.lifted_ever)
         self.compute_observations()
 
     def metrics(self) -> dict[str, float]:
         """Shares of the last finished episodes (at least num_envs of them) that ended stacked,
-        and in which cube A was lifted in the gripper; the last values until that many more
-        have finished. Counted over fewer, the shares lean to the stacked episodes: they end
-        early, while the others all end together at the time limit (a 30-minute run read
-        success_rate 1.0 from single stacked episodes between two time-outs)."""
-        finished = float(self.finished)
-        if finished >= self.num_envs:
-            self.shown = {"success_rate": float(self.stacked_count) / finished,
-                          "lift_rate": float(self.lifted_count) / finished}
-            for counter in (self.finished, self.stacked_count, self.lifted_count):
-                counter.zero_()
-        return dict(self.shown)
+        and in which cube A was lifted in the gripper (`EpisodeShares`)."""
+        return self.shares.read()
 
     # ------------------------------------------------------------------ observations
     def compute_observations(self):

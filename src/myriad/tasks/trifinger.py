@@ -59,7 +59,7 @@ from ..assets import (TRIFINGER_ANGLES, TRIFINGER_ARENA_RADIUS, trifinger_bounda
                       trifinger_spec)
 from ..torch_utils import (env_mask, quat_conjugate, quat_from_angle_axis, quat_mul, quat_rotate,
                            rotation_angle, unit_axis, unscale, where_rows)
-from .base import VecTask, box_spec
+from .base import EpisodeShares, VecTask, box_spec
 
 POSE_FORMS = ("keypoints", "position_rotation")
 JOINT_LOWER = (-0.33, 0.0, -2.7)          # per finger (rad)
@@ -112,10 +112,7 @@ class Trifinger(VecTask):
         self.prev_tips = torch.zeros(N, 3, 3, device=dev)
         self.prev_cube = torch.zeros(N, 3, device=dev)
         self.steps_taken = 0                  # env steps since the task was built (reach term)
-        # episodes finished and successful since the trainer last read the metrics
-        self.finished = torch.zeros((), device=dev)
-        self.succeeded = torch.zeros((), device=dev)
-        self.shown = {"success_rate": 0.0}
+        self.shares = EpisodeShares(("success_rate",), N, dev)
         self.initial_root_states = e.root_states.clone()
         self.reset()
 
@@ -161,19 +158,13 @@ class Trifinger(VecTask):
         self.reset_buf[:] = done.long()
         success = reached_goal(cube[:, 0:3], cube[:, 3:7], self.goal_pos, self.goal_rot,
                                self.position_tolerance, self.orientation_tolerance)
-        self.finished += done.sum()
-        self.succeeded += (done & success).sum()
+        self.shares.count(done, success_rate=success)
         self.compute_observations()
 
     def metrics(self) -> dict[str, float]:
         """The share of the last finished episodes (at least num_envs of them) whose cube ended
-        at the goal; the last value until that many more have finished."""
-        finished = float(self.finished)
-        if finished >= self.num_envs:
-            self.shown = {"success_rate": float(self.succeeded) / finished}
-            self.finished.zero_()
-            self.succeeded.zero_()
-        return dict(self.shown)
+        at the goal (`EpisodeShares`)."""
+        return self.shares.read()
 
     # ------------------------------------------------------------------ observations
     def compute_observations(self):
