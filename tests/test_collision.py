@@ -7,8 +7,10 @@ import mujoco
 import numpy as np
 import pytest
 import torch
+import warp as wp
 
 import myriad
+from myriad.physics import collision
 from myriad.physics.collision import candidate_pairs, pair_friction
 from myriad.physics.types import GeomType
 
@@ -287,6 +289,43 @@ def test_an_overflow_keeps_the_deepest_contacts_in_the_order_found(device):
     torch.testing.assert_close(torch.sort(few.contact_dist[0].cpu()).values, deepest)
     kept = list(zip(few._contacts.key.numpy()[0, :slots].tolist(), few.contact_dist[0].tolist()))
     assert kept == [c for c in zip(key.tolist(), dist.tolist()) if c in kept]
+
+
+def test_contacts_found_in_any_interleaving_are_put_back_in_the_cpus_order(device):
+    """The GPU's thread per (env, pair) takes contact places through an atomic counter, so the
+    pairs' contacts interleave; `order_by_pair` gives them the order of the CPU's walk over the
+    pairs (each pair's contacts together, as the solver's patches need), contact for contact."""
+    model = myriad.load_xml(_scene(0), "scene0")
+    sim = myriad.Simulator(model, num_envs=3, device=device,
+                           params=myriad.SimParams(contact_offset=MARGIN, contacts_per_env=128))
+    sim.collide()
+    c = sim._contacts
+    found = int(sim.contact_count[0])
+    assert found < 128      # no overflow: all found are in the order found
+    fields = {name: getattr(c, name).numpy().copy() for name in ("geom", "key", "pos", "normal",
+                                                                  "dist")}
+    pair = fields["key"][0, :found] >> 5
+    runs = [p for i, p in enumerate(pair) if i == 0 or p != pair[i - 1]]
+    assert len(runs) == len(set(runs)) > 3, pair                 # each pair's contacts together
+    assert max(np.bincount(pair)) >= 3, pair                     # patches of several contacts
+    rng = np.random.default_rng(0)
+    scrambled = {name: value.copy() for name, value in fields.items()}
+    for e in range(sim.num_envs):
+        # a random interleaving that keeps each pair's own order (one thread's places rise)
+        mixed = np.argsort(rng.permutation(found))
+        order = np.empty(found, dtype=int)
+        for p in np.unique(pair):
+            mine = np.flatnonzero(pair == p)
+            order[np.sort(mixed[mine])] = mine
+        assert e > 0 or not np.array_equal(order, np.arange(found))
+        for name, value in scrambled.items():
+            value[e, :found] = fields[name][e, order]
+    for name, value in scrambled.items():
+        getattr(c, name).assign(value)
+    wp.launch(collision.order_by_pair, dim=sim.num_envs, inputs=[c], device=sim.device)
+    for name, value in fields.items():
+        np.testing.assert_array_equal(getattr(c, name).numpy()[:, :found], value[:, :found],
+                                      err_msg=name)
 
 
 def test_explicit_pairs_pass_the_filters_and_replace_the_dynamic_pair():

@@ -191,6 +191,8 @@ class Simulator:
                            else (collision.narrowphase_per_env, n))
             self._launch(kernel, dim, [self._m, self._pairs, self._p, self._meshes, self._hfields,
                                        self.params.contact_offset, st, c])
+            if self.device.is_cuda:
+                self._launch(collision.order_by_pair, n, [c])
             self._launch(collision.keep_deepest, n, [c])
 
     def _launch(self, kernel, dim, inputs) -> None:

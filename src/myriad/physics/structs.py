@@ -501,8 +501,8 @@ class Contacts:
     count = per_env(dtype=wp.int32, doc="contacts found; above the capacity: overflow (the rest "
                     "were dropped)", public="contact_count")
     geom = per_env("ncandidate", dtype=wp.vec2i, doc="geom 1, geom 2", public="contact_geom")
-    key = per_env("ncandidate", dtype=wp.int32, doc="identity across substeps (pair and feature, "
-                  "e.g. which box corner), to find the same contact's anchors next substep")
+    key = per_env("ncandidate", dtype=wp.int32, doc="identity across substeps: 32 × the candidate "
+                  "pair's index + the feature (e.g. which box corner), to find the same contact's anchors next substep")
     pos = per_env("ncandidate", dtype=wp.vec3, doc="midpoint between the surfaces",
                   public="contact_pos")
     normal = per_env("ncandidate", dtype=wp.vec3, doc="from geom 1 to geom 2",

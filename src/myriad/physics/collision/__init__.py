@@ -7,11 +7,12 @@ import warp as wp
 from .convex import Meshes
 from .heightfield import HFields
 from .narrowphase import (CANDIDATES_PER_SLOT, geom_frames, keep_deepest, narrowphase,
-                          narrowphase_per_env)
+                          narrowphase_per_env, order_by_pair)
 from .pairs import candidate_pairs, pair_friction
 
 __all__ = ["CANDIDATES_PER_SLOT", "HFields", "Meshes", "candidate_pairs", "geom_frames",
-           "keep_deepest", "narrowphase", "narrowphase_per_env", "pair_friction", "shape_data"]
+           "keep_deepest", "narrowphase", "narrowphase_per_env", "order_by_pair", "pair_friction",
+           "shape_data"]
 
 
 def shape_data(model, device) -> tuple[Meshes, HFields]:

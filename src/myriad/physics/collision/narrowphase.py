@@ -4,7 +4,8 @@ One thread per (env, pair). A contact is kept when the signed distance between t
 below the contact offset (PhysX's contactOffset; MuJoCo's margin). It records, as MuJoCo does,
 the two geoms, the midpoint between the surfaces, the normal from geom 1 to geom 2 and the
 signed distance (negative: penetration). Contacts go to the env's preallocated places through
-an atomic counter; a count above the slots is an overflow, reported by the simulator. There are
+an atomic counter (on a GPU, `order_by_pair` then puts them in the CPU's order); a count above
+the slots is an overflow, reported by the simulator. There are
 CANDIDATES_PER_SLOT places per slot, and `keep_deepest` keeps the deepest contacts in the slots:
 a robot curled up on itself (G1 with hands: 780 contacts within the offset, 64 slots) lost
 whichever contacts came last, a foot's or a penetrating one's among them, and 5 of 40 envs went
@@ -614,6 +615,40 @@ def narrowphase_per_env(m: ModelArrays, pairs: wp.array(dtype=wp.vec2i), p: EnvP
     out = contact_slots(contacts)
     for k in range(pairs.shape[0]):
         _pair(m, e, k, pairs, p, meshes, hfields, margin, s, out)
+
+
+@wp.kernel
+def order_by_pair(c: Contacts):   # in: count, the narrowphase's places; out: the same, reordered
+    """An env's contacts in the order of their candidate pairs, each pair's in the order found:
+    the order `narrowphase_per_env` gives. The GPU's thread per (env, pair) takes places through
+    an atomic counter, so pairs' contacts interleave, in an order that changes every substep;
+    the solver's patches (runs of one pair's contacts) then broke up, and the Panda's fingers let
+    a held cube slip 7 mm in a lift and turn on an H200 (0.05 mm on a CPU). A stable insertion
+    sort on the pair index (a key's bits above the pair's 32 features): one thread's places rise,
+    so each pair's own order is kept, and the result is the CPU's, contact for contact."""
+    e = wp.tid()
+    found = wp.min(c.count[e], c.geom.shape[1])
+    for i in range(1, found):
+        key = c.key[e, i]
+        j = i
+        while j > 0 and (c.key[e, j - 1] >> 5) > (key >> 5):
+            j -= 1
+        if j < i:
+            geom = c.geom[e, i]
+            pos = c.pos[e, i]
+            normal = c.normal[e, i]
+            dist = c.dist[e, i]
+            for k in range(i, j, -1):
+                c.geom[e, k] = c.geom[e, k - 1]
+                c.key[e, k] = c.key[e, k - 1]
+                c.pos[e, k] = c.pos[e, k - 1]
+                c.normal[e, k] = c.normal[e, k - 1]
+                c.dist[e, k] = c.dist[e, k - 1]
+            c.geom[e, j] = geom
+            c.key[e, j] = key
+            c.pos[e, j] = pos
+            c.normal[e, j] = normal
+            c.dist[e, j] = dist
 
 
 @wp.kernel
