@@ -1,10 +1,11 @@
 """Time per stage of one `Simulator.step`, for the ant, the humanoid and hand-and-cube models.
 
     python benchmarks/stage_profile.py [--envs 1024] [--steps 20] [--device cpu] [--threads 1]
-        [--models ant,humanoid,hand-and-cube,shadow-hand] [--iterations 4] [--settle 30]
+        [--models ant,humanoid,hand-and-cube,shadow-hand,franka] [--iterations 4] [--settle 30]
 
 `shadow-hand` is the ShadowHand task's composed scene (OpenAI's hand, the cube, the ground;
-needs gymnasium-robotics); the task itself runs `--iterations 8`.
+needs gymnasium-robotics); `franka` the FrankaCubeStack task's (needs example-robot-data). Both
+tasks run `--iterations 8`.
 
 Isaac Gym timing (dt 1/60 s in 2 substeps, TGS `--iterations`/0, contacts on), fresh random
 controls before every step (as `step_rate.py`), after `--settle` steps of them. Each stage of
@@ -74,13 +75,15 @@ def main() -> None:
     ap.add_argument("--iterations", type=int, default=4, help="TGS position iterations")
     ap.add_argument("--settle", type=int, default=30, help="steps before the timed ones")
     ap.add_argument("--models", default="ant,humanoid,hand-and-cube",
-                    help="comma-separated subset of ant, humanoid, hand-and-cube, shadow-hand")
+                    help="comma-separated subset of ant, humanoid, hand-and-cube, shadow-hand, "
+                    "franka")
     args = ap.parse_args()
     wp.config.log_level = wp.LOG_WARNING
     models = {"ant": lambda: myriad.load(myriad.asset_path("ant.xml")),
               "humanoid": lambda: myriad.load(myriad.asset_path("humanoid.xml")),
               "hand-and-cube": lambda: myriad.load_xml(hand_and_cube_xml(), "hand-and-cube"),
-              "shadow-hand": lambda: myriad.make("ShadowHand", num_envs=1).envs.model}
+              "shadow-hand": lambda: myriad.make("ShadowHand", num_envs=1).envs.model,
+              "franka": lambda: myriad.make("FrankaCubeStack", num_envs=1).envs.model}
     chosen = args.models.split(",")
     if unknown := set(chosen) - set(models):
         ap.error(f"--models: unknown {sorted(unknown)}; choose from {list(models)}")

@@ -1,0 +1,49 @@
+"""Compile the engine's CUDA kernels ahead of time, on a machine with no GPU, into a kernel cache
+that a GPU machine then loads instead of compiling.
+
+    python benchmarks/precompile_cuda.py --arch 90 --cache .device/kcache     # here (no GPU)
+    WARP_CACHE_PATH=.device/kcache python benchmarks/throughput.py             # there
+
+A cold CUDA build of the engine runs NVRTC on one core for minutes (the narrowphase module alone
+took 330 s on the 2-core CPU machine), which on a lent GPU machine is device time spent idle.
+Warp's NVRTC is inside its own library and needs no driver, so the build can happen anywhere;
+the cache key is the module's content hash, the same on both machines for the same source.
+
+Warp loads these CUBINs when the GPU's driver is older than Warp's CUDA toolkit (Warp 1.19 with
+CUDA 13.4 against the lent machines' 13.0 driver); with a newer driver it prefers PTX and
+compiles (`warp.config.cuda_output = "cubin"` makes it take the cubins anyway).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import time
+
+import warp as wp
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--arch", type=int, nargs="+", default=[90],
+                    help="compute capabilities: 90 = H100/H200, 89 = L4/RTX 4090, 80 = A100")
+    ap.add_argument("--cache", required=True, help="kernel cache folder (WARP_CACHE_PATH there)")
+    args = ap.parse_args()
+    wp.config.kernel_cache_dir = args.cache
+    wp.init()
+    from myriad.physics import kernels
+
+    kernels.configure_modules()       # the build options the simulator uses: same hashes
+    for name in kernels.kernel_modules():
+        importlib.import_module(name)
+        module = wp.get_module(name)
+        if not module.kernels:
+            continue
+        start = time.perf_counter()
+        wp.compile_aot_module(module, arch=args.arch, use_ptx=False)
+        print(f"{name}: sm_{'/'.join(map(str, args.arch))} in {time.perf_counter() - start:.1f} s",
+              flush=True)
+
+
+if __name__ == "__main__":
+    main()
