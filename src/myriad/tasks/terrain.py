@@ -1,0 +1,221 @@
+"""Rough terrain for legged robots: the original AnymalTerrain's grid of tiles, its height samples
+around the base and its curriculum (seed A.2.2; reference task-specs §6).
+
+The terrain is one height map that every env shares: `levels` rows × `types` columns of square
+tiles (8 m), ringed by a flat border (20 m), sampled every `horizontal_scale` (0.1 m) in integer
+steps of `vertical_scale` (5 mm), as the original builds it. Row i is difficulty i / levels; the
+column picks the kind of tile by the cumulative proportions [0.1, 0.2, 0.55, 0.8, 1.0]:
+
+    smooth slope     a pyramid, slope 0.4·difficulty (first half of its columns: a pit)
+    rough slope      the same plus uniform noise ±0.1 m on a 0.2 m grid (first half: a pit)
+    stairs down      to the centre (the robot climbs out), step 0.05 + 0.175·difficulty m, 0.31 m wide
+    stairs up        to the centre
+    obstacles        40 boxes of 1-2 m, heights ±h, ±h/2, h = 0.025 + 0.15·difficulty
+
+Every tile keeps a flat 3 m platform at its centre, where its robots start: the env origin is the
+tile's centre at the highest point within its central 2 × 2 m.
+
+Grid index (i, j) is at world (i·horizontal_scale − border, j·horizontal_scale − border): the
+first index runs along x, as in the original.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+KINDS = ("smooth slope", "rough slope", "stairs down", "stairs up", "obstacles")
+
+
+@dataclass
+class TerrainConfig:
+    """The original's terrain settings (AnymalTerrain.yaml)."""
+    levels: int = 10                    # rows of tiles: difficulty level / levels
+    types: int = 20                     # columns of tiles
+    tile: float = 8.0                   # tile side (m)
+    border: float = 20.0                # flat margin round the grid (m)
+    horizontal_scale: float = 0.1       # grid spacing (m)
+    vertical_scale: float = 0.005       # height unit (m)
+    proportions: tuple = (0.1, 0.1, 0.35, 0.25, 0.2)   # of KINDS, in column order
+    platform: float = 3.0               # flat centre of every tile (m)
+    slope: float = 0.4                  # at difficulty 1
+    step_width: float = 0.31            # stairs (m)
+    rough_noise: float = 0.1            # rough slope: heights in ±this (m) ...
+    rough_step: float = 0.025           # ... in steps of this (m) ...
+    rough_grid: float = 0.2             # ... drawn on a grid this coarse (m), then interpolated
+    obstacles: int = 40                 # boxes per obstacle tile
+    obstacle_size: tuple = (1.0, 2.0)   # box sides from [lo, hi) (m)
+
+    def __post_init__(self):
+        if self.levels < 1 or self.types < 1:
+            raise ValueError(f"terrain: levels ({self.levels}) and types ({self.types}) must be "
+                             ">= 1")
+        if len(self.proportions) != len(KINDS) or min(self.proportions) < 0 \
+                or abs(sum(self.proportions) - 1.0) > 1e-6:
+            raise ValueError(f"terrain: proportions {list(self.proportions)} must be "
+                             f"{len(KINDS)} non-negative shares of {list(KINDS)} summing to 1")
+        if not 0 < self.platform < self.tile:
+            raise ValueError(f"terrain: platform {self.platform} m must lie inside the "
+                             f"{self.tile} m tile")
+
+    @property
+    def tile_cells(self) -> int:
+        return int(self.tile / self.horizontal_scale)
+
+    @property
+    def border_cells(self) -> int:
+        return int(self.border / self.horizontal_scale)
+
+
+@dataclass
+class Terrain:
+    """A generated terrain: the shared height map, and where each tile's robots start."""
+    config: TerrainConfig
+    raw: np.ndarray                 # [rows, cols] int32: heights in units of vertical_scale
+    heights: np.ndarray             # [rows, cols] float32 (m); index (i, j) as the module says
+    origins: np.ndarray             # [levels, types, 3] (m): each tile's start point
+    kind: list = field(default_factory=list)    # KINDS index of each column
+
+    def world_to_grid(self, xy: torch.Tensor) -> torch.Tensor:
+        """Grid coordinates (continuous) of world points [..., 2]."""
+        return (xy + self.config.border) / self.config.horizontal_scale
+
+
+def column_kind(column: int, config: TerrainConfig) -> tuple[int, bool]:
+    """(KINDS index, inverted) of a column: choice = column / types against the cumulative
+    proportions; the first half of the slope columns are pits, as in the original (stairs are
+    "down" throughout their share: step heights negative, the centre lowest)."""
+    choice = column / config.types
+    edges = np.cumsum(config.proportions)
+    kind = int(min(np.searchsorted(edges, choice, side="right"), len(KINDS) - 1))
+    start = edges[kind - 1] if kind else 0.0
+    inverted = kind in (0, 1) and choice < start + config.proportions[kind] / 2 - 1e-9
+    return kind, bool(inverted)
+
+
+def _pyramid_slope(cells: int, slope: float, platform: int, config: TerrainConfig) -> np.ndarray:
+    """A pyramid rising `slope` (m/m) from the tile's edges, cut flat at the platform's height."""
+    ramp = 1.0 - np.abs(np.arange(cells) - cells // 2) / (cells // 2)   # 0 at the edges, 1 centre
+    top = int(slope * (config.horizontal_scale / config.vertical_scale) * (cells / 2))
+    raw = (top * ramp[:, None] * ramp[None, :]).astype(np.int32)         # truncated, as int16
+    lo = cells // 2 - platform // 2
+    level = raw[lo, lo]
+    return np.clip(raw, min(level, 0), max(level, 0))
+
+
+def _uniform_noise(cells: int, rng: np.random.Generator, config: TerrainConfig) -> np.ndarray:
+    """Heights drawn from {−noise, …, +noise} (step `rough_step`) on a coarse grid, linearly
+    interpolated to the tile's cells and rounded to height units."""
+    unit = config.vertical_scale
+    levels = np.arange(-round(config.rough_noise / unit),
+                       round(config.rough_noise / unit) + round(config.rough_step / unit),
+                       round(config.rough_step / unit))
+    coarse_n = int(cells * config.horizontal_scale / config.rough_grid)
+    coarse = rng.choice(levels, (coarse_n, coarse_n)).astype(np.float64)
+    at = np.linspace(0.0, coarse_n - 1, cells)          # each cell's place on the coarse grid
+    lo = np.minimum(at.astype(int), coarse_n - 2)
+    w = at - lo
+    rows = coarse[lo] * (1 - w)[:, None] + coarse[lo + 1] * w[:, None]
+    both = rows[:, lo] * (1 - w)[None, :] + rows[:, lo + 1] * w[None, :]
+    return np.rint(both).astype(np.int32)
+
+
+def _pyramid_stairs(cells: int, step_height: int, step_width: int, platform: int) -> np.ndarray:
+    """Concentric square steps of `step_width` cells, each `step_height` units above the last
+    (negative: down towards the centre), until the inner square is no wider than the platform."""
+    raw = np.zeros((cells, cells), dtype=np.int32)
+    lo, hi, height = 0, cells, 0
+    while hi - lo > platform:
+        lo, hi, height = lo + step_width, hi - step_width, height + step_height
+        raw[lo:hi, lo:hi] = height
+    return raw
+
+
+def _obstacles(cells: int, height: int, rng: np.random.Generator, platform: int,
+               config: TerrainConfig) -> np.ndarray:
+    """Boxes of random sides at heights ±h, ±h/2, placed on a 4-cell lattice; the platform
+    cleared back to 0."""
+    raw = np.zeros((cells, cells), dtype=np.int32)
+    sides = np.arange(int(config.obstacle_size[0] / config.horizontal_scale),
+                      int(config.obstacle_size[1] / config.horizontal_scale), 4)
+    tops = np.array([-height, -height // 2, height // 2, height])     # floor division, as the original
+    for _ in range(config.obstacles):
+        w, l = rng.choice(sides), rng.choice(sides)
+        i, j = rng.choice(np.arange(0, cells - w, 4)), rng.choice(np.arange(0, cells - l, 4))
+        raw[i:i + w, j:j + l] = rng.choice(tops)
+    lo, hi = (cells - platform) // 2, (cells + platform) // 2
+    raw[lo:hi, lo:hi] = 0
+    return raw
+
+
+def tile_heights(kind: int, inverted: bool, difficulty: float, rng: np.random.Generator,
+                 config: TerrainConfig) -> np.ndarray:
+    """One tile's heights in height units ([cells, cells] int32)."""
+    cells, unit = config.tile_cells, config.vertical_scale
+    platform = int(config.platform / config.horizontal_scale)
+    slope = config.slope * difficulty * (-1.0 if inverted else 1.0)
+    if kind == 0:
+        return _pyramid_slope(cells, slope, platform, config)
+    if kind == 1:
+        return _pyramid_slope(cells, slope, platform, config) + _uniform_noise(cells, rng, config)
+    if kind in (2, 3):
+        step = int((0.05 + 0.175 * difficulty) / unit) * (-1 if kind == 2 else 1)
+        return _pyramid_stairs(cells, step, int(config.step_width / config.horizontal_scale),
+                               platform)
+    return _obstacles(cells, int((0.025 + 0.15 * difficulty) / unit), rng, platform, config)
+
+
+def generate_terrain(config: TerrainConfig | None = None, seed: int = 0) -> Terrain:
+    """The whole grid of tiles (row = level, column = kind of tile) inside its flat border."""
+    config = config or TerrainConfig()
+    rng = np.random.default_rng(seed)
+    cells, border = config.tile_cells, config.border_cells
+    raw = np.zeros((config.levels * cells + 2 * border, config.types * cells + 2 * border),
+                   dtype=np.int32)
+    origins = np.zeros((config.levels, config.types, 3))
+    centre = slice(int((config.tile / 2 - 1) / config.horizontal_scale),
+                   int((config.tile / 2 + 1) / config.horizontal_scale))
+    kinds = []
+    for j in range(config.types):
+        kind, inverted = column_kind(j, config)
+        kinds.append(kind)
+        for i in range(config.levels):
+            tile = tile_heights(kind, inverted, i / config.levels, rng, config)
+            raw[border + i * cells:border + (i + 1) * cells,
+                border + j * cells:border + (j + 1) * cells] = tile
+            origins[i, j] = ((i + 0.5) * config.tile, (j + 0.5) * config.tile,
+                             tile[centre, centre].max() * config.vertical_scale)
+    return Terrain(config, raw, (raw * config.vertical_scale).astype(np.float32), origins, kinds)
+
+
+def height_points(device="cpu") -> torch.Tensor:
+    """The 140 points [140, 3] (base frame, yaw only; z = 0) where the policy reads the terrain:
+    x in ±0.2…±0.8 m and y in ±0.1…±0.5 m, every 0.1 m (x-major)."""
+    xs = torch.tensor([-0.8, -0.7, -0.6, -0.5, -0.4, -0.3, -0.2, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8])
+    ys = torch.tensor([-0.5, -0.4, -0.3, -0.2, -0.1, 0.1, 0.2, 0.3, 0.4, 0.5])
+    gx, gy = torch.meshgrid(xs, ys, indexing="ij")
+    return torch.stack([gx.flatten(), gy.flatten(), torch.zeros(gx.numel())], dim=1).to(device)
+
+
+def sample_heights(heights: torch.Tensor, points_xy: torch.Tensor,
+                   config: TerrainConfig) -> torch.Tensor:
+    """Terrain height (m) under world points [..., 2], as the original reads it: the lower of
+    the grid samples at (⌊i⌋, ⌊j⌋) and (⌊i⌋ + 1, ⌊j⌋ + 1), indices clamped inside the map (a
+    cautious reading at a step edge: the lower side)."""
+    ij = ((points_xy + config.border) / config.horizontal_scale).long()
+    i = ij[..., 0].clamp(0, heights.shape[0] - 2)
+    j = ij[..., 1].clamp(0, heights.shape[1] - 2)
+    return torch.minimum(heights[i, j], heights[i + 1, j + 1])
+
+
+def next_levels(levels: torch.Tensor, walked: torch.Tensor, command_speed: torch.Tensor,
+                episode_s: float, config: TerrainConfig) -> torch.Tensor:
+    """The curriculum at reset: a robot that walked less than a quarter of what its command
+    asked over a whole episode moves down a level, one that left its tile (farther than half a
+    tile from its origin) moves up; level 0 is the floor, and passing the top level starts over
+    at 0 (so robots that master the terrain keep sampling all of it)."""
+    down = walked < command_speed * episode_s * 0.25
+    up = walked > config.tile / 2
+    return (levels - down.long() + up.long()).clamp(min=0) % config.levels
