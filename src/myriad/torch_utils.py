@@ -38,6 +38,39 @@ def rotation_angle(q: torch.Tensor) -> torch.Tensor:
     return 2.0 * torch.asin(torch.clamp(torch.norm(q[..., :3], dim=-1), max=1.0))
 
 
+def quat_to_exp_map(q: torch.Tensor) -> torch.Tensor:
+    """axis·angle [..., 3] of q, angle in [0, π] (q and -q give the same)."""
+    q = torch.where(q[..., 3:4] < 0, -q, q)
+    sin_half = torch.norm(q[..., :3], dim=-1, keepdim=True)
+    angle = 2.0 * torch.atan2(sin_half, q[..., 3:4])
+    # angle / sin(angle/2) → 2 as the rotation vanishes
+    factor = torch.where(sin_half > 1e-9, angle / sin_half.clamp(min=1e-9), torch.full_like(angle, 2.0))
+    return q[..., :3] * factor
+
+
+def exp_map_to_quat(v: torch.Tensor) -> torch.Tensor:
+    """The rotation by |v| about v / |v| (identity for v = 0)."""
+    angle = torch.norm(v, dim=-1)
+    axis = v / angle.clamp(min=1e-12)[..., None]
+    return quat_from_angle_axis(angle, axis)
+
+
+def slerp(q0: torch.Tensor, q1: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+    """Spherical interpolation from q0 (t = 0) to q1 (t = 1) [..., 4] along the shorter arc;
+    t [...] or [..., 1]."""
+    t = t[..., None] if t.dim() < q0.dim() else t
+    cos = (q0 * q1).sum(-1, keepdim=True)
+    q1 = torch.where(cos < 0, -q1, q1)
+    cos = cos.abs().clamp(max=1.0)
+    angle = torch.acos(cos)
+    sin = torch.sin(angle)
+    near = sin < 1e-6                       # nearly the same rotation: lerp, then normalize
+    w0 = torch.where(near, 1.0 - t, torch.sin((1.0 - t) * angle) / sin.clamp(min=1e-6))
+    w1 = torch.where(near, t, torch.sin(t * angle) / sin.clamp(min=1e-6))
+    q = w0 * q0 + w1 * q1
+    return q / torch.norm(q, dim=-1, keepdim=True)
+
+
 def unscale(x: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
     """Map [lower, upper] to [-1, 1]."""
     return (2.0 * x - upper - lower) / (upper - lower)
@@ -98,4 +131,5 @@ def where_rows(mask: torch.Tensor, new: torch.Tensor, old: torch.Tensor) -> torc
 
 __all__ = ["quat_rotate", "quat_rotate_inverse", "quat_mul", "quat_conjugate",
            "quat_from_angle_axis", "rotation_angle", "wrap_angle", "euler_xyz",
-           "heading_up_and_angles", "env_mask", "unit_axis", "scale", "unscale", "where_rows"]
+           "heading_up_and_angles", "env_mask", "unit_axis", "scale", "unscale", "where_rows",
+           "quat_to_exp_map", "exp_map_to_quat", "slerp"]

@@ -10,6 +10,7 @@ gets its robot from here.
 | Allegro     | `myriad[hands]`  | example-robot-data: robots/allegro_hand_description/urdf/allegro_right_hand.urdf |
 | Franka Panda | `myriad[arms]`  | example-robot-data: robots/panda_description/urdf/panda.urdf (arm, hand, fingers) |
 | TriFinger Pro | `myriad[arms]` | robot-properties-fingers: urdf/pro/trifingerpro.urdf, meshes/high_table_boundary.stl |
+| AMP humanoid | `myriad[amp]`   | pybullet: pybullet_data/humanoid/humanoid.urdf (DeepMimic's; clips in data/motions/) |
 
 Nothing is downloaded at run time: a missing package is a `ModelError` naming the extra that
 installs it.
@@ -305,4 +306,108 @@ def trifinger_boundary_spec(sectors: int = 32) -> mujoco.MjSpec:
         spec.add_mesh(name=f"boundary_{k}", uservert=piece.astype(np.float64).ravel().tolist())
         body.add_geom(name=f"boundary_{k}", type=mujoco.mjtGeom.mjGEOM_MESH,
                       meshname=f"boundary_{k}", rgba=[0.3, 0.3, 0.35, 1.0])
+    return spec
+
+
+# ---------------------------------------------------------------------------- AMP humanoid
+AMP_HUMANOID = "humanoid/humanoid.urdf"
+AMP_SCALE = 0.25             # the URDF is drawn at 4x a metre; the DeepMimic clips are in metres
+AMP_START_HEIGHT = 0.89      # the original's start: pelvis 0.89 m above the ground
+# (URDF link, body, joint) in the original AMP humanoid's tree order, which sets the 28 DoF's
+# order: abdomen 3, neck 3, right shoulder 3, right elbow, left shoulder 3, left elbow, right
+# hip 3, right knee, right ankle 3, left hip 3, left knee, left ankle 3
+AMP_BODIES = (
+    ("root", "pelvis", None), ("chest", "torso", "abdomen"), ("neck", "head", "neck"),
+    ("right_shoulder", "right_upper_arm", "right_shoulder"),
+    ("right_elbow", "right_lower_arm", "right_elbow"), ("right_wrist", "right_hand", None),
+    ("left_shoulder", "left_upper_arm", "left_shoulder"),
+    ("left_elbow", "left_lower_arm", "left_elbow"), ("left_wrist", "left_hand", None),
+    ("right_hip", "right_thigh", "right_hip"), ("right_knee", "right_shin", "right_knee"),
+    ("right_ankle", "right_foot", "right_ankle"),
+    ("left_hip", "left_thigh", "left_hip"), ("left_knee", "left_shin", "left_knee"),
+    ("left_ankle", "left_foot", "left_ankle"))
+AMP_KEY_BODIES = ("right_hand", "left_hand", "right_foot", "left_foot")
+
+
+def y_up_to_z_up(v) -> np.ndarray:
+    """A vector of the URDF's y-up frame (x forward, z to the right) in a z-up frame (x
+    forward, y to the left): a quarter turn about x."""
+    v = np.asarray(v, float)
+    return np.array([v[0], -v[2], v[1]])
+
+
+def amp_humanoid_spec(ball_joints: bool = False) -> mujoco.MjSpec:
+    """The humanoid of the DeepMimic clips (pybullet_data's humanoid.urdf), as the original AMP
+    humanoid: 15 bodies, a free pelvis, 28 DoF (each spherical joint as hinges about x, y, z, in
+    AMP_BODIES' order), at metric scale and z-up. Built from the URDF's numbers, since MuJoCo's
+    URDF reader has no spherical joints. Every link's frame is parallel to the world's at the
+    zero pose (the URDF has no rotations), so positions and hinge axes only turn from y-up to
+    z-up. Link masses are the URDF's (45 kg in all); its inertias are placeholders (0.1 at 4x
+    scale), so each body's inertia comes from its one collision shape at that mass.
+    ball_joints=True keeps each spherical joint one ball joint (MuJoCo's; 8 of them and 4 hinges:
+    a model that holds any clip pose exactly, to check poses against)."""
+    import xml.etree.ElementTree as ET
+
+    path = installed_file("pybullet_data", AMP_HUMANOID, "amp")
+    try:                    # the file ends in a NUL byte, which no XML parser takes
+        root = ET.fromstring(open(path, "rb").read().rstrip(b"\0"))
+    except ET.ParseError as err:
+        raise ModelError(f"{path}: not a readable URDF ({err})") from err
+
+    def vec(element, attribute="xyz"):
+        return np.array([float(x) for x in element.get(attribute).split()])
+
+    links = {link.get("name"): link for link in root.iter("link")}
+    joints = {joint.find("child").get("link"): joint for joint in root.iter("joint")}
+    spec = mujoco.MjSpec()
+    spec.modelname = "amp_humanoid"
+    bodies = {}
+    for urdf, name, joint_name in AMP_BODIES:
+        joint = joints[urdf]
+        if urdf == "root":
+            body = spec.worldbody.add_body(name=name, pos=[0, 0, AMP_START_HEIGHT])
+            body.add_freejoint(name="root")
+        else:
+            parent = bodies[joint.find("parent").get("link")]
+            offset = y_up_to_z_up(vec(joint.find("origin")) * AMP_SCALE)
+            body = parent.add_body(name=name, pos=offset)
+        bodies[urdf] = body
+        kind = joint.get("type")
+        if kind == "spherical" and ball_joints:
+            body.add_joint(name=joint_name, type=mujoco.mjtJoint.mjJNT_BALL)
+        elif kind == "spherical":
+            for axis, direction in zip("xyz", np.eye(3)):
+                body.add_joint(name=f"{joint_name}_{axis}", type=mujoco.mjtJoint.mjJNT_HINGE,
+                               axis=direction)
+        elif kind == "revolute":
+            limit = joint.find("limit")
+            body.add_joint(name=joint_name, type=mujoco.mjtJoint.mjJNT_HINGE,
+                           axis=y_up_to_z_up(vec(joint.find("axis"))),
+                           limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+                           range=[float(limit.get("lower")), float(limit.get("upper"))])
+        elif urdf != "root" and kind != "fixed":
+            raise ModelError(f"{path}: joint {joint.get('name')!r} of type {kind!r} (expected "
+                             "spherical, revolute or fixed)")
+        link = links[urdf]
+        collision = link.find("collision")
+        centre = y_up_to_z_up(vec(collision.find("origin")) * AMP_SCALE)
+        shape = collision.find("geometry")[0]
+        mass = float(link.find("inertial/mass").get("value"))
+        if shape.tag == "sphere":
+            body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=centre, mass=mass,
+                          size=[float(shape.get("radius")) * AMP_SCALE, 0, 0])
+        elif shape.tag == "capsule":
+            # pybullet's capsule runs along its frame's z, turned onto the link's y (its length)
+            # by the origin's roll of -90°: along the limb, which is z here
+            half = float(shape.get("length")) * AMP_SCALE / 2
+            body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE, mass=mass,
+                          fromto=np.concatenate([centre - [0, 0, half], centre + [0, 0, half]]),
+                          size=[float(shape.get("radius")) * AMP_SCALE, 0, 0])
+        elif shape.tag == "box":
+            full = np.abs(y_up_to_z_up(vec(shape, "size"))) * AMP_SCALE
+            body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, pos=centre, mass=mass,
+                          size=full / 2)
+        else:
+            raise ModelError(f"{path}: link {urdf!r} has a {shape.tag} collision shape "
+                             "(expected sphere, capsule or box)")
     return spec

@@ -1,0 +1,197 @@
+"""The AMP humanoid (issue 15): DeepMimic's humanoid of pybullet_data, rebuilt as the original AMP
+humanoid's 15 bodies and 28 DoF, metric and z-up."""
+
+import importlib.util
+import json
+
+import mujoco
+import numpy as np
+import pytest
+import torch
+
+import myriad
+from myriad.api import Scene
+from myriad.assets import AMP_KEY_BODIES, AMP_START_HEIGHT, amp_humanoid_spec
+
+pytestmark = pytest.mark.skipif(importlib.util.find_spec("pybullet_data") is None,
+                                reason="pybullet (myriad[amp]) is not installed")
+
+DOF_ORDER = ["abdomen", "neck", "right_shoulder", "right_elbow", "left_shoulder", "left_elbow",
+             "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee", "left_ankle"]
+
+
+@pytest.fixture(scope="module")
+def model():
+    return amp_humanoid_spec().compile()
+
+
+def test_bodies_and_dofs_are_the_original_amp_humanoids(model):
+    assert model.nbody - 1 == 15 and model.nv == 6 + 28
+    names = [model.joint(j).name for j in range(1, model.njnt)]
+    expected = []
+    for joint in DOF_ORDER:
+        hinge = joint.endswith(("elbow", "knee"))
+        expected += [joint] if hinge else [f"{joint}_{axis}" for axis in "xyz"]
+    assert names == expected
+    assert model.body_mass.sum() == pytest.approx(45.0)            # the URDF's link masses
+    assert all(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b) > 0 for b in AMP_KEY_BODIES)
+
+
+def test_it_stands_metric_and_z_up_at_the_originals_start_height(model):
+    """Pelvis at 0.89 m: the soles just above the ground (the original's start), the head's top
+    at a person's height, right limbs on the -y side, the model mirror-symmetric."""
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    sole = [data.geom_xpos[model.geom(f).id][2] - model.geom_size[model.geom(f).id][2]
+            for f in ("right_foot", "left_foot")]
+    assert data.xpos[model.body("pelvis").id][2] == AMP_START_HEIGHT
+    assert 0.0 < min(sole) < 0.01 and sole[0] == pytest.approx(sole[1])
+    head = model.geom("head").id
+    assert 1.55 < data.geom_xpos[head][2] + model.geom_size[head][0] < 1.75
+    for side in ("hand", "foot", "thigh", "upper_arm"):
+        right, left = data.xpos[model.body(f"right_{side}").id], data.xpos[model.body(f"left_{side}").id]
+        assert right[1] < 0 < left[1]
+        np.testing.assert_allclose(right * [1, -1, 1], left, atol=1e-9)
+    # a knee bends the shin backwards (to -x) for the clips' negative angles
+    knee = model.joint("right_knee")
+    assert knee.range[0] < 0 and knee.range[1] == 0
+    data.qpos[model.jnt_qposadr[knee.id]] = -1.0
+    mujoco.mj_forward(model, data)
+    assert data.xpos[model.body("right_foot").id][0] < -0.2
+
+
+def test_it_simulates_on_the_ground(device):
+    """Dropped from the start pose with its joints driven to 0: it lands on its feet and stays
+    finite (a smoke test of the import; the task's PD gains come with the task)."""
+    scene = Scene().add_ground()
+    scene.add_actor("humanoid", amp_humanoid_spec(), dof_mode="position", stiffness=300.0,
+                    damping=30.0)
+    envs = scene.build(num_envs=2, device=device, params=myriad.SimParams(dt=1 / 60, substeps=2))
+    for _ in range(30):
+        envs.step()
+    q = envs.sim.q
+    assert torch.isfinite(q).all()
+    assert (q[:, 2] > 0.6).all()            # the pelvis still up after half a second
+
+
+# ---------------------------------------------------------------------------- motion library
+from myriad.physics import ModelError                                    # noqa: E402
+from myriad.tasks.motion import HINGES, MotionLib, clip_path, read_clip  # noqa: E402
+from myriad.torch_utils import exp_map_to_quat, quat_conjugate, quat_mul, rotation_angle  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def lib():
+    return MotionLib(["walk", "run"], weights=[3.0, 1.0])
+
+
+def _frame_times(lib, clip):
+    n = int(lib.num_frames[clip])
+    return torch.full((n,), clip), torch.arange(n) * lib.dt[clip]
+
+
+def test_clips_are_read_with_their_frame_counts_and_lengths(lib):
+    assert lib.num_frames.tolist() == [39, 25]
+    torch.testing.assert_close(lib.duration, torch.tensor([38, 24]) * 0.033332)
+    assert lib.num_dof == 28
+
+
+def test_clip_poses_are_the_models_own(lib):
+    """At each frame of the walk, the root is the clip's (turned z-up) and the key bodies are
+    where MuJoCo puts them on the ball-jointed model posed with the frame's joint rotations
+    (read independently from the file here)."""
+    model = amp_humanoid_spec(ball_joints=True).compile()
+    data = mujoco.MjData(model)
+    dt, raw = read_clip(clip_path("walk"))
+    clips, times = _frame_times(lib, 0)
+    state = lib.state(clips, times)
+    keys = [model.body(b).id for b in AMP_KEY_BODIES]
+    clip_order = ["abdomen", "neck", "right_hip", "right_knee", "right_ankle", "right_shoulder",
+                  "right_elbow", "left_hip", "left_knee", "left_ankle", "left_shoulder",
+                  "left_elbow"]
+    for k in (0, 11, 38):
+        frame, column, values = raw[k], 7, {}
+        for joint in clip_order:
+            width = 1 if joint in HINGES else 4
+            values[joint] = frame[column:column + width]
+            column += width
+        turn = lambda wxyz: [wxyz[0], wxyz[1], -wxyz[3], wxyz[2]]      # y-up to z-up, (w, x, y, z)
+        data.qpos[:3] = [frame[0], -frame[2], frame[1]]
+        data.qpos[3:7] = turn(frame[3:7])
+        for j in range(1, model.njnt):
+            joint = model.joint(j)
+            adr = model.jnt_qposadr[j]
+            if joint.type[0] == mujoco.mjtJoint.mjJNT_BALL:
+                q = np.array(turn(values[joint.name]))
+                data.qpos[adr:adr + 4] = q / np.linalg.norm(q)
+            else:
+                data.qpos[adr] = values[joint.name][0]
+        mujoco.mj_kinematics(model, data)
+        np.testing.assert_allclose(state.root_pos[k], data.qpos[:3], atol=1e-6)
+        np.testing.assert_allclose(state.key_pos[k], data.xpos[keys], atol=2e-5)
+    feet = state.key_pos[:, 2:, 2]
+    assert feet.min() < 0.06 and feet.max() < 0.3           # walking: the ankles stay low
+    assert 0.8 < state.root_vel[:, 0].mean() < 1.2          # forward, about 1 m/s
+
+
+def test_states_between_frames_are_interpolated(lib):
+    clips, times = _frame_times(lib, 1)
+    at = lib.state(clips, times)
+    mid = lib.state(clips[:-1], times[:-1] + 0.5 * lib.dt[1])
+    torch.testing.assert_close(mid.root_pos, 0.5 * (at.root_pos[:-1] + at.root_pos[1:]))
+    torch.testing.assert_close(mid.key_pos, 0.5 * (at.key_pos[:-1] + at.key_pos[1:]))
+    to_mid = rotation_angle(quat_mul(mid.root_rot, quat_conjugate(at.root_rot[:-1])))
+    from_mid = rotation_angle(quat_mul(at.root_rot[1:], quat_conjugate(mid.root_rot)))
+    torch.testing.assert_close(to_mid, from_mid, atol=1e-4, rtol=0)   # halfway along the arc
+    torch.testing.assert_close(mid.root_vel, at.root_vel[:-1])       # velocities: frame f0's
+    # past the end: the last frame
+    end = lib.state(clips[:1], lib.duration[1:] + 1.0)
+    torch.testing.assert_close(end.root_pos, at.root_pos[-1:])
+
+
+def test_dof_velocities_step_each_joint_to_the_next_frame(lib):
+    """A 3-DoF joint's velocity, held for one frame time, turns its rotation into the next
+    frame's (exp-map positions, so compare the rotations); a hinge's adds up; the last frame
+    repeats the one before it."""
+    clips, times = _frame_times(lib, 0)
+    state = lib.state(clips, times)
+    dt = float(lib.dt[0])
+    for name, cut in lib.dof_slice.items():
+        pos, vel = state.dof_pos[:, cut], state.dof_vel[:, cut]
+        if name in HINGES:
+            torch.testing.assert_close(pos[:-1] + vel[:-1] * dt, pos[1:], atol=1e-5, rtol=0)
+        else:
+            stepped = quat_mul(exp_map_to_quat(vel[:-1] * dt), exp_map_to_quat(pos[:-1]))
+            angle = rotation_angle(quat_mul(stepped, quat_conjugate(exp_map_to_quat(pos[1:]))))
+            assert angle.max() < 1e-3, name
+        torch.testing.assert_close(vel[-1], vel[-2])
+
+
+def test_clips_and_times_are_sampled_by_weight_and_span(lib):
+    gen = torch.Generator().manual_seed(0)
+    clips = lib.sample_clips(20000, generator=gen)
+    assert abs((clips == 0).float().mean() - 0.75) < 0.02
+    times = lib.sample_times(clips, generator=gen)
+    assert (times >= 0).all() and (times <= lib.duration[clips]).all()
+    assert times[clips == 0].max() > 0.95 * lib.duration[0]
+
+
+def test_bad_motion_files_are_named(tmp_path):
+    with pytest.raises(ModelError, match="no such motion file"):
+        MotionLib([str(tmp_path / "missing.txt")])
+    broken = tmp_path / "broken.txt"
+    broken.write_text('{"Frames": [[0.03, 1, 2')
+    with pytest.raises(ModelError, match="broken.txt: not a DeepMimic motion file"):
+        MotionLib([str(broken)])
+    short = tmp_path / "short.txt"
+    short.write_text('{"Frames": [[0.03, 1, 2, 3], [0.03, 1, 2, 3]]}')
+    with pytest.raises(ModelError, match=r"short.txt: frames of shape \[2, 4\].*44 numbers"):
+        MotionLib([str(short)])
+    nan = tmp_path / "nan.txt"
+    frames = [[0.03] + [0.0] * 43 for _ in range(3)]
+    frames[2][5] = float("nan")
+    nan.write_text(json.dumps({"Frames": frames}).replace("NaN", "NaN"))
+    with pytest.raises(ModelError, match="nan.txt: frame 2 holds a NaN"):
+        MotionLib([str(nan)])
+    with pytest.raises(ValueError, match="weights"):
+        MotionLib(["walk"], weights=[1.0, 2.0])
