@@ -327,6 +327,20 @@ AMP_BODIES = (
     ("left_hip", "left_thigh", "left_hip"), ("left_knee", "left_shin", "left_knee"),
     ("left_ankle", "left_foot", "left_ankle"))
 AMP_KEY_BODIES = ("right_hand", "left_hand", "right_foot", "left_foot")
+# PD drive gains per joint (stiffness N·m/rad, damping N·m·s/rad): the original's MJCF's
+AMP_PD_GAINS = {"abdomen": (600.0, 60.0), "neck": (50.0, 5.0), "shoulder": (200.0, 20.0),
+                "elbow": (150.0, 15.0), "hip": (300.0, 30.0), "knee": (300.0, 30.0),
+                "ankle": (200.0, 20.0)}
+
+
+def amp_humanoid_gains() -> tuple[list[float], list[float]]:
+    """(stiffness, damping) of the 28 DoF in the model's order (AMP_PD_GAINS by joint)."""
+    gains = []
+    for _, _, joint in AMP_BODIES:
+        if joint is not None:
+            width = 1 if joint.endswith(("elbow", "knee")) else 3
+            gains += [AMP_PD_GAINS[joint.split("_")[-1]]] * width
+    return [kp for kp, _ in gains], [kd for _, kd in gains]
 
 
 def y_up_to_z_up(v) -> np.ndarray:
@@ -361,6 +375,7 @@ def amp_humanoid_spec(ball_joints: bool = False) -> mujoco.MjSpec:
     joints = {joint.find("child").get("link"): joint for joint in root.iter("joint")}
     spec = mujoco.MjSpec()
     spec.modelname = "amp_humanoid"
+    spec.compiler.degree = False        # the URDF's limits are radians
     bodies = {}
     for urdf, name, joint_name in AMP_BODIES:
         joint = joints[urdf]
