@@ -223,3 +223,66 @@ def test_pd_drives_track_the_walk_with_the_root_held(device):
     errors = torch.stack(errors)
     assert errors.mean() < 0.1, errors.mean()
     assert errors.mean(dim=0).max() < 0.2                 # no DoF left far behind
+
+
+# ---------------------------------------------------------------------------- AMP observation
+from myriad.tasks.humanoid_amp import NUM_OBS, amp_observations  # noqa: E402
+from myriad.torch_utils import quat_from_angle_axis, quat_rotate  # noqa: E402
+
+
+def _obs(state):
+    return amp_observations(state.root_pos, state.root_rot, state.root_vel, state.root_ang_vel,
+                            state.dof_pos, state.dof_vel, state.key_pos)
+
+
+def test_the_observation_is_the_originals_105_in_its_layout(lib):
+    assert NUM_OBS == 105
+    clips, times = _frame_times(lib, 0)
+    state = lib.state(clips, times)
+    obs = _obs(state)
+    assert obs.shape == (39, 105)
+    torch.testing.assert_close(obs[:, 0], state.root_pos[:, 2])
+    torch.testing.assert_close(obs[:, 65:93], state.dof_vel)
+    # the DoF block: per 3-DoF joint two unit axes at right angles (tan-norm), per hinge its angle
+    block, at = obs[:, 13:65], 0
+    hinge_columns = []
+    for name, cut in lib.dof_slice.items():
+        if name in HINGES:
+            torch.testing.assert_close(block[:, at], state.dof_pos[:, cut.start])
+            hinge_columns.append(at)
+            at += 1
+        else:
+            x, z = block[:, at:at + 3], block[:, at + 3:at + 6]
+            torch.testing.assert_close(x.norm(dim=-1), torch.ones(39))
+            torch.testing.assert_close(z.norm(dim=-1), torch.ones(39))
+            assert (x * z).sum(-1).abs().max() < 1e-5
+            at += 6
+    assert at == 52 and hinge_columns == [18, 25, 32, 45]     # elbows, knees
+    # at rest (identity rotations), every joint reads (x̂, ẑ)
+    at_rest = lib.state(clips[:1], times[:1])
+    at_rest.root_rot[:] = torch.tensor([0.0, 0.0, 0.0, 1.0])
+    at_rest.dof_pos.zero_()
+    rest = _obs(at_rest)[0]
+    torch.testing.assert_close(rest[1:7], torch.tensor([1.0, 0, 0, 0, 0, 1]))
+    dof_block = rest[13:65]
+    assert dof_block.tolist().count(1.0) == 16 and dof_block.abs().sum() == 16   # 8 × (x̂, ẑ)
+
+
+def test_the_observation_ignores_where_the_humanoid_stands_and_faces(lib):
+    """Turning the whole motion about the vertical and moving it across the floor leaves the
+    observation as it was: only the heading frame is seen."""
+    clips, times = _frame_times(lib, 1)
+    state = lib.state(clips, times)
+    n = len(clips)
+    yaw = quat_from_angle_axis(torch.full((n,), 2.1), torch.tensor([[0.0, 0.0, 1.0]]).expand(n, 3))
+    shift = torch.tensor([3.0, -7.0, 0.0])
+    turn = lambda v: quat_rotate(yaw, v)
+    moved = _obs(type(state)(
+        root_pos=turn(state.root_pos) + shift, root_rot=quat_mul(yaw, state.root_rot),
+        root_vel=turn(state.root_vel), root_ang_vel=turn(state.root_ang_vel),
+        dof_pos=state.dof_pos, dof_vel=state.dof_vel,
+        key_pos=quat_rotate(yaw[:, None].expand(-1, 4, -1), state.key_pos) + shift))
+    original = _obs(state)
+    torch.testing.assert_close(moved[:, 7:], original[:, 7:], atol=1e-5, rtol=0)
+    torch.testing.assert_close(moved[:, 0], original[:, 0])
+    assert not torch.allclose(moved[:, 1:7], original[:, 1:7])   # the world rotation is seen
