@@ -286,3 +286,63 @@ def test_the_observation_ignores_where_the_humanoid_stands_and_faces(lib):
     torch.testing.assert_close(moved[:, 7:], original[:, 7:], atol=1e-5, rtol=0)
     torch.testing.assert_close(moved[:, 0], original[:, 0])
     assert not torch.allclose(moved[:, 1:7], original[:, 1:7])   # the world rotation is seen
+
+
+# ---------------------------------------------------------------------------- the task
+from importlib import resources  # noqa: E402
+
+from omegaconf import OmegaConf  # noqa: E402
+
+from myriad.tasks.humanoid_amp import HumanoidAMP  # noqa: E402
+
+
+def _task(device, **env):
+    cfg = OmegaConf.to_container(OmegaConf.create(
+        (resources.files("myriad") / "cfg" / "task" / "HumanoidAMP.yaml").read_text()))
+    cfg["env"].update({"numEnvs": 4, "motion_file": "walk", **env})
+    return HumanoidAMP(cfg, device=device)
+
+
+def test_the_task_starts_from_the_clip_and_hands_over_amp_pairs(device):
+    task = _task(device, stateInit="Start")
+    start = task.motion.state(torch.zeros(4, dtype=torch.long, device=device),
+                              torch.zeros(4, device=device))
+    torch.testing.assert_close(task.envs.dof_pos, start.dof_pos, atol=1e-5, rtol=0)
+    torch.testing.assert_close(task.envs.root_states[:, 0, :3], start.root_pos, atol=1e-5, rtol=0)
+    obs = task.obs_buf.clone()
+    assert obs.shape == (4, 105)
+    _, reward, done, extras = task.step(torch.zeros(4, 28, device=device))
+    pairs = extras["amp_obs"]
+    assert pairs.shape == (4, 210) and torch.equal(reward, torch.ones(4, device=device))
+    torch.testing.assert_close(pairs[:, :105], task.obs_buf)        # this frame ...
+    torch.testing.assert_close(pairs[:, 105:], obs)                 # ... and the one before
+    demo = task.fetch_amp_obs_demo(64)
+    assert demo.shape == (64, 210)
+    assert (demo[:, 0] - demo[:, 105]).abs().max() < 0.05           # consecutive frames' heights
+
+
+def test_actions_map_to_pd_targets_over_each_joints_span(device):
+    task = _task(device)
+    knee = task.envs.dof_index("humanoid/right_knee")
+    hip = task.envs.dof_index("humanoid/right_hip_x")
+    assert float(task.pd_offset[knee]) == pytest.approx(-1.57)
+    assert float(task.pd_scale[knee]) == pytest.approx(0.7 * 3.14)
+    assert float(task.pd_offset[hip]) == 0.0 and float(task.pd_scale[hip]) == pytest.approx(torch.pi)
+
+
+def test_a_humanoid_that_falls_ends_its_episode(device):
+    """Standing from the default pose with its drives holding 0 and no balance, it topples:
+    the episode ends when a body other than a foot touches the ground below 0.5 m."""
+    task = _task(device, stateInit="Default")
+    ended = torch.zeros(4, dtype=torch.bool, device=device)
+    for _ in range(150):
+        _, _, done, extras = task.step(torch.zeros(4, 28, device=device))
+        ended |= done.bool() & (extras["time_outs"] == 0)
+    assert ended.all()
+
+
+def test_bad_task_settings_are_named(device):
+    with pytest.raises(ValueError, match="stateInit='Sideways'"):
+        _task(device, stateInit="Sideways")
+    with pytest.raises(ModelError, match="no such motion file"):
+        _task(device, motion_file="/nowhere/clip.txt")

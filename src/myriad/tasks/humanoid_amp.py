@@ -11,16 +11,19 @@ paper's Table 8 counts 108, with 15 key-point values where the code has 4 key bo
     [65:93]    DoF velocities (28), as they are
     [93:105]   hands and feet relative to the root, in the heading frame (4 × 3)
 
-The AMP observation of a step is this frame and the one before it (210). The task itself (PD
-targets, resets from the clips, early termination) comes with the AMP agent.
+The AMP observation of a step is this frame and the one before it (210). The task is built but
+not yet registered with `myriad train`: the AMP agent that trains it is still to come.
 """
 
 from __future__ import annotations
 
 import torch
 
-from ..assets import AMP_BODIES
-from ..torch_utils import exp_map_to_quat, quat_from_angle_axis, quat_rotate
+from ..api import Scene
+from ..assets import (AMP_BODIES, AMP_KEY_BODIES, AMP_START_HEIGHT, amp_humanoid_gains,
+                      amp_humanoid_spec)
+from ..torch_utils import env_mask, exp_map_to_quat, quat_from_angle_axis, quat_rotate, where_rows
+from .base import VecTask
 
 # (width, start) of each joint's DoF in the model's order: 3 for spherical joints, 1 for hinges
 DOF_GROUPS = []
@@ -62,3 +65,118 @@ def amp_observations(root_pos, root_rot, root_vel, root_ang_vel, dof_pos, dof_ve
     return torch.cat([root_pos[:, 2:3], tan_norm(root_rot), quat_rotate(heading, root_vel),
                       quat_rotate(heading, root_ang_vel), *dof_obs, dof_vel,
                       local_keys.reshape(len(root_pos), -1)], dim=-1)
+
+
+STATE_INITS = ("Default", "Start", "Random", "Hybrid")
+
+
+class HumanoidAMP(VecTask):
+    """The AMP humanoid imitating motion clips' style: actions are PD targets (3-DoF joints
+    ±π, hinges their range's middle ± 0.7 × range), the task reward is 1, and each step leaves
+    the AMP observation pair (this frame, the one before) in `extras["amp_obs"]` for the
+    discriminator, whose demo pairs `fetch_amp_obs_demo` draws from the clips.
+
+    Resets (`env.stateInit`): Default stands the humanoid at the origin, pelvis 0.89 m up, every
+    joint at 0 (the clips' rest pose: arms down); Start and Random take a clip's state at its
+    start or at a random time; Hybrid picks Random with probability `hybridInitProb`, else
+    Default. An episode ends early when a body other than the feet touches the ground while
+    below `terminationHeight` (from the second step on)."""
+
+    num_obs = NUM_OBS
+    num_actions = NUM_DOF
+
+    def __init__(self, cfg: dict, device: str = "cpu"):
+        from .motion import MotionLib
+
+        env = cfg["env"]
+        if env["stateInit"] not in STATE_INITS:
+            raise ValueError(f"env.stateInit={env['stateInit']!r}: expected one of {STATE_INITS}")
+        self.state_init = env["stateInit"]
+        self.hybrid_init_prob = float(env["hybridInitProb"])
+        self.termination_height = float(env["terminationHeight"])
+        self.motion = MotionLib([env["motion_file"]], device=device)
+        super().__init__(cfg, device)
+        e, dev = self.envs, self.device
+        self.key_bodies = torch.tensor([e.body_index(f"humanoid/{b}") for b in AMP_KEY_BODIES],
+                                       device=dev)
+        feet = [e.body_index(f"humanoid/{b}") for b in ("right_foot", "left_foot")]
+        self.non_feet = torch.tensor([b for b in range(e.num_bodies)
+                                      if b not in feet and e.body_names[b].startswith("humanoid/")],
+                                     device=dev)
+        lower, upper = e.dof_limits()[0].T
+        three = torch.tensor([w == 3 for w, s in DOF_GROUPS for _ in range(w)], device=dev)
+        self.pd_offset = torch.where(three, 0.0, 0.5 * (lower + upper))
+        self.pd_scale = torch.where(three, torch.pi, 0.7 * (upper - lower))
+        self.amp_obs = torch.zeros(self.num_envs, 2, NUM_OBS, device=dev)
+        self.default_root = e.root_states.clone()
+        self.reset()
+
+    def create_envs(self):
+        plane = self.cfg["env"]["plane"]
+        scene = Scene().add_ground(friction=plane["staticFriction"],
+                                   restitution=plane["restitution"])
+        stiffness, damping = amp_humanoid_gains()
+        scene.add_actor("humanoid", amp_humanoid_spec(), pos=(0.0, 0.0, AMP_START_HEIGHT),
+                        dof_mode="position", stiffness=stiffness, damping=damping)
+        return scene.build(self.num_envs, self.device, self.sim_params)
+
+    def pre_physics_step(self, actions):
+        self.actions[:] = actions
+        self.envs.set_dof_position_targets(self.pd_offset + self.pd_scale * actions)
+
+    def post_physics_step(self):
+        self.compute_observations()
+        e = self.envs
+        self.rew_buf[:] = 1.0
+        body = e.rigid_body_states[:, self.non_feet]
+        touching = (e.net_contact_force[:, self.non_feet].abs() > 0.1).any(dim=-1)
+        fallen = (touching & (body[..., 2] < self.termination_height)).any(dim=-1)
+        self.reset_buf[:] = (fallen & (self.progress_buf > 1)).long()
+        self.amp_obs[:, 1] = self.amp_obs[:, 0]
+        self.amp_obs[:, 0] = self.obs_buf
+        self.extras["amp_obs"] = self.amp_obs.reshape(self.num_envs, -1)
+
+    def compute_observations(self):
+        e = self.envs
+        root = e.root_states[:, 0]
+        self.obs_buf[:] = amp_observations(
+            root[:, 0:3], root[:, 3:7], root[:, 7:10], root[:, 10:13], e.dof_pos, e.dof_vel,
+            e.rigid_body_states[:, self.key_bodies, 0:3])
+
+    def reset_idx(self, env_ids):
+        done, n, dev = env_mask(env_ids, self.num_envs), self.num_envs, self.device
+        clips = self.motion.sample_clips(n)
+        times = self.motion.sample_times(clips) if self.state_init in ("Random", "Hybrid") \
+            else torch.zeros(n, device=dev)
+        from_clip = torch.full((n,), self.state_init != "Default", device=dev)
+        if self.state_init == "Hybrid":
+            from_clip = torch.rand(n, device=dev) < self.hybrid_init_prob
+        clip = self.motion.state(clips, times)
+        root = torch.cat([clip.root_pos, clip.root_rot, clip.root_vel, clip.root_ang_vel], -1)
+        root = where_rows(from_clip, root[:, None], self.default_root)
+        zeros = torch.zeros(n, NUM_DOF, device=dev)
+        self.envs.set_root_states(root, done, forward=False)
+        self.envs.set_dof_state(where_rows(from_clip, clip.dof_pos, zeros),
+                                where_rows(from_clip, clip.dof_vel, zeros), done)
+        # the AMP history: a clip reset's previous frame from the clip; a default reset's is
+        # its first frame repeated (filled by the first step's shift)
+        before = self.motion.state(clips, times - self.dt)
+        history = amp_observations(before.root_pos, before.root_rot, before.root_vel,
+                                   before.root_ang_vel, before.dof_pos, before.dof_vel,
+                                   before.key_pos)
+        self.compute_observations()
+        self.amp_obs[:, 0] = torch.where(done[:, None], self.obs_buf, self.amp_obs[:, 0])
+        self.amp_obs[:, 1] = torch.where((done & from_clip)[:, None], history,
+                                         torch.where(done[:, None], self.obs_buf,
+                                                     self.amp_obs[:, 1]))
+        self.actions.masked_fill_(done[:, None], 0.0)
+        self.progress_buf.masked_fill_(done, 0)
+
+    def fetch_amp_obs_demo(self, n: int) -> torch.Tensor:
+        """n demo AMP observation pairs [n, 210] (a clip's frame at a random time and the frame
+        one control step earlier)."""
+        clips = self.motion.sample_clips(n)
+        times = self.motion.sample_times(clips)
+        pair = [self.motion.state(clips, times - k * self.dt) for k in (0, 1)]
+        return torch.cat([amp_observations(s.root_pos, s.root_rot, s.root_vel, s.root_ang_vel,
+                                           s.dof_pos, s.dof_vel, s.key_pos) for s in pair], -1)
