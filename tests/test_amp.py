@@ -3,6 +3,7 @@ humanoid's 15 bodies and 28 DoF, metric and z-up."""
 
 import importlib.util
 import json
+import math
 
 import mujoco
 import numpy as np
@@ -293,6 +294,7 @@ from importlib import resources  # noqa: E402
 
 from omegaconf import OmegaConf  # noqa: E402
 
+from myriad.rl.amp import AMPConfig, AMPDiscriminator  # noqa: E402
 from myriad.tasks.humanoid_amp import HumanoidAMP  # noqa: E402
 
 
@@ -346,3 +348,42 @@ def test_bad_task_settings_are_named(device):
         _task(device, stateInit="Sideways")
     with pytest.raises(ModelError, match="no such motion file"):
         _task(device, motion_file="/nowhere/clip.txt")
+
+
+def test_training_smoke_run_trains_the_discriminator_and_resumes(tmp_path):
+    """Two AMP epochs on 16 envs with small networks: the style reward and the discriminator's
+    loss reach the summary, the discriminator trained once per PPO minibatch and is in the
+    checkpoint, and a resumed run continues from it."""
+    from myriad import cli
+
+    small = ["train.params.network.mlp.units=[64,32]", "train.params.config.amp.units=[64,32]",
+             "train.params.config.minibatch_size=64", "train.params.config.amp.batch=32",
+             "train.params.config.amp.replay_size=1000"]
+    args = ["train", "task=HumanoidAMP", "num_envs=16", "max_iterations=2",
+            f"train_dir={tmp_path}", "experiment=amp", *small]
+    assert cli.main(args) == 0
+    summary = json.loads((tmp_path / "amp" / "summary.json").read_text())
+    assert summary["epochs"] == 2 and summary["env_steps"] == 16 * 16 * 2
+    assert summary["style_reward"] > 0 and math.isfinite(summary["disc_loss"])
+    checkpoint = torch.load(tmp_path / "amp" / "nn" / "last.pth", weights_only=False)
+    disc = checkpoint["amp"]["disc"]
+    fresh = AMPDiscriminator(210, AMPConfig(units=(64, 32))).state_dict()
+    assert disc["logit.weight"].shape == fresh["logit.weight"].shape
+    assert float(disc["count"]) > 1000                  # the normalizer saw the rollouts
+    steps = {int(v["step"]) for v in checkpoint["amp"]["optimizer"]["state"].values()}
+    assert steps == {2 * 6 * 4}     # Adam stepped: 2 epochs × 6 mini-epochs × 4 minibatches
+    resumed = ["train", "task=HumanoidAMP", "num_envs=16", "max_iterations=3",
+               f"train_dir={tmp_path}", f"checkpoint={tmp_path / 'amp' / 'nn' / 'last.pth'}",
+               *small]
+    assert cli.main(resumed) == 0
+    assert json.loads((tmp_path / "amp" / "summary.json").read_text())["epochs"] == 3
+
+
+def test_motion_file_is_a_top_level_key_with_clear_errors(tmp_path, capsys):
+    from myriad import cli
+
+    base = ["train", "num_envs=8", "max_iterations=1", f"train_dir={tmp_path}"]
+    assert cli.main([*base, "task=HumanoidAMP", "motion_file=/nowhere/clip.txt"]) != 0
+    assert "/nowhere/clip.txt: no such motion file" in capsys.readouterr().err
+    assert cli.main([*base, "task=Ant", "motion_file=walk"]) != 0
+    assert "motion_file=walk: task Ant takes no motion clips" in capsys.readouterr().err

@@ -157,6 +157,7 @@ TASKS = {   # few envs, short episodes: resets, time-outs and re-samples in a fe
     "Ingenuity": (randomization("ingenuity", "ingenuity/chassis", dofs=False),
                   dict(episodeLength=4, targetInterval=2)),
     "Anymal": (randomization("anymal", "anymal/base"), dict(episodeLength_s=0.06)),
+    "HumanoidAMP": (randomization("humanoid", "humanoid/pelvis"), dict(episodeLength=3)),
 }
 
 
@@ -164,6 +165,8 @@ TASKS = {   # few envs, short episodes: resets, time-outs and re-samples in a fe
 def test_task_step_never_reads_the_device(name):
     if name == "Anymal":
         pytest.importorskip("cmeel", reason="ANYmal needs example-robot-data")
+    if name == "HumanoidAMP":
+        pytest.importorskip("pybullet_data", reason="HumanoidAMP needs pybullet (.[amp])")
     torch.manual_seed(0)
     dr, overrides = TASKS[name]
     cfg = apply_overrides(task_config(name), {"numEnvs": 4, **overrides}, name)

@@ -133,3 +133,101 @@ class ReplayBuffer:
             raise ValueError("ReplayBuffer.sample: the buffer is empty")
         return self.data[torch.randint(0, self.held, (n,), device=self.data.device,
                                        generator=generator)]
+
+
+# ---------------------------------------------------------------------------- the agent
+from .train import MyriadAgent  # noqa: E402  (train imports rl_games; the parts above do not)
+
+AMP_METRICS = ("style_reward", "disc_loss", "demo_logit", "policy_logit")
+
+
+class AMPAgent(MyriadAgent):
+    """rl_games' PPO with Adversarial Motion Priors (the original's AMP agent, simplified where
+    said): each step's reward is task_reward_w × the task's + style_reward_w × the style reward
+    of the step's AMP pair under the current discriminator; after each rollout the
+    discriminator trains on the rollout's pairs, as many replayed ones and as many pairs drawn
+    from the clips (`task.fetch_amp_obs_demo`), in the PPO update's minibatches and epochs.
+
+    Deviations: the discriminator has its own Adam optimizer (same learning rate) instead of
+    sharing the policy's loss and optimizer; demo pairs are drawn from the motion library for
+    each minibatch instead of from a pre-filled buffer of them (the same distribution); the
+    replay buffer is not saved in checkpoints (a resumed run refills it)."""
+
+    def __init__(self, base_name, params):
+        settings = dict(params["config"].pop("amp"))
+        self.task_reward_w = float(settings.pop("task_reward_w"))
+        self.style_reward_w = float(settings.pop("style_reward_w"))
+        self.amp_batch = int(settings.pop("batch"))
+        learning_rate = float(settings.pop("learning_rate"))
+        self.amp_config = AMPConfig(**{k: tuple(v) if k == "units" else v
+                                       for k, v in settings.items()})
+        self.amp_stats = {name: 0.0 for name in AMP_METRICS}
+        super().__init__(base_name, params)
+        task = self.vec_env.env
+        if not hasattr(task, "fetch_amp_obs_demo"):
+            raise ValueError(f"task {type(task).__name__} has no motion clips: the AMP agent needs "
+                             "a task with fetch_amp_obs_demo (HumanoidAMP)")
+        self.num_amp_obs = task.fetch_amp_obs_demo(1).shape[1]
+        self.disc = AMPDiscriminator(self.num_amp_obs, self.amp_config).to(self.ppo_device)
+        self.disc_optimizer = torch.optim.Adam(self.disc.parameters(), lr=learning_rate)
+        self.replay = ReplayBuffer(self.amp_config.replay_size, self.num_amp_obs,
+                                   self.amp_config.replay_keep, self.ppo_device)
+        self.rollout_amp = []
+        self.rollout_style = []
+        sigma = getattr(self.model.a2c_network, "sigma", None)
+        if sigma is not None:       # the original keeps the policy's std at its start value
+            sigma.requires_grad_(False)
+
+    def task_metrics(self) -> dict[str, float]:
+        return {**super().task_metrics(), **self.amp_stats}
+
+    def env_step(self, actions):
+        obs, rewards, dones, infos = super().env_step(actions)
+        amp_obs = infos["amp_obs"]
+        style = style_reward(self.disc, amp_obs, self.amp_config)
+        self.rollout_amp.append(amp_obs)
+        self.rollout_style.append(style.mean())
+        rewards = self.task_reward_w * rewards + self.style_reward_w * style.unsqueeze(1)
+        return obs, rewards, dones, infos
+
+    def prepare_dataset(self, batch_dict):
+        super().prepare_dataset(batch_dict)
+        self.update_discriminator()
+
+    def update_discriminator(self) -> None:
+        policy = torch.cat(self.rollout_amp)
+        task = self.vec_env.env
+        self.disc.update_normalizer(torch.cat([policy, task.fetch_amp_obs_demo(len(policy))]))
+        per_minibatch = len(policy) // self.num_minibatches
+        rows = min(self.amp_batch, per_minibatch)
+        losses = []
+        for _ in range(self.mini_epochs_num):
+            order = torch.randperm(len(policy), device=policy.device)
+            for start in range(0, len(policy) - per_minibatch + 1, per_minibatch):
+                agent = policy[order[start:start + rows]]
+                if len(self.replay):
+                    agent = torch.cat([agent, self.replay.sample(rows)])
+                demo = task.fetch_amp_obs_demo(rows)
+                loss, terms = discriminator_loss(self.disc, agent, demo, self.amp_config)
+                self.disc_optimizer.zero_grad()
+                loss.backward()
+                self.disc_optimizer.step()
+                losses.append(torch.stack([loss.detach(), terms["demo_logit"],
+                                           terms["policy_logit"]]))
+        self.replay.add(policy)
+        mean = torch.stack(losses).mean(0).tolist()
+        self.amp_stats = {"style_reward": float(torch.stack(self.rollout_style).mean()),
+                          "disc_loss": mean[0], "demo_logit": mean[1], "policy_logit": mean[2]}
+        self.rollout_amp, self.rollout_style = [], []
+
+    def get_full_state_weights(self):
+        state = super().get_full_state_weights()
+        state["amp"] = {"disc": self.disc.state_dict(),
+                        "optimizer": self.disc_optimizer.state_dict()}
+        return state
+
+    def set_full_state_weights(self, weights, set_epoch=True):
+        super().set_full_state_weights(weights, set_epoch)
+        if "amp" in weights:
+            self.disc.load_state_dict(weights["amp"]["disc"])
+            self.disc_optimizer.load_state_dict(weights["amp"]["optimizer"])

@@ -214,6 +214,11 @@ def task_and_train_configs(cfg, overrides=()) -> tuple[dict, dict, str]:
             _merge(train_cfg["params"]["config"], cpu_train, "train.params.config", kept)
     if cfg.num_envs is not None:
         task_cfg["env"]["numEnvs"] = cfg.num_envs
+    if cfg.get("motion_file") is not None:
+        if "motion_file" not in task_cfg["env"]:
+            raise ValueError(f"motion_file={cfg.motion_file}: task {task_cfg['name']} takes no "
+                             "motion clips (HumanoidAMP does)")
+        task_cfg["env"]["motion_file"] = str(cfg.motion_file)
     env, ppo = task_cfg["env"], train_cfg["params"]["config"]
     for section, prefix, keys in ((env, "task.env", ("numEnvs", "episodeLength",
                                                      "controlFrequencyInv")),

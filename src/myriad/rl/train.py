@@ -333,8 +333,12 @@ def build_agent(task, train_cfg: dict, run: dict, seed: int):
     params = rl_games_params(train_cfg, task, run)
     params["seed"] = seed
     runner = Runner()
-    runner.algo_factory.register_builder("a2c_continuous",
-                                         lambda **kwargs: MyriadAgent(**kwargs))
+    if "amp" in params["config"]:            # Adversarial Motion Priors (HumanoidAMP)
+        from .amp import AMPAgent
+        agent_class = AMPAgent
+    else:
+        agent_class = MyriadAgent
+    runner.algo_factory.register_builder("a2c_continuous", lambda **kwargs: agent_class(**kwargs))
     runner.load({"params": params})
     return runner.algo_factory.create(runner.algo_name, base_name="run", params=runner.params)
 

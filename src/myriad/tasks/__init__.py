@@ -16,12 +16,13 @@ from .humanoid import Humanoid
 from .ingenuity import Ingenuity
 from .franka import FrankaCubeStack
 from .hands import AllegroHand, ShadowHand
+from .humanoid_amp import HumanoidAMP
 from .trifinger import Trifinger
 
 TASKS = {"Ant": Ant, "Anymal": Anymal, "Humanoid": Humanoid, "Ingenuity": Ingenuity,
          "ShadowHand": ShadowHand, "ShadowHandOpenAI_FF": ShadowHand,
          "ShadowHandOpenAI_LSTM": ShadowHand, "AllegroHand": AllegroHand,
-         "FrankaCubeStack": FrankaCubeStack, "Trifinger": Trifinger}
+         "FrankaCubeStack": FrankaCubeStack, "Trifinger": Trifinger, "HumanoidAMP": HumanoidAMP}
 
 
 def config_int(value, key: str, minimum: int | None = None) -> int:

@@ -11,8 +11,8 @@ paper's Table 8 counts 108, with 15 key-point values where the code has 4 key bo
     [65:93]    DoF velocities (28), as they are
     [93:105]   hands and feet relative to the root, in the heading frame (4 × 3)
 
-The AMP observation of a step is this frame and the one before it (210). The task is built but
-not yet registered with `myriad train`: the AMP agent that trains it is still to come.
+The AMP observation of a step is this frame and the one before it (210); `myriad train` trains
+the task with the AMP agent (`myriad.rl.amp`).
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ import torch
 from ..api import Scene
 from ..assets import (AMP_BODIES, AMP_KEY_BODIES, AMP_START_HEIGHT, amp_humanoid_gains,
                       amp_humanoid_spec)
-from ..torch_utils import env_mask, exp_map_to_quat, quat_from_angle_axis, quat_rotate, where_rows
+from ..torch_utils import (env_mask, exp_map_to_quat, quat_from_angle_axis, quat_rotate,
+                           unit_axis, where_rows)
 from .base import VecTask
 
 # (width, start) of each joint's DoF in the model's order: 3 for spherical joints, 1 for hinges
@@ -39,18 +40,16 @@ NUM_OBS = 1 + 6 + 3 + 3 + sum(6 if w == 3 else 1 for w, _ in DOF_GROUPS) + NUM_D
 
 def heading_inverse(rot: torch.Tensor) -> torch.Tensor:
     """The rotation about z that undoes `rot`'s heading (the yaw of its x axis)."""
-    x_axis = quat_rotate(rot, torch.tensor([1.0, 0.0, 0.0], device=rot.device).expand_as(rot[..., :3]))
+    x_axis = quat_rotate(rot, unit_axis(rot[..., :3], 0))
     heading = torch.atan2(x_axis[..., 1], x_axis[..., 0])
-    z = torch.tensor([0.0, 0.0, 1.0], device=rot.device).expand_as(x_axis)
-    return quat_from_angle_axis(-heading, z)
+    return quat_from_angle_axis(-heading, unit_axis(x_axis, 2))
 
 
 def tan_norm(rot: torch.Tensor) -> torch.Tensor:
     """[..., 6]: the rotated x axis and z axis, a continuous code of a rotation."""
-    shape = rot[..., :3]
-    x = quat_rotate(rot, torch.tensor([1.0, 0.0, 0.0], device=rot.device).expand_as(shape))
-    z = quat_rotate(rot, torch.tensor([0.0, 0.0, 1.0], device=rot.device).expand_as(shape))
-    return torch.cat([x, z], dim=-1)
+    like = rot[..., :3]
+    return torch.cat([quat_rotate(rot, unit_axis(like, 0)), quat_rotate(rot, unit_axis(like, 2))],
+                     dim=-1)
 
 
 def amp_observations(root_pos, root_rot, root_vel, root_ang_vel, dof_pos, dof_vel,
@@ -134,7 +133,8 @@ class HumanoidAMP(VecTask):
         self.reset_buf[:] = (fallen & (self.progress_buf > 1)).long()
         self.amp_obs[:, 1] = self.amp_obs[:, 0]
         self.amp_obs[:, 0] = self.obs_buf
-        self.extras["amp_obs"] = self.amp_obs.reshape(self.num_envs, -1)
+        # a copy: the reset that may follow in this step rewrites the history in place
+        self.extras["amp_obs"] = self.amp_obs.reshape(self.num_envs, -1).clone()
 
     def compute_observations(self):
         e = self.envs

@@ -211,7 +211,8 @@ class MotionLib:
         dof_pos = torch.zeros(len(clips), self.num_dof, device=self.device)
         for body, (name, axis) in self.joint.items():
             cut = self.dof_slice[name]
-            dof_pos[:, cut] = hinge[:, [HINGES.index(name)]] if axis is not None \
+            h = HINGES.index(name) if axis is not None else 0
+            dof_pos[:, cut] = hinge[:, h:h + 1] if axis is not None \
                 else quat_to_exp_map(local[:, body])
         return MotionState(
             root_pos=get["root_pos"][i0] * (1 - b) + get["root_pos"][i1] * b,
