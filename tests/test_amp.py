@@ -12,7 +12,8 @@ import torch
 
 import myriad
 from myriad.api import Scene
-from myriad.assets import AMP_KEY_BODIES, AMP_START_HEIGHT, amp_humanoid_gains, amp_humanoid_spec
+from myriad.assets import (AMP_DOFS, AMP_KEY_BODIES, AMP_START_HEIGHT, amp_humanoid_gains,
+                           amp_humanoid_spec)
 
 pytestmark = pytest.mark.skipif(importlib.util.find_spec("pybullet_data") is None,
                                 reason="pybullet (myriad[amp]) is not installed")
@@ -33,6 +34,7 @@ def test_bodies_and_dofs_are_the_original_amp_humanoids(model):
     for joint in DOF_ORDER:
         hinge = joint.endswith(("elbow", "knee"))
         expected += [joint] if hinge else [f"{joint}_{axis}" for axis in "xyz"]
+    assert [j for j, _ in AMP_DOFS] == DOF_ORDER and sum(w for _, w in AMP_DOFS) == 28
     assert names == expected
     assert model.body_mass.sum() == pytest.approx(45.0)            # the URDF's link masses
     assert all(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b) > 0 for b in AMP_KEY_BODIES)

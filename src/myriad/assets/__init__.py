@@ -327,6 +327,9 @@ AMP_BODIES = (
     ("left_hip", "left_thigh", "left_hip"), ("left_knee", "left_shin", "left_knee"),
     ("left_ankle", "left_foot", "left_ankle"))
 AMP_KEY_BODIES = ("right_hand", "left_hand", "right_foot", "left_foot")
+AMP_HINGES = ("right_elbow", "left_elbow", "right_knee", "left_knee")    # the 1-DoF joints
+# (joint, DoF count) in the model's order: 28 DoF in all
+AMP_DOFS = tuple((joint, 1 if joint in AMP_HINGES else 3) for _, _, joint in AMP_BODIES if joint)
 # PD drive gains per joint (stiffness N·m/rad, damping N·m·s/rad): the original's MJCF's
 AMP_PD_GAINS = {"abdomen": (600.0, 60.0), "neck": (50.0, 5.0), "shoulder": (200.0, 20.0),
                 "elbow": (150.0, 15.0), "hip": (300.0, 30.0), "knee": (300.0, 30.0),
@@ -335,11 +338,8 @@ AMP_PD_GAINS = {"abdomen": (600.0, 60.0), "neck": (50.0, 5.0), "shoulder": (200.
 
 def amp_humanoid_gains() -> tuple[list[float], list[float]]:
     """(stiffness, damping) of the 28 DoF in the model's order (AMP_PD_GAINS by joint)."""
-    gains = []
-    for _, _, joint in AMP_BODIES:
-        if joint is not None:
-            width = 1 if joint.endswith(("elbow", "knee")) else 3
-            gains += [AMP_PD_GAINS[joint.split("_")[-1]]] * width
+    gains = [AMP_PD_GAINS[joint.split("_")[-1]] for joint, width in AMP_DOFS
+             for _ in range(width)]
     return [kp for kp, _ in gains], [kd for _, kd in gains]
 
 

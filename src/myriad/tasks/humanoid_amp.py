@@ -17,24 +17,21 @@ the task with the AMP agent (`myriad.rl.amp`).
 
 from __future__ import annotations
 
+from itertools import accumulate
+
 import torch
 
 from ..api import Scene
-from ..assets import (AMP_BODIES, AMP_KEY_BODIES, AMP_START_HEIGHT, amp_humanoid_gains,
+from ..assets import (AMP_DOFS, AMP_KEY_BODIES, AMP_START_HEIGHT, amp_humanoid_gains,
                       amp_humanoid_spec)
 from ..torch_utils import (env_mask, exp_map_to_quat, quat_from_angle_axis, quat_rotate,
                            unit_axis, where_rows)
 from .base import VecTask
 
 # (width, start) of each joint's DoF in the model's order: 3 for spherical joints, 1 for hinges
-DOF_GROUPS = []
-_start = 0
-for _, _, _joint in AMP_BODIES:
-    if _joint is not None:
-        _width = 1 if _joint.endswith(("elbow", "knee")) else 3
-        DOF_GROUPS.append((_width, _start))
-        _start += _width
-NUM_DOF = _start                                     # 28
+_WIDTHS = [width for _, width in AMP_DOFS]
+DOF_GROUPS = list(zip(_WIDTHS, accumulate([0] + _WIDTHS)))
+NUM_DOF = sum(_WIDTHS)                               # 28
 NUM_OBS = 1 + 6 + 3 + 3 + sum(6 if w == 3 else 1 for w, _ in DOF_GROUPS) + NUM_DOF + 4 * 3   # 105
 
 

@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from ..assets import AMP_BODIES, AMP_KEY_BODIES, amp_humanoid_spec, installed_file, y_up_to_z_up
+from ..assets import (AMP_BODIES, AMP_HINGES, AMP_KEY_BODIES, amp_humanoid_spec, installed_file,
+                      y_up_to_z_up)
 from ..physics import ModelError
 from ..torch_utils import (quat_conjugate, quat_from_angle_axis, quat_mul, quat_rotate,
                            quat_to_exp_map, slerp)
@@ -30,7 +31,7 @@ from ..torch_utils import (quat_conjugate, quat_from_angle_axis, quat_mul, quat_
 # DeepMimic's joint order in a frame, after dt, root position and root rotation
 CLIP_JOINTS = ("abdomen", "neck", "right_hip", "right_knee", "right_ankle", "right_shoulder",
                "right_elbow", "left_hip", "left_knee", "left_ankle", "left_shoulder", "left_elbow")
-HINGES = ("right_elbow", "left_elbow", "right_knee", "left_knee")
+HINGES = AMP_HINGES
 FRAME_SIZE = 1 + 3 + 4 + sum(1 if j in HINGES else 4 for j in CLIP_JOINTS)     # 44
 
 

@@ -78,10 +78,6 @@ class Terrain:
     origins: np.ndarray             # [levels, types, 3] (m): each tile's start point
     kind: list = field(default_factory=list)    # KINDS index of each column
 
-    def world_to_grid(self, xy: torch.Tensor) -> torch.Tensor:
-        """Grid coordinates (continuous) of world points [..., 2]."""
-        return (xy + self.config.border) / self.config.horizontal_scale
-
 
 def column_kind(column: int, config: TerrainConfig) -> tuple[int, bool]:
     """(KINDS index, inverted) of a column: choice = column / types against the cumulative
