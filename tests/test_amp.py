@@ -229,20 +229,17 @@ def test_pd_drives_track_the_walk_with_the_root_held(device):
 
 
 # ---------------------------------------------------------------------------- AMP observation
-from myriad.tasks.humanoid_amp import NUM_OBS, amp_observations  # noqa: E402
+from myriad.tasks.humanoid_amp import NUM_OBS, clip_observations  # noqa: E402
 from myriad.torch_utils import quat_from_angle_axis, quat_rotate  # noqa: E402
 
 
-def _obs(state):
-    return amp_observations(state.root_pos, state.root_rot, state.root_vel, state.root_ang_vel,
-                            state.dof_pos, state.dof_vel, state.key_pos)
 
 
 def test_the_observation_is_the_originals_105_in_its_layout(lib):
     assert NUM_OBS == 105
     clips, times = _frame_times(lib, 0)
     state = lib.state(clips, times)
-    obs = _obs(state)
+    obs = clip_observations(state)
     assert obs.shape == (39, 105)
     torch.testing.assert_close(obs[:, 0], state.root_pos[:, 2])
     torch.testing.assert_close(obs[:, 65:93], state.dof_vel)
@@ -265,7 +262,7 @@ def test_the_observation_is_the_originals_105_in_its_layout(lib):
     at_rest = lib.state(clips[:1], times[:1])
     at_rest.root_rot[:] = torch.tensor([0.0, 0.0, 0.0, 1.0])
     at_rest.dof_pos.zero_()
-    rest = _obs(at_rest)[0]
+    rest = clip_observations(at_rest)[0]
     torch.testing.assert_close(rest[1:7], torch.tensor([1.0, 0, 0, 0, 0, 1]))
     dof_block = rest[13:65]
     assert dof_block.tolist().count(1.0) == 16 and dof_block.abs().sum() == 16   # 8 × (x̂, ẑ)
@@ -280,12 +277,12 @@ def test_the_observation_ignores_where_the_humanoid_stands_and_faces(lib):
     yaw = quat_from_angle_axis(torch.full((n,), 2.1), torch.tensor([[0.0, 0.0, 1.0]]).expand(n, 3))
     shift = torch.tensor([3.0, -7.0, 0.0])
     turn = lambda v: quat_rotate(yaw, v)
-    moved = _obs(type(state)(
+    moved = clip_observations(type(state)(
         root_pos=turn(state.root_pos) + shift, root_rot=quat_mul(yaw, state.root_rot),
         root_vel=turn(state.root_vel), root_ang_vel=turn(state.root_ang_vel),
         dof_pos=state.dof_pos, dof_vel=state.dof_vel,
         key_pos=quat_rotate(yaw[:, None].expand(-1, 4, -1), state.key_pos) + shift))
-    original = _obs(state)
+    original = clip_observations(state)
     torch.testing.assert_close(moved[:, 7:], original[:, 7:], atol=1e-5, rtol=0)
     torch.testing.assert_close(moved[:, 0], original[:, 0])
     assert not torch.allclose(moved[:, 1:7], original[:, 1:7])   # the world rotation is seen

@@ -63,6 +63,12 @@ def amp_observations(root_pos, root_rot, root_vel, root_ang_vel, dof_pos, dof_ve
                       local_keys.reshape(len(root_pos), -1)], dim=-1)
 
 
+def clip_observations(state) -> torch.Tensor:
+    """The frame [n, 105] of clip states (`motion.MotionState`)."""
+    return amp_observations(state.root_pos, state.root_rot, state.root_vel, state.root_ang_vel,
+                            state.dof_pos, state.dof_vel, state.key_pos)
+
+
 STATE_INITS = ("Default", "Start", "Random", "Hybrid")
 
 
@@ -157,10 +163,7 @@ class HumanoidAMP(VecTask):
                                 where_rows(from_clip, clip.dof_vel, zeros), done)
         # the AMP history: a clip reset's previous frame from the clip; a default reset's is
         # its first frame repeated (filled by the first step's shift)
-        before = self.motion.state(clips, times - self.dt)
-        history = amp_observations(before.root_pos, before.root_rot, before.root_vel,
-                                   before.root_ang_vel, before.dof_pos, before.dof_vel,
-                                   before.key_pos)
+        history = clip_observations(self.motion.state(clips, times - self.dt))
         self.compute_observations()
         self.amp_obs[:, 0] = torch.where(done[:, None], self.obs_buf, self.amp_obs[:, 0])
         self.amp_obs[:, 1] = torch.where((done & from_clip)[:, None], history,
@@ -174,6 +177,5 @@ class HumanoidAMP(VecTask):
         one control step earlier)."""
         clips = self.motion.sample_clips(n)
         times = self.motion.sample_times(clips)
-        pair = [self.motion.state(clips, times - k * self.dt) for k in (0, 1)]
-        return torch.cat([amp_observations(s.root_pos, s.root_rot, s.root_vel, s.root_ang_vel,
-                                           s.dof_pos, s.dof_vel, s.key_pos) for s in pair], -1)
+        return torch.cat([clip_observations(self.motion.state(clips, times - k * self.dt))
+                          for k in (0, 1)], -1)
