@@ -473,6 +473,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         hfield_size=_f32(m.hfield_size), hfield_nrow=_i32(m.hfield_nrow),
         hfield_ncol=_i32(m.hfield_ncol), hfield_adr=_i32(m.hfield_adr),
         hfield_data=_f32(m.hfield_data),
+        hfield_riser=np.zeros(m.nhfield, np.float32),   # MuJoCo has no risers: its surface
         site_body=_i32(m.site_bodyid - 1), site_pos=_f32(m.site_pos), site_quat=_xyzw(m.site_quat),
         site_type=_i32(m.site_type), site_size=_f32(m.site_size),
         actuator_kind=kind, actuator_dof=actuator_dof, actuator_gear=_f32(gear),

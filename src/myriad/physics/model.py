@@ -112,6 +112,11 @@ class Model:
     hfield_ncol: np.ndarray          # [nhfield]
     hfield_adr: np.ndarray           # [nhfield]
     hfield_data: np.ndarray          # [sum nrow*ncol] heights in [0, 1], scaled by hfield_size[2]
+    hfield_riser: np.ndarray         # [nhfield] float32, metres: a height difference between
+                                     # neighbouring samples (along x, y or the cell's diagonal)
+                                     # above this is a vertical wall (0: off, MuJoCo's
+                                     # triangulated surface); precisely, a cell's corners higher
+                                     # than its lowest by more (collision.heightfield)
 
     # sites
     site_body: np.ndarray            # [nsite] -1 = world

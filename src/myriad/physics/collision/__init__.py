@@ -46,4 +46,5 @@ def shape_data(model, device) -> tuple[Meshes, HFields]:
     hfields.ncol = arr(model.hfield_ncol, wp.int32)
     hfields.adr = arr(model.hfield_adr, wp.int32)
     hfields.data = arr(model.hfield_data, wp.float32)
+    hfields.riser = arr(model.hfield_riser, wp.float32)
     return meshes, hfields

@@ -5,6 +5,22 @@ terrain first (a sphere's center, a capsule's segment ends and middle, a box's c
 cylinder's rims, an ellipsoid's support point, a mesh's vertices) each look up the triangle
 under them and measure their distance along its normal. This is the classic terrain test for
 legged robots; it is exact on a triangle's face and approximates where a shape straddles a crease.
+
+Risers (`HFields.riser`, opt-in per height field; 0: MuJoCo's surface): on a coarse grid a
+stair step is a steep ramp one cell wide, which feet slide up and sink into. Isaac Gym's
+terrain (`convert_heightfield_to_trimesh`, slope_threshold) makes such faces vertical walls, and
+so does this: in a cell where a corner stands higher than the cell's lowest corner by more than
+the riser height (along x, y or a diagonal), that corner is a cliff top; the cell's floor is
+built with the cliff tops lowered to the lowest corner (a gentle slope between the other
+corners still tilts it), so the lower floor runs under the whole cell and the wall stands on the
+grid line of the high samples, where the next cell (all high) carries the top. Each cell edge
+between two cliff tops is a wall from the floor up to the edge's heights; a single cliff top is
+a post, the end of the walls of the neighbouring cells. Round probes (sphere centers, capsule
+points) also meet the nearest wall or post of their cell (`riser_contact`): sideways while below
+its top, at its top edge above. Points of radius 0 (box corners, cylinder rims, mesh vertices,
+the ellipsoid's support point) meet only the floor of the cell they are over, on either side of
+a step, which is the stepped surface seen from above: a corner pushed past a riser is lifted
+onto the top.
 """
 
 import warp as wp
@@ -20,6 +36,7 @@ class HFields:
     ncol: wp.array(dtype=wp.int32)    # columns run along x
     adr: wp.array(dtype=wp.int32)
     data: wp.array(dtype=float)       # heights in [0, 1], times the top height
+    riser: wp.array(dtype=float)      # m: a steeper rise in a cell is a vertical wall; 0: none
 
 
 @wp.func
@@ -28,9 +45,9 @@ def _height(hf: HFields, h: int, i: int, j: int):
 
 
 @wp.func
-def surface(hf: HFields, h: int, x: wp.transform, point: wp.vec3):
-    """(found, up normal in the world, signed distance of `point` above the triangle under it)."""
-    local = wp.transform_point(wp.transform_inverse(x), point)
+def _cell(hf: HFields, h: int, local: wp.vec3):
+    """(found, row i, column j, fractions u, v of the cell along x and y, (x0, y0, dx, dy): its
+    corner (i, j) and size) of the cell under `local` (in the height field's frame)."""
     size = hf.size[h]
     nrow = hf.nrow[h]
     ncol = hf.ncol[h]
@@ -39,23 +56,112 @@ def surface(hf: HFields, h: int, x: wp.transform, point: wp.vec3):
     fx = (local[0] + size[0]) / dx
     fy = (local[1] + size[1]) / dy
     if fx < 0.0 or fy < 0.0 or fx > float(ncol - 1) or fy > float(nrow - 1):
-        return 0, wp.vec3(), 0.0
+        return 0, 0, 0, 0.0, 0.0, wp.vec4()
     j = wp.min(int(fx), ncol - 2)
     i = wp.min(int(fy), nrow - 2)
-    u = fx - float(j)
-    v = fy - float(i)
-    x0 = -size[0] + float(j) * dx
-    y0 = -size[1] + float(i) * dy
-    p00 = wp.vec3(x0, y0, _height(hf, h, i, j))
-    p11 = wp.vec3(x0 + dx, y0 + dy, _height(hf, h, i + 1, j + 1))
+    return 1, i, j, fx - float(j), fy - float(i), wp.vec4(-size[0] + float(j) * dx,
+                                                          -size[1] + float(i) * dy, dx, dy)
+
+
+@wp.func
+def _corners(hf: HFields, h: int, i: int, j: int):
+    """Heights of cell (i, j)'s corners, counterclockwise from (i, j): (i, j), (i, j+1),
+    (i+1, j+1), (i+1, j)."""
+    return wp.vec4(_height(hf, h, i, j), _height(hf, h, i, j + 1),
+                   _height(hf, h, i + 1, j + 1), _height(hf, h, i + 1, j))
+
+
+@wp.func
+def _corner(cell: wp.vec4, k: int):
+    """(x, y) of corner k (`_corners`' order) of the cell (x0, y0, dx, dy)."""
+    return wp.vec2(cell[0] + cell[2] * float((k + 1) // 2 % 2), cell[1] + cell[3] * float(k // 2))
+
+
+@wp.func
+def _lowest(c: wp.vec4):
+    return wp.min(wp.min(c[0], c[1]), wp.min(c[2], c[3]))
+
+
+@wp.func
+def surface(hf: HFields, h: int, x: wp.transform, point: wp.vec3):
+    """(found, up normal in the world, signed distance of `point` above the triangle under it)."""
+    local = wp.transform_point(wp.transform_inverse(x), point)
+    found, i, j, u, v, cell = _cell(hf, h, local)
+    if found == 0:
+        return 0, wp.vec3(), 0.0
+    x0 = cell[0]
+    y0 = cell[1]
+    dx = cell[2]
+    dy = cell[3]
+    c = _corners(hf, h, i, j)
+    riser = hf.riser[h]
+    if riser > 0.0:
+        # the floor of a steep cell: its cliff tops lowered to the lowest corner (module doc)
+        low = _lowest(c)
+        for k in range(4):
+            if c[k] > low + riser:
+                c[k] = low
+    p00 = wp.vec3(x0, y0, c[0])
+    p11 = wp.vec3(x0 + dx, y0 + dy, c[2])
     # each cell is split along its (i, j) - (i+1, j+1) diagonal
-    other = wp.vec3(x0 + dx, y0, _height(hf, h, i, j + 1))
+    other = wp.vec3(x0 + dx, y0, c[1])
     if v > u:
-        other = wp.vec3(x0, y0 + dy, _height(hf, h, i + 1, j))
+        other = wp.vec3(x0, y0 + dy, c[3])
     n = wp.normalize(wp.cross(p11 - p00, other - p00))
     if n[2] < 0.0:
         n = -n
     return 1, wp.quat_rotate(wp.transform_get_rotation(x), n), wp.dot(local - p00, n)
+
+
+@wp.func
+def riser_contact(hf: HFields, h: int, x: wp.transform, point: wp.vec3):
+    """(found, normal in the world, distance of `point`) to the nearest riser wall of the cell
+    under it (found = 0 where the cell has no cliff top; call only where hf.riser[h] > 0).
+
+    A cell edge between two cliff tops is a wall on the edge's grid line, from the floor up to
+    the straight line between the two tops; an edge with one cliff top ends at a post (a vertical
+    segment up to that top) at the corner: the end of the walls that the neighbouring cells carry,
+    which a point in this cell can be nearer to than to any of its own. The point lies inside the
+    cell, on the walls' low side. Below a wall's top the distance is horizontal and the normal
+    points from the wall into the cell; above it, both go from the top edge to the point, so that
+    a foot rolls over a ledge instead of snagging on it."""
+    local = wp.transform_point(wp.transform_inverse(x), point)
+    inside, i, j, u, v, cell = _cell(hf, h, local)
+    if inside == 0:
+        return 0, wp.vec3(), 0.0
+    c = _corners(hf, h, i, j)
+    top = _lowest(c) + hf.riser[h]
+    found = int(0)
+    best = float(0.0)
+    normal = wp.vec3()
+    for k in range(4):
+        # edge k runs counterclockwise from corner k to corner k + 1
+        k1 = (k + 1) % 4
+        if c[k] > top or c[k1] > top:
+            a = _corner(cell, k)
+            edge = _corner(cell, k1) - a
+            t = float(0.0)      # the post at corner k
+            if c[k] <= top:
+                t = 1.0         # the post at corner k + 1
+            elif c[k1] > top:   # the wall: the point's foot on the edge
+                t = wp.clamp(wp.dot(wp.vec2(local[0], local[1]) - a, edge) / wp.dot(edge, edge),
+                             0.0, 1.0)
+            q = a + edge * t
+            height = c[k] + (c[k1] - c[k]) * t
+            d = wp.vec3(local[0] - q[0], local[1] - q[1], 0.0)
+            if local[2] > height:
+                d = wp.vec3(d[0], d[1], local[2] - height)
+            dist = wp.length(d)
+            n = wp.vec3()
+            if dist > 1.0e-9:
+                n = d / dist
+            else:   # on the wall's line: out of it, into the cell
+                n = wp.normalize(wp.vec3(-edge[1], edge[0], 0.0))
+            if found == 0 or dist < best:
+                found = 1
+                best = dist
+                normal = n
+    return found, wp.quat_rotate(wp.transform_get_rotation(x), normal), best
 
 
 @wp.func

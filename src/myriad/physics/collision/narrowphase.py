@@ -22,7 +22,7 @@ from ..structs import Contacts, EnvParams, ModelArrays, State
 from ..types import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPHERE
 from .convex import (Meshes, bounding_box, bounding_radius, box_corner, boxes_apart,
                      convex_contact, mat43, support)
-from .heightfield import HFields, ellipsoid_probe, probe_point, surface
+from .heightfield import HFields, ellipsoid_probe, probe_point, riser_contact, surface
 
 
 # probes per shape against a height field (see heightfield.probe_point); meshes: at most this many
@@ -773,6 +773,7 @@ def _collide_pair(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.trans
             if found != 0:
                 _emit(e, pair, p * 32, point - n * (0.5 * dist), n, dist, margin, out)
         else:
+            riser = hfields.riser[h]
             for k in range(HFIELD_PROBES):
                 valid, point, radius = probe_point(t2, s2, geom_dataid[g2], meshes, x2, k)
                 if valid != 0:
@@ -781,6 +782,15 @@ def _collide_pair(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.trans
                         dist = height - radius
                         _emit(e, pair, p * 32 + k, point - n * (radius + 0.5 * dist), n, dist,
                               margin, out)
+                    # a round probe also meets the nearest riser wall of its cell (radius 0:
+                    # the floor alone, see heightfield); its key p * 32 + 16 + k stays apart
+                    # from the floor's, as spheres and capsules have at most 3 probes
+                    if riser > 0.0 and radius > 0.0:
+                        wall, wn, gap = riser_contact(hfields, h, x1, point)
+                        if wall != 0:
+                            dist = gap - radius
+                            _emit(e, pair, p * 32 + 16 + k, point - wn * (radius + 0.5 * dist),
+                                  wn, dist, margin, out)
     elif t1 == SPHERE and t2 != SPHERE and t2 != CAPSULE and t2 != BOX:
         _convex(e, pair, p * 32, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
                 margin, out)
