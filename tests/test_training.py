@@ -32,6 +32,10 @@ def test_train_writes_checkpoint_summary_and_curve_then_resumes(tmp_path, device
     for key in ("wall_s", "mean_reward", "best_mean_reward", "physics_s", "policy_s", "update_s"):
         assert key in summary
     assert summary["wall_s"] > 0 and summary["physics_s"] > 0 and summary["update_s"] > 0
+    # the split accounts for the epochs' time, on a GPU too (CUDA events there, not host timers
+    # that see only the launches): no part negative, together at most the wall time
+    split = [summary[k] for k in ("physics_s", "policy_s", "update_s")]
+    assert min(split) >= 0 and sum(split) <= summary["wall_s"] + 0.02, summary
     assert (folder / "nn" / "last.pth").is_file()
     assert not [p for p in os.listdir(folder / "nn") if ".tmp" in p], "no half-written files"
     curve = (folder / "progress.csv").read_text().splitlines()

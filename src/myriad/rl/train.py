@@ -53,14 +53,61 @@ def atomic_json(path: str, data: dict) -> None:
     atomic_write(path, write)
 
 
+class EpochClock:
+    """Where an epoch's time went: physics (the env steps), policy (the rest of the rollout:
+    acting, storing) and update (PPO's, and the AMP discriminator's).
+
+    On a CPU, rl_games' host timers say it. On a GPU they do not: work is queued, an env step
+    returns before its kernels run, and the wait lands in whatever next reads a result (the
+    policy's rollout, mostly). There the split comes from CUDA events recorded on the stream
+    that the step's Warp launches are ordered on, read once per epoch."""
+
+    def __init__(self, device):
+        self.cuda = torch.device(device).type == "cuda"
+        self.steps: list[tuple[torch.cuda.Event, torch.cuda.Event]] = []
+        self.marks: dict[str, torch.cuda.Event] = {}
+
+    def _event(self):
+        event = torch.cuda.Event(enable_timing=True)
+        event.record()
+        return event
+
+    def mark(self, name: str) -> None:
+        if self.cuda:
+            self.marks[name] = self._event()
+
+    def step(self, run_step):
+        if not self.cuda:
+            return run_step()
+        begin = self._event()
+        out = run_step()
+        self.steps.append((begin, self._event()))
+        return out
+
+    def split(self, step_time: float, play_time: float, update_time: float):
+        """(physics_s, policy_s, update_s) of the epoch that just ended (marks "play",
+        "played" and "end"), from the host timers on a CPU, from the events on a GPU."""
+        if not self.cuda or not {"play", "played", "end"} <= self.marks.keys():
+            self.steps.clear()
+            return step_time, play_time - step_time, update_time
+        self.marks["end"].synchronize()
+        physics = sum(a.elapsed_time(b) for a, b in self.steps) / 1e3
+        play = self.marks["play"].elapsed_time(self.marks["played"]) / 1e3
+        update = self.marks["played"].elapsed_time(self.marks["end"]) / 1e3
+        self.steps.clear()
+        self.marks.clear()
+        return physics, play - physics, update
+
+
 class MyriadVecEnv(vecenv.IVecEnv):
     """rl_games' view of a `VecTask` (already batched and on the device: nothing to convert)."""
 
     def __init__(self, config_name, num_actors, **kwargs):
         self.env = env_configurations.configurations[config_name]["env_creator"](**kwargs)
+        self.clock = EpochClock(self.env.device)
 
     def step(self, actions):
-        return self.env.step(actions)
+        return self.clock.step(lambda: self.env.step(actions))
 
     def reset(self):
         return self.env.reset()
@@ -220,6 +267,18 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         return super().update_epoch()
 
     # ---------------------------------------------------------------- one epoch
+    def play_steps(self):
+        self.vec_env.clock.mark("play")
+        batch = super().play_steps()
+        self.vec_env.clock.mark("played")
+        return batch
+
+    def play_steps_rnn(self):
+        self.vec_env.clock.mark("play")
+        batch = super().play_steps_rnn()
+        self.vec_env.clock.mark("played")
+        return batch
+
     def train_epoch(self):
         try:
             out = super().train_epoch()
@@ -227,10 +286,12 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             if not self.weights_finite():    # e.g. torch refusing to sample from a NaN std
                 self.raise_diverged()
             raise
+        self.vec_env.clock.mark("end")
         step_time, play_time, update_time, total_time = out[:4]
-        self.time_split["physics_s"] += step_time
-        self.time_split["policy_s"] += play_time - step_time
-        self.time_split["update_s"] += update_time
+        physics_s, policy_s, update_s = self.vec_env.clock.split(step_time, play_time, update_time)
+        self.time_split["physics_s"] += physics_s
+        self.time_split["policy_s"] += policy_s
+        self.time_split["update_s"] += update_s
         # rl_games adds this epoch's env-steps to self.frame only after we return: checkpoints
         # saved from here on must count them already
         self.frames_not_counted = self.curr_frames
@@ -263,8 +324,8 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         with open(self.curve_path, "a", newline="") as f:
             csv.writer(f).writerow([self.epoch_num, env_steps, f"{wall:.2f}",
                                     "" if mean is None else f"{mean:.3f}", f"{rate:.0f}",
-                                    f"{step_time:.4f}", f"{play_time - step_time:.4f}",
-                                    f"{update_time:.4f}", bad_now]
+                                    f"{physics_s:.4f}", f"{policy_s:.4f}",
+                                    f"{update_s:.4f}", bad_now]
                                    + [f"{self.metrics.get(k, math.nan):.4f}"
                                       for k in self.metric_names])
         if not self.weights_finite():
