@@ -44,6 +44,7 @@ class Scene:
     def __init__(self):
         self.actors: list[Actor] = []
         self.ground: dict | None = None
+        self.terrain: dict | None = None
 
     def add_ground(self, friction: float = 1.0, restitution: float = 0.0) -> "Scene":
         """A static plane z = 0 that every actor collides with."""
@@ -51,6 +52,27 @@ class Scene:
             raise ValueError(f"add_ground: friction={friction} must be >= 0 and "
                              f"restitution={restitution} in [0, 1]")
         self.ground = {"friction": float(friction), "restitution": float(restitution)}
+        return self
+
+    def add_terrain(self, heights, horizontal_scale: float, origin=(0.0, 0.0),
+                    friction: float = 1.0, riser: float = 0.0) -> "Scene":
+        """A static height field that every actor collides with (rough terrain; in place of the
+        ground or beside it): `heights` [nx, ny] (m), sample (i, j) at world
+        (origin[0] + i·horizontal_scale, origin[1] + j·horizontal_scale). One copy is shared by
+        all envs; it does not bounce (restitution 0). `riser` (m): a height step between
+        neighbouring samples larger than this is a vertical wall on the higher sample's grid
+        line (the original's slope threshold × grid spacing), not a steep ramp; 0 keeps
+        MuJoCo's triangulated surface."""
+        heights = np.asarray(heights, dtype=np.float64)
+        if heights.ndim != 2 or min(heights.shape) < 2 or not np.isfinite(heights).all():
+            raise ValueError(f"add_terrain: heights must be a finite [nx, ny] grid with nx, ny "
+                             f">= 2, not shape {heights.shape}")
+        if not (horizontal_scale > 0 and friction >= 0 and riser >= 0):
+            raise ValueError(f"add_terrain: horizontal_scale={horizontal_scale} must be > 0, "
+                             f"friction={friction} >= 0 and riser={riser} >= 0")
+        self.terrain = {"heights": heights, "horizontal_scale": float(horizontal_scale),
+                        "origin": tuple(float(o) for o in origin), "friction": float(friction),
+                        "riser": float(riser)}
         return self
 
     def add_actor(self, name: str, path: str | os.PathLike | mujoco.MjSpec, pos=None, quat=(0, 0, 0, 1),
@@ -122,10 +144,33 @@ class Scene:
             spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE,
                                     size=[500, 500, 1], material="ground",
                                     friction=[self.ground["friction"], 0.005, 0.0001])
+        if self.terrain is not None:
+            self._add_terrain(spec, self.terrain)
         drives = {}
         for actor in self.actors:
             drives[actor.name] = self._attach(spec, actor)
         return spec, drives
+
+    @staticmethod
+    def _add_terrain(spec: mujoco.MjSpec, terrain: dict) -> None:
+        """MuJoCo's hfield: rows run along y and elevations are stored normalized to [0, 1],
+        scaled by the top height and raised by the geom's z."""
+        heights, step = terrain["heights"], terrain["horizontal_scale"]
+        low, span = heights.min(), max(float(np.ptp(heights)), 1e-6)
+        half = ((heights.shape[0] - 1) * step / 2, (heights.shape[1] - 1) * step / 2)
+        spec.add_texture(name="terrain", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                         builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.42, 0.45, 0.5],
+                         rgb2=[0.34, 0.37, 0.42], width=64, height=64)
+        spec.add_material(name="terrain", textures=["", "terrain"],
+                          texrepeat=[heights.shape[0] * step, heights.shape[1] * step])
+        spec.add_hfield(name="terrain", nrow=heights.shape[1], ncol=heights.shape[0],
+                        size=[half[0], half[1], span, 1.0],
+                        userdata=((heights.T - low) / span).ravel().tolist())
+        spec.worldbody.add_geom(name="terrain", type=mujoco.mjtGeom.mjGEOM_HFIELD,
+                                hfieldname="terrain", material="terrain",
+                                pos=[terrain["origin"][0] + half[0],
+                                     terrain["origin"][1] + half[1], low],
+                                friction=[terrain["friction"], 0.005, 0.0001])
 
     def _attach(self, spec: mujoco.MjSpec, actor: Actor) -> list[str]:
         if isinstance(actor.path, mujoco.MjSpec):
@@ -212,6 +257,8 @@ class Scene:
         except Exception as err:
             raise ModelError(f"scene {spec.modelname!r}: MuJoCo rejected it: {err}") from err
         model: Model = from_mujoco(mj_model, source=f"scene {spec.modelname!r}")
+        if self.terrain is not None and self.terrain["riser"] > 0:
+            model.hfield_riser[:] = self.terrain["riser"]
         if fix_model is not None:
             fix_model(model)
         return Envs(model, self.actors, drives, self.ground, num_envs, device, params)

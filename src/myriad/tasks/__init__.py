@@ -11,6 +11,7 @@ from omegaconf import OmegaConf
 
 from .ant import Ant
 from .anymal import Anymal
+from .anymal_terrain import AnymalTerrain
 from .base import VecTask
 from .humanoid import Humanoid
 from .ingenuity import Ingenuity
@@ -19,7 +20,7 @@ from .hands import AllegroHand, ShadowHand
 from .humanoid_amp import HumanoidAMP
 from .trifinger import Trifinger
 
-TASKS = {"Ant": Ant, "Anymal": Anymal, "Humanoid": Humanoid, "Ingenuity": Ingenuity,
+TASKS = {"Ant": Ant, "Anymal": Anymal, "AnymalTerrain": AnymalTerrain, "Humanoid": Humanoid, "Ingenuity": Ingenuity,
          "ShadowHand": ShadowHand, "ShadowHandOpenAI_FF": ShadowHand,
          "ShadowHandOpenAI_LSTM": ShadowHand, "AllegroHand": AllegroHand,
          "FrankaCubeStack": FrankaCubeStack, "Trifinger": Trifinger, "HumanoidAMP": HumanoidAMP}

@@ -2,7 +2,8 @@
 
 One `step(actions)`:
   1. clip the actions to ±clipActions; `pre_physics_step(actions)` turns them into inputs
-  2. `controlFrequencyInv` physics steps
+  2. `controlFrequencyInv` physics steps, each after `apply_control()` (a control law that runs
+     at the physics rate: AnymalTerrain's PD torques)
   3. `progress_buf += 1`; `post_physics_step()` computes observations, rewards and terminations
   4. envs that terminated or reached `episodeLength` steps are reset (`reset_idx`), and their
      observations recomputed, so the returned observation of a finished env is the first of its
@@ -147,6 +148,11 @@ class VecTask:
     def pre_physics_step(self, actions: torch.Tensor) -> None:
         raise NotImplementedError
 
+    def apply_control(self) -> None:
+        """Before each physics step of an env step: write inputs that follow the state at the
+        physics rate (torques of a PD law computed in the task). Most tasks set their inputs
+        once in pre_physics_step and leave this empty."""
+
     def post_physics_step(self) -> None:
         """Fill obs_buf, rew_buf and reset_buf (terminations; time-outs are added by step)."""
         raise NotImplementedError
@@ -178,6 +184,7 @@ class VecTask:
         actions = torch.clamp(actions, -self.clip_actions, self.clip_actions)
         self.pre_physics_step(actions)
         for i in range(self.control_freq_inv):
+            self.apply_control()
             if dr is not None:
                 dr.apply_random_forces(new_draws=i == 0)
             self.envs.step()
