@@ -20,7 +20,7 @@ points) also meet the nearest wall or post of their cell (`riser_contact`): side
 its top, at its top edge above. Points of radius 0 (box corners, cylinder rims, mesh vertices,
 the ellipsoid's support point) meet only the floor of the cell they are over, on either side of
 a step, which is the stepped surface seen from above: a corner pushed past a riser is lifted
-onto the top.
+onto the top, unless it is nearer the riser's face than the top (then it leaves sideways).
 """
 
 import warp as wp
@@ -55,7 +55,8 @@ def _cell(hf: HFields, h: int, local: wp.vec3):
     dy = 2.0 * size[1] / float(nrow - 1)
     fx = (local[0] + size[0]) / dx
     fy = (local[1] + size[1]) / dy
-    if fx < 0.0 or fy < 0.0 or fx > float(ncol - 1) or fy > float(nrow - 1):
+    # written so that NaN (a blown-up body) is outside too: int(NaN) would index anywhere
+    if not (fx >= 0.0 and fy >= 0.0 and fx <= float(ncol - 1) and fy <= float(nrow - 1)):
         return 0, 0, 0, 0.0, 0.0, wp.vec4()
     j = wp.min(int(fx), ncol - 2)
     i = wp.min(int(fy), nrow - 2)
@@ -110,7 +111,69 @@ def surface(hf: HFields, h: int, x: wp.transform, point: wp.vec3):
     n = wp.normalize(wp.cross(p11 - p00, other - p00))
     if n[2] < 0.0:
         n = -n
-    return 1, wp.quat_rotate(wp.transform_get_rotation(x), n), wp.dot(local - p00, n)
+    dist = wp.dot(local - p00, n)
+    if riser > 0.0 and dist < 0.0:
+        # a point sunk into a step's top beside its riser (a shank's corner that crossed the
+        # riser's line from the low side) leaves sideways when that is shorter than up: lifted
+        # onto the top instead, it was kicked up to a step's height at once
+        for side in range(4):
+            depth, out, low = _riser_side(hf, h, i, j, side, local, cell)
+            if depth >= 0.0 and depth < -dist and local[2] > low:
+                dist = -depth
+                n = out
+    return 1, wp.quat_rotate(wp.transform_get_rotation(x), n), dist
+
+
+@wp.func
+def _sample(hf: HFields, h: int, i: int, j: int, outside: float):
+    """Height of sample (i, j), or `outside` past the grid's edge."""
+    if i < 0 or j < 0 or i >= hf.nrow[h] or j >= hf.ncol[h]:
+        return outside
+    return _height(hf, h, i, j)
+
+
+@wp.func
+def _riser_side(hf: HFields, h: int, i: int, j: int, side: int, local: wp.vec3, cell: wp.vec4):
+    """(how far `local` is inside from edge `side` of cell (i, j): 0 -x, 1 +x, 2 -y, 3 +y;
+    the outward normal; the floor beyond it) where that edge tops a riser down to the next cell
+    (both its samples higher than the samples beyond by more than the riser), else depth -1."""
+    a_i = i
+    a_j = j
+    b_i = i + 1
+    b_j = j
+    di = 0
+    dj = -1
+    depth = local[0] - cell[0]
+    out = wp.vec3(-1.0, 0.0, 0.0)
+    if side == 1:
+        a_j = j + 1
+        b_j = j + 1
+        dj = 1
+        depth = cell[0] + cell[2] - local[0]
+        out = wp.vec3(1.0, 0.0, 0.0)
+    elif side == 2:
+        b_i = i
+        b_j = j + 1
+        di = -1
+        dj = 0
+        depth = local[1] - cell[1]
+        out = wp.vec3(0.0, -1.0, 0.0)
+    elif side == 3:
+        a_i = i + 1
+        b_i = i + 1
+        b_j = j + 1
+        di = 1
+        dj = 0
+        depth = cell[1] + cell[3] - local[1]
+        out = wp.vec3(0.0, 1.0, 0.0)
+    top_a = _height(hf, h, a_i, a_j)
+    top_b = _height(hf, h, b_i, b_j)
+    below_a = _sample(hf, h, a_i + di, a_j + dj, top_a)
+    below_b = _sample(hf, h, b_i + di, b_j + dj, top_b)
+    riser = hf.riser[h]
+    if top_a - below_a > riser and top_b - below_b > riser:
+        return depth, out, wp.max(below_a, below_b)
+    return -1.0, out, 0.0
 
 
 @wp.func
