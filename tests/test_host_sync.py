@@ -158,12 +158,14 @@ TASKS = {   # few envs, short episodes: resets, time-outs and re-samples in a fe
                   dict(episodeLength=4, targetInterval=2)),
     "Anymal": (randomization("anymal", "anymal/base"), dict(episodeLength_s=0.06)),
     "HumanoidAMP": (randomization("humanoid", "humanoid/pelvis"), dict(episodeLength=3)),
+    "AnymalTerrain": (randomization("anymal", "anymal/base"),
+                      dict(episodeLength_s=0.06, pushInterval_s=0.04)),
 }
 
 
 @pytest.mark.parametrize("name", list(TASKS))
 def test_task_step_never_reads_the_device(name):
-    if name == "Anymal":
+    if name in ("Anymal", "AnymalTerrain"):
         pytest.importorskip("cmeel", reason="ANYmal needs example-robot-data")
     if name == "HumanoidAMP":
         pytest.importorskip("pybullet_data", reason="HumanoidAMP needs pybullet (.[amp])")

@@ -112,6 +112,7 @@ class AnymalTerrain(VecTask):
         self.feet_air_time = torch.zeros(N, len(self.feet), device=dev)
         self.measured_heights = torch.zeros(N, len(self.height_points), device=dev)
         self.gravity_dir = torch.tensor([0.0, 0.0, -1.0], device=dev).expand(N, 3)
+        self.forward_axis = torch.tensor([1.0, 0.0, 0.0], device=dev).expand(N, 3)
         self.noise_scale = self._noise_scale()
         self.push_every = max(1, round(env["pushInterval_s"] / self.dt))
         self.steps_taken = 0          # the one push counter, on the host: no device read
@@ -161,8 +162,7 @@ class AnymalTerrain(VecTask):
         if self.steps_taken % self.push_every == 0:
             self.push_robots()
         base = e.root_states[:, 0]
-        forward = quat_rotate(base[:, 3:7], torch.tensor([1.0, 0.0, 0.0], device=self.device)
-                              .expand(self.num_envs, 3))
+        forward = quat_rotate(base[:, 3:7], self.forward_axis)
         heading = torch.atan2(forward[:, 1], forward[:, 0])
         self.commands[:, 2] = torch.clamp(0.5 * wrap_angle(self.heading_command - heading),
                                           -1.0, 1.0)
