@@ -158,11 +158,7 @@ class Scene:
         heights, step = terrain["heights"], terrain["horizontal_scale"]
         low, span = heights.min(), max(float(np.ptp(heights)), 1e-6)
         half = ((heights.shape[0] - 1) * step / 2, (heights.shape[1] - 1) * step / 2)
-        spec.add_texture(name="terrain", type=mujoco.mjtTexture.mjTEXTURE_2D,
-                         builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.42, 0.45, 0.5],
-                         rgb2=[0.34, 0.37, 0.42], width=64, height=64)
-        spec.add_material(name="terrain", textures=["", "terrain"],
-                          texrepeat=[heights.shape[0] * step, heights.shape[1] * step])
+        spec.add_material(name="terrain", rgba=[0.42, 0.45, 0.5, 1.0], specular=0.1)
         spec.add_hfield(name="terrain", nrow=heights.shape[1], ncol=heights.shape[0],
                         size=[half[0], half[1], span, 1.0],
                         userdata=((heights.T - low) / span).ravel().tolist())
