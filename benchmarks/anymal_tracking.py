@@ -1,6 +1,12 @@
 """How well a trained ANYmal policy tracks its velocity commands.
 
     python benchmarks/anymal_tracking.py runs/bench_cpu_anymal/nn/last.pth [--envs 256 --seconds 10]
+    python benchmarks/anymal_tracking.py runs/terrain/nn/last.pth --task AnymalTerrain \
+        --tiles rough --level 4
+
+For AnymalTerrain, `--tiles` puts every env on tiles of one kind (flat: the smooth slope's level
+0, which is level ground; rough, stairs-up, stairs-down, obstacles, slope: that kind at
+`--level`), the envs spread over the kind's columns, with the curriculum off.
 
 Runs the deterministic policy in fresh episodes (commands drawn as in training) and reports the
 mean absolute error between commanded and actual base velocity in the base frame (forward,
@@ -17,16 +23,42 @@ from myriad.rl.run import compose, task_and_train_configs
 from myriad.torch_utils import quat_rotate_inverse
 
 
+# --tiles: (KINDS index, pits / stairs inverted or not)
+TILES = {"flat": (0, False), "slope": (0, False), "rough": (1, None), "stairs-up": (3, None),
+         "stairs-down": (2, None), "obstacles": (4, None)}
+
+
+def put_on_tiles(task, kind: int, inverted, level: int) -> None:
+    """Every env on a tile of `kind` at `level` (the kind's columns in turn)."""
+    from myriad.tasks.terrain import column_kind
+
+    columns = [j for j in range(task.terrain_config.types)
+               if column_kind(j, task.terrain_config)[0] == kind
+               and inverted in (None, column_kind(j, task.terrain_config)[1])]
+    n = task.num_envs
+    task.kinds[:] = torch.tensor(columns)[torch.arange(n) % len(columns)]
+    task.levels[:] = level
+    task.env_origins[:] = task.tile_origins[task.levels, task.kinds]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("checkpoint")
     ap.add_argument("--envs", type=int, default=256)
     ap.add_argument("--seconds", type=float, default=10.0)
+    ap.add_argument("--task", default="Anymal", choices=["Anymal", "AnymalTerrain"])
+    ap.add_argument("--tiles", default="flat", choices=list(TILES))
+    ap.add_argument("--level", type=int, default=0, help="AnymalTerrain: difficulty row 0-9")
     args = ap.parse_args()
 
     torch.manual_seed(0)
-    _, train_cfg, _ = task_and_train_configs(compose(["task=Anymal", "device=cpu"]))
-    task = myriad.make("Anymal", num_envs=args.envs)
+    _, train_cfg, _ = task_and_train_configs(compose([f"task={args.task}", "device=cpu"]))
+    if args.task == "Anymal":
+        task = myriad.make("Anymal", num_envs=args.envs)
+    else:
+        task = myriad.make("AnymalTerrain", num_envs=args.envs,
+                           **{"env.terrain.curriculum": False})
+        put_on_tiles(task, *TILES[args.tiles], 0 if args.tiles == "flat" else args.level)
     policy = load_policy(args.checkpoint, train_cfg, task)
     obs = task.reset()["obs"]
     steps = round(args.seconds / task.dt)
@@ -48,7 +80,8 @@ def main() -> None:
     print(f"{args.envs} envs, {args.seconds:g} s, last half: mean |command - actual| "
           f"forward {err[0]:.3f} m/s, lateral {err[1]:.3f} m/s, yaw {err[2]:.3f} rad/s "
           f"(standing still: {base[0]:.3f}, {base[1]:.3f}, {base[2]:.3f}); "
-          f"episodes ended by a fall: {falls}")
+          f"episodes ended by a fall: {falls}"
+          + (f"; tiles {args.tiles}, level {args.level}" if args.task != "Anymal" else ""))
 
 
 if __name__ == "__main__":
