@@ -12,7 +12,9 @@ One `step(actions)`:
      and only the finished envs' kept, so that no step waits to learn from the device which
      envs finished (the whole step, physics and task code, could run as one CUDA graph). On a
      CPU, where asking costs nothing, steps in which no env finished skip it
-     (`skip_idle_resets`)
+     (`skip_idle_resets`). With `keep_final_obs` set, `extras["final_obs"]` holds the
+     observation dict of every env as it was before the reset (what gymnasium calls the final
+     observation of a finished episode)
   5. returns `({"obs": clipped observations[, "states": ...]}, rewards, resets, extras)`
 
 A NaN or infinite action is never passed on: its env steps with a zero action, gets reward 0,
@@ -133,6 +135,10 @@ class VecTask:
         # forward() and the observations for every env. On a CPU, learning that no env finished
         # waits for nothing, so such steps skip it; on a GPU the step never asks.
         self.skip_idle_resets = self.device.type == "cpu"
+        # With same-step resets the returned observation of a finished env is already the first
+        # of its next episode; a consumer that bootstraps from the last one (gymnasium's
+        # info["final_obs"], `myriad.make_vec`) sets this to get it in extras["final_obs"]
+        self.keep_final_obs = False
 
         self.observation_space = gym.spaces.Box(-self.clip_obs, self.clip_obs, (self.num_obs,),
                                                 np.float32)
@@ -200,6 +206,8 @@ class VecTask:
         self.reset_buf[:] = (self.reset_buf.bool() | timeout | broken).long()
         self.extras["time_outs"] = self.timeout_buf.clone()
         done = self.reset_buf.bool()
+        if self.keep_final_obs:     # every env's observation before the reset replaces some
+            self.extras["final_obs"] = dict(self._obs())
         if not self.skip_idle_resets or bool(done.any()):
             if dr is not None:
                 dr.on_reset(done)       # new physical parameters before the new episode starts
