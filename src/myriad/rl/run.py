@@ -1,5 +1,13 @@
 """`myriad train` and `myriad play`: Hydra config composition, device and CPU-profile choice,
-and the playback of a trained policy into a video rendered by MuJoCo."""
+and the playback of a trained policy into a video rendered by MuJoCo.
+
+`multi_gpu=true` under torchrun trains in several processes, one per GPU (or per CPU process):
+`torchrun --nproc_per_node=K -m myriad.train task=Ant multi_gpu=true ...`. Each process reads its
+place from torchrun's environment (RANK, LOCAL_RANK, WORLD_SIZE, MASTER_ADDR, MASTER_PORT),
+takes cuda:LOCAL_RANK with NCCL on GPUs or the CPU with gloo, builds num_envs / K envs with seed
++ rank, and trains on rl_games' multi-GPU path (rl/train.py); rank 0 alone chooses the run
+folder, reads a checkpoint to resume from (and sends it to the others) and writes the files.
+"""
 
 from __future__ import annotations
 
@@ -7,10 +15,17 @@ import difflib
 import glob
 import json
 import math
+import contextlib
 import os
 import time
 
 from omegaconf import OmegaConf
+
+# How long a process waits in a collective (all-reduce, broadcast, barrier) for the others before
+# it fails: long enough for a first run's kernel compilation, which the processes of a machine do
+# one after another. A process that crashes does not make the others wait that long: torchrun
+# stops them all as soon as one fails, and gloo fails a collective whose peer has gone.
+PROCESS_GROUP_TIMEOUT_S = 30 * 60
 
 
 def _merge(into: dict, changes: dict, path: str = "", kept: tuple = ()) -> None:
@@ -183,12 +198,16 @@ def resolve_device(device) -> str:
     return name
 
 
-def task_and_train_configs(cfg, overrides=()) -> tuple[dict, dict, str]:
+def task_and_train_configs(cfg, overrides=(), processes: int = 1) -> tuple[dict, dict, str]:
     """Plain dicts of the task and train configs with the top-level options applied.
 
     Numbers are checked here, before anything is built, each failure naming its key and value
     (`config_int`: integer keys refuse fractions such as 2.5 and accept 2.0). The checked
-    top-level values are written back into cfg as ints and floats."""
+    top-level values are written back into cfg as ints and floats.
+
+    `processes` > 1 (multi_gpu): the configs of one process of that many. num_envs and the
+    minibatch sizes are the totals; each process gets its share (num_envs must divide), so that
+    an epoch makes as many gradient steps, each over as many samples, as in one process."""
     from ..tasks import config_float, config_int
 
     device = resolve_device(cfg.device)
@@ -227,6 +246,15 @@ def task_and_train_configs(cfg, overrides=()) -> tuple[dict, dict, str]:
         for key in keys:
             if key in section:
                 section[key] = config_int(section[key], f"{prefix}.{key}", minimum=1)
+    if processes > 1:
+        total = env["numEnvs"]
+        if total % processes:
+            raise ValueError(f"num_envs={total}: multi_gpu=true shares the envs among the "
+                             f"{processes} processes: give a multiple of {processes}")
+        env["numEnvs"] = total // processes
+        for section in (ppo, ppo.get("central_value_config") or {}):
+            if "minibatch_size" in section:
+                section["minibatch_size"] = max(1, int(section["minibatch_size"]) // processes)
     # PPO splits num_envs × horizon_length samples into equal minibatches, and so does an
     # asymmetric critic (central_value_config): keep each minibatch size a divisor, as close
     # as possible below the configured one
@@ -243,6 +271,9 @@ def task_and_train_configs(cfg, overrides=()) -> tuple[dict, dict, str]:
             print(f"{name} {section['minibatch_size']} -> {batch // count}: {count} equal "
                   f"minibatches of num_envs × horizon_length = {batch} samples")
             section["minibatch_size"] = batch // count
+    if processes > 1:
+        print(f"multi_gpu: {processes} processes × {env['numEnvs']} envs (num_envs "
+              f"{env['numEnvs'] * processes}), minibatches of {ppo['minibatch_size']} per process")
     if cfg.max_iterations is not None:
         ppo["max_epochs"] = cfg.max_iterations
     return task_cfg, train_cfg, device
@@ -302,39 +333,141 @@ def checkpoint_and_experiment(cfg, task: str) -> tuple[str | None, str]:
     return checkpoint, experiment or free_experiment_name(cfg.train_dir, task)
 
 
+def processes_from_env(cfg) -> dict | None:
+    """multi_gpu=true: this process's place among those torchrun started (rank, local_rank,
+    world_size from its environment), its device (cuda:LOCAL_RANK, or the CPU) and the process
+    group's backend (NCCL on GPUs, gloo on CPUs). multi_gpu=false: None."""
+    if not isinstance(cfg.multi_gpu, bool):
+        raise ValueError(f"multi_gpu={cfg.multi_gpu}: true or false")
+    if not cfg.multi_gpu:
+        return None
+    names = ("RANK", "LOCAL_RANK", "WORLD_SIZE", "MASTER_ADDR", "MASTER_PORT")
+    missing = [name for name in names if name not in os.environ]
+    if missing:
+        raise ValueError("multi_gpu=true: start one process per GPU (or CPU process) with "
+                         "torchrun: torchrun --nproc_per_node=K -m myriad.train task=... "
+                         f"multi_gpu=true ({', '.join(missing)} not set)")
+    rank, local_rank, world_size = (int(os.environ[name]) for name in names[:3])
+    place = {"rank": rank, "local_rank": local_rank, "world_size": world_size}
+    if str(cfg.device).strip() not in ("auto", "cpu", "cuda"):
+        raise ValueError(f"device={cfg.device}: with multi_gpu=true give device=cuda, cpu or "
+                         "auto: each process takes the GPU of its local rank, cuda:LOCAL_RANK "
+                         "(choose the GPUs with CUDA_VISIBLE_DEVICES)")
+    if not resolve_device(cfg.device).startswith("cuda"):
+        return {**place, "device": "cpu", "backend": "gloo"}
+    import torch
+
+    count = torch.cuda.device_count()
+    if local_rank >= count:
+        raise ValueError(f"multi_gpu=true: local rank {local_rank} has no GPU of its own ({count} "
+                         f"visible): start at most {count} processes per machine "
+                         "(torchrun --nproc_per_node)")
+    return {**place, "device": f"cuda:{local_rank}", "backend": "nccl"}
+
+
+def start_process_group(distributed: dict) -> None:
+    """Start the process group ourselves, with the backend this device needs: rl_games'
+    multi-GPU set-up hardcodes NCCL, which has no CPU support (see MyriadAgent.join_processes)."""
+    import datetime
+
+    import torch
+    import torch.distributed as dist
+
+    extra = {}
+    if distributed["backend"] == "nccl":
+        torch.cuda.set_device(distributed["local_rank"])
+        extra["device_id"] = torch.device(distributed["device"])
+    dist.init_process_group(distributed["backend"], rank=distributed["rank"],
+                            world_size=distributed["world_size"],
+                            timeout=datetime.timedelta(seconds=PROCESS_GROUP_TIMEOUT_S), **extra)
+
+
 def train(overrides: list[str]) -> int:
+    cfg = compose(overrides)
+    distributed = processes_from_env(cfg)
+    with contextlib.ExitStack() as stack:
+        if distributed is not None and distributed["rank"] != 0:
+            # rank 0 prints the progress; the others only their warnings and errors (stderr)
+            stack.enter_context(contextlib.redirect_stdout(
+                stack.enter_context(open(os.devnull, "w"))))
+        return _train(cfg, overrides, distributed)
+
+
+def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
     from ..physics.kernels import load_kernels
     from ..tasks import TASKS
-    from .train import TrainingStopped, train as run_training
+    from .train import TrainingStopped, from_rank_0, train as run_training
 
-    cfg = compose(overrides)
-    task_cfg, train_cfg, device = task_and_train_configs(cfg, overrides)
+    processes = 1
+    if distributed is not None:
+        cfg.device, processes = distributed["device"], distributed["world_size"]
+    task_cfg, train_cfg, device = task_and_train_configs(cfg, overrides, processes)
     name = task_cfg["name"]
-    checkpoint, experiment = checkpoint_and_experiment(cfg, name)
+    if distributed is None:
+        checkpoint, experiment = checkpoint_and_experiment(cfg, name)
     max_time = math.inf if cfg.max_time_s is None else float(cfg.max_time_s)
     if not max_time > 0:
         raise ValueError(f"max_time_s={cfg.max_time_s}: must be > 0")
-    print(f"loading the physics kernels for {device}", flush=True)
-    load_kernels(device, report=lambda line: print(line, flush=True))
-    t0 = time.monotonic()
-    print(f"building {name}: {task_cfg['env']['numEnvs']} envs on {device}", flush=True)
-    task = TASKS[name](task_cfg, device=device)
-    print(f"built in {time.monotonic() - t0:.1f} s", flush=True)
-    run = {"train_dir": cfg.train_dir, "experiment": experiment, "max_time_s": max_time,
-           "describe": {"task": name, "device": device, "num_envs": task.num_envs,
-                        "seed": int(cfg.seed),
-                        "minibatch_size": train_cfg["params"]["config"]["minibatch_size"],
-                        "machine": f"{os.cpu_count()} CPU cores" + (
-                            "" if device == "cpu" else f", {_gpu_name(device)}")}}
+    if distributed is not None:
+        start_process_group(distributed)
     try:
-        summary = run_training(task, train_cfg, run, int(cfg.seed), checkpoint)
-    except TrainingStopped as stop:
-        with open(os.path.join(cfg.train_dir, experiment, "summary.json")) as f:
-            summary = json.load(f)
-        print(f"{stop}: nn/last.pth holds epoch {summary['checkpoint_epoch']} "
-              f"({summary['env_steps']:,} env-steps); resume with checkpoint="
-              f"{summary['checkpoint']} or resume=auto", flush=True)
-        return 128 + stop.signum
+        if distributed is not None:
+            def choose():
+                # rank 0 names the run folder (and makes it, so that the name is taken) for all
+                chosen = checkpoint_and_experiment(cfg, name)
+                for sub in ("nn", "summaries"):
+                    os.makedirs(os.path.join(cfg.train_dir, chosen[1], sub), exist_ok=True)
+                return chosen
+            checkpoint, experiment = from_rank_0(choose, distributed)
+
+        def load():
+            print(f"loading the physics kernels for {device}", flush=True)
+            load_kernels(device, report=lambda line: print(line, flush=True))
+        if distributed is None:
+            load()
+        else:
+            # the first process of each machine compiles what its kernel cache lacks; the others
+            # then load it from the cache instead of compiling it too
+            import torch.distributed as dist
+
+            if distributed["local_rank"] == 0:
+                load()
+            dist.barrier()
+            if distributed["local_rank"] != 0:
+                load()
+        t0 = time.monotonic()
+        print(f"building {name}: {task_cfg['env']['numEnvs']} envs on {device}", flush=True)
+        task = TASKS[name](task_cfg, device=device)
+        print(f"built in {time.monotonic() - t0:.1f} s", flush=True)
+        minibatch = train_cfg["params"]["config"]["minibatch_size"]
+        run = {"train_dir": cfg.train_dir, "experiment": experiment, "max_time_s": max_time,
+               "describe": {"task": name, "device": device,
+                            "num_envs": task.num_envs * processes, "seed": int(cfg.seed),
+                            "minibatch_size": minibatch * processes,
+                            "machine": f"{os.cpu_count()} CPU cores" + (
+                                "" if device == "cpu" else f", {_gpu_name(device)}")}}
+        if distributed is not None:
+            run["describe"]["processes"] = processes
+            run["distributed"] = distributed
+        try:
+            summary = run_training(task, train_cfg, run, int(cfg.seed), checkpoint)
+        except TrainingStopped as stop:
+            if distributed is not None and distributed["rank"] != 0:
+                return 128 + stop.signum
+            with open(os.path.join(cfg.train_dir, experiment, "summary.json")) as f:
+                summary = json.load(f)
+            print(f"{stop}: nn/last.pth holds epoch {summary['checkpoint_epoch']} "
+                  f"({summary['env_steps']:,} env-steps); resume with checkpoint="
+                  f"{summary['checkpoint']} or resume=auto", flush=True)
+            return 128 + stop.signum
+    finally:
+        if distributed is not None:
+            import torch.distributed as dist
+
+            if dist.is_initialized():
+                dist.destroy_process_group()
+    if not summary:         # a process other than rank 0: nothing to report
+        return 0
     if summary["mean_reward"] is None:
         rewards = "no episode finished yet (train longer to see a reward)"
     else:

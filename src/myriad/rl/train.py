@@ -18,14 +18,26 @@ best reward and the random generators' states (the envs themselves start fresh e
 SIGINT (Ctrl-C) and SIGTERM (docker stop, Slurm, Kubernetes) finish the current epoch, save
 nn/last.pth and summary.json, and exit with 128 + the signal number; a second signal saves at
 once, mid-epoch.
+
+Several processes (`multi_gpu=true` under torchrun, one process per GPU, or per CPU process):
+the process group is started by run.py (NCCL on GPUs, gloo on CPUs) and each process trains its
+share of the envs on rl_games' own multi-GPU path: the parameters broadcast from rank 0 before
+the first epoch, gradients averaged across the processes at every minibatch, the KL and rank 0's
+learning rate shared. Added here: after each update the observation and value normalizers
+merge what every process added to them (so that all processes hold the same statistics, and the
+checkpoint those of all envs); after each epoch the processes agree on stopping (a signal,
+max_time_s) and on the count of non-finite actions; only rank 0 writes the run's files and
+prints the progress line, its env_steps counting the steps of all processes.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import math
 import os
+import pickle
 import random
 import signal
 import time
@@ -34,8 +46,9 @@ import warnings
 import numpy as np
 
 import torch
-from rl_games.algos_torch import a2c_continuous
-from rl_games.common import env_configurations, vecenv
+import torch.distributed as dist
+from rl_games.algos_torch import a2c_continuous, torch_ext
+from rl_games.common import a2c_common, env_configurations, vecenv
 from rl_games.torch_runner import Runner
 
 
@@ -162,14 +175,85 @@ class TrainingStopped(Exception):
         self.signum = signum
 
 
+# ---------------------------------------------------------------- several processes
+@contextlib.contextmanager
+def _summary_writer_on_rank_0_only(rank: int):
+    """rl_games builds its TensorBoard writer in A2CBase.__init__ when `global_rank == 0`, a rank
+    it knows only on its own multi-GPU set-up, which we keep off (see
+    `MyriadAgent.join_processes`). On the other ranks hand it None, as its own set-up does: they
+    write no event file."""
+    if rank == 0:
+        yield
+        return
+    original = a2c_common.SummaryWriter
+    a2c_common.SummaryWriter = lambda *args, **kwargs: None
+    try:
+        yield
+    finally:
+        a2c_common.SummaryWriter = original
+
+
+def _normalizers(nets) -> list[torch.nn.Module]:
+    """The running mean/variance normalizers (observations, values) inside rl_games networks:
+    modules with running_mean, running_var and count buffers (they are TorchScript modules, so
+    found by their buffers, not their class)."""
+    return [m for m in torch.nn.ModuleList(nets).modules()
+            if all(isinstance(getattr(m, name, None), torch.Tensor)
+                   for name in ("running_mean", "running_var", "count"))]
+
+
+def _to_cpu(tree):
+    """A checkpoint's tensors moved to the CPU (for a broadcast: every rank copies them to its own
+    device when it loads them)."""
+    if isinstance(tree, torch.Tensor):
+        return tree.cpu()
+    if isinstance(tree, dict):
+        return {k: _to_cpu(v) for k, v in tree.items()}
+    if isinstance(tree, (list, tuple)):
+        return type(tree)(_to_cpu(v) for v in tree)
+    return tree
+
+
+def from_rank_0(compute, distributed: dict | None):
+    """`compute()` run on rank 0 alone, its value (or its exception) on every rank: one
+    broadcast. A single process just runs it."""
+    if distributed is None:
+        return compute()
+    box = [None]
+    if distributed["rank"] == 0:
+        try:
+            box = [(True, compute())]
+        except Exception as err:        # every rank raises it, none waits for rank 0 forever
+            try:
+                pickle.dumps(err)
+            except Exception:
+                err = RuntimeError(f"{type(err).__name__}: {err}")
+            box = [(False, err)]
+    dist.broadcast_object_list(box, src=0)
+    ok, value = box[0]
+    if not ok:
+        raise value
+    return value
+
+
 class MyriadAgent(a2c_continuous.A2CAgent):
     """rl_games' continuous PPO agent plus: a wall-time limit, a progress line per epoch,
-    atomic and complete checkpoints, resume, stop signals, `summary.json` and `progress.csv`."""
+    atomic and complete checkpoints, resume, stop signals, `summary.json` and `progress.csv`;
+    with `run["distributed"]`, one of several processes training together (module docstring)."""
 
     def __init__(self, base_name, params):
         self.run_cfg = params["config"].pop("myriad")
         mlp_bfloat16 = params["config"].pop("mlp_bfloat16", False)
-        super().__init__(base_name, params)
+        distributed = self.run_cfg.get("distributed")
+        rank = 0 if distributed is None else distributed["rank"]
+        if rank != 0:
+            # as rl_games' multi-GPU set-up does on the other ranks: rank 0's learning-rate
+            # schedule decides (update_lr broadcasts its rate), rank 0 prints
+            params["config"].update(print_stats=False, lr_schedule=None)
+        with _summary_writer_on_rank_0_only(rank):
+            super().__init__(base_name, params)
+        if distributed is not None:
+            self.join_processes(distributed)
         if mlp_bfloat16:       # the policy's network and the asymmetric critic's, if any
             critic = getattr(self, "central_value_net", None)
             use_bfloat16_mlps(torch.nn.ModuleList(
@@ -188,6 +272,8 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         # a task's own scalars (`metrics()`, e.g. the hands' consecutive_successes): columns
         # of progress.csv after ours, in the progress line, summary.json and TensorBoard
         self.metric_names = sorted(self.task_metrics())
+        if not self.writes_files:
+            return
         with open(self.curve_path, "a", newline="") as f:
             if f.tell() == 0:
                 csv.writer(f).writerow(["epoch", "env_steps", "wall_s", "mean_reward",
@@ -198,11 +284,100 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         metrics = getattr(self.vec_env.env, "metrics", None)
         return metrics() if metrics is not None else {}
 
+    # ---------------------------------------------------------------- several processes
+    @property
+    def writes_files(self) -> bool:
+        """Whether this process writes the run's files and prints: rank 0, or the only one."""
+        return self.global_rank == 0
+
+    def join_processes(self, distributed: dict) -> None:
+        """Switch on rl_games' multi-GPU path (`multi_gpu`: gradient all-reduce, the parameter
+        broadcast at the start of train(), the KL average, rank 0's learning rate and exit
+        decision) in the process group that run.py started.
+
+        Why not rl_games' own set-up (config `multi_gpu: true`): A2CBase.__init__ then calls
+        `dist.init_process_group("nccl", ...)`, which fails on a CPU (no NCCL there: gloo is its
+        backend) and, the group being ours already, everywhere; and it then moves the agent to
+        cuda:LOCAL_RANK, a device a CPU process does not have. So the constructor runs rl_games'
+        single-process set-up on our device (the rank-dependent parts of its multi-GPU set-up are
+        done in __init__ above), and the flag is switched on here, before train()."""
+        rank, world = distributed["rank"], distributed["world_size"]
+        # train() calls torch.cuda.set_device(self.local_rank) on this path: the GPU's index, and
+        # on a CPU -1, which torch documents as set_device's no-op
+        local = distributed["local_rank"] if self.ppo_device.startswith("cuda") else -1
+        critic = getattr(self, "central_value_net", None)
+        for agent in (self, critic):        # the asymmetric critic averages its gradients too
+            if agent is not None:
+                agent.multi_gpu = True
+                agent.global_rank, agent.local_rank, agent.world_size = rank, local, world
+        self.normalizers = _normalizers(
+            [self.model] + ([critic.model] if critic is not None else []))
+        self.normalizers_before = []
+
+    def remember_normalizers(self) -> None:
+        """The normalizers' statistics before an epoch's update (the same in every process)."""
+        if self.multi_gpu:
+            self.normalizers_before = [(m.running_mean.clone(), m.running_var.clone(),
+                                        m.count.clone()) for m in self.normalizers]
+
+    def merge_normalizers(self) -> None:
+        """After an epoch's update each process's normalizers hold the statistics from before it
+        (mean0, var0, count0, the same everywhere) merged with its own batches; rl_games averages
+        gradients, not these. Replace them everywhere with the statistics from before merged with
+        the batches of all processes: one all-reduce of each process's count, sum and sum of
+        squares (in float64), from which the K - 1 extra copies of the statistics from before are
+        taken away. Exact (the running merge is associative), and the same in every process."""
+        if not self.multi_gpu or not self.normalizers:
+            return
+        parts = []
+        for m in self.normalizers:
+            mean, var, count = m.running_mean.double(), m.running_var.double(), m.count.double()
+            parts += [(mean * count).reshape(-1), ((var + mean * mean) * count).reshape(-1),
+                      count.reshape(1)]
+        sums = torch.cat(parts)
+        dist.all_reduce(sums, op=dist.ReduceOp.SUM)
+        extra, at = self.world_size - 1, 0
+        with torch.no_grad():
+            for m, (mean0, var0, count0) in zip(self.normalizers, self.normalizers_before):
+                k = mean0.numel()
+                mean0, var0, count0 = mean0.double().reshape(-1), var0.double().reshape(-1), \
+                    count0.double()
+                count = sums[at + 2 * k] - extra * count0
+                mean = (sums[at:at + k] - extra * mean0 * count0) / count
+                square = (sums[at + k:at + 2 * k]
+                          - extra * (var0 + mean0 * mean0) * count0) / count
+                var = (square - mean * mean).clamp_min(0.0)
+                m.running_mean.copy_(mean.view_as(m.running_mean))
+                m.running_var.copy_(var.view_as(m.running_var))
+                m.count.copy_(count.view_as(m.count))
+                at += 2 * k + 1
+
+    def agree(self, stop, out_of_time: bool, nonfinite: int):
+        """After an epoch, what all processes act on: the stop signal any of them got (the
+        largest number), whether any is out of time, and the sum of their non-finite actions.
+        One all-gather of three numbers; a single process returns its own."""
+        if not self.multi_gpu:
+            return stop, out_of_time, nonfinite
+        mine = torch.tensor([stop or 0, int(out_of_time), nonfinite], dtype=torch.int64,
+                            device=self.ppo_device)
+        table = [torch.zeros_like(mine) for _ in range(self.world_size)]
+        dist.all_gather(table, mine)
+        signals, late, bad = torch.stack(table).cpu().T.tolist()
+        return (max(signals) or None), any(late), sum(bad)
+
+    def wait_for_rank_0(self) -> None:
+        """All processes wait here for rank 0 (e.g. to finish writing before they exit together:
+        torchrun stops every process as soon as one exits with an error)."""
+        if self.multi_gpu:
+            dist.barrier()
+
     # ---------------------------------------------------------------- checkpoints
     def save(self, fn) -> bool:
         """Every rl_games save goes through here: the best-policy file is written only for a
         better policy than the one it holds, and never a policy with non-finite weights.
         Returns whether the file was written."""
+        if not self.writes_files:
+            return False
         best = fn == os.path.join(self.nn_dir, self.config["name"])
         if best and not self.mean_rewards > self.best_saved_reward or not self.weights_finite():
             return False
@@ -213,6 +388,8 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         return True
 
     def save_last(self):
+        if not self.writes_files:
+            return
         if not self.save(os.path.join(self.nn_dir, "last")):
             print(f"not saving epoch {self.epoch_num}: the policy's weights are non-finite; "
                   f"nn/last.pth keeps epoch {self.checkpoint_epoch}", flush=True)
@@ -227,7 +404,10 @@ class MyriadAgent(a2c_continuous.A2CAgent):
     def get_full_state_weights(self):
         state = super().get_full_state_weights()
         state["frame"] = self.frame + self.frames_not_counted
-        cuda = torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None
+        # several processes: each has one GPU, and reading (or, on resume, setting) the
+        # generators of all would open a CUDA context on every GPU from each process
+        cuda = torch.cuda.get_rng_state_all() \
+            if torch.cuda.is_available() and not self.multi_gpu else None
         state["myriad"] = {
             "wall_s": time.monotonic() - self.started, "time_split": dict(self.time_split),
             "best_mean_reward": self.best_mean_reward,
@@ -252,11 +432,29 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.checkpoint_epoch = self.epoch_num
         rng = ours["rng"]
         torch.set_rng_state(rng["torch"])
-        if rng["cuda"] is not None and torch.cuda.is_available() \
+        if rng["cuda"] is not None and torch.cuda.is_available() and not self.multi_gpu \
                 and len(rng["cuda"]) == torch.cuda.device_count():
             torch.cuda.set_rng_state_all(rng["cuda"])
         np.random.set_state(rng["numpy"])
         random.setstate(rng["python"])
+        if self.multi_gpu:
+            self.reseed_after_resume()
+
+    def reseed_after_resume(self):
+        """Several processes: the checkpoint holds rank 0's CPU random generators, which rank 0
+        continues, and no CUDA generator (see get_full_state_weights). Another rank restoring
+        rank 0's would repeat its draws (its envs' resets, its actions), and every rank's CUDA
+        generator would restart from seed + rank: they draw new streams from (seed, rank,
+        epoch) instead."""
+        seed = self.run_cfg["describe"]["seed"] % 2**63
+        state = np.random.SeedSequence([seed, self.global_rank, self.epoch_num])
+        seed = int(state.generate_state(1, np.uint64)[0] % 2**63)
+        if self.global_rank != 0:
+            torch.manual_seed(seed)         # the CUDA generators too
+            np.random.seed(seed % 2**32)
+            random.seed(seed)
+        elif self.ppo_device.startswith("cuda"):
+            torch.cuda.manual_seed(seed)    # this process's GPU
 
     def update_epoch(self):
         # rl_games' train() forgets the best reward it restored; give it back before the first
@@ -280,40 +478,75 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         return batch
 
     def train_epoch(self):
+        self.remember_normalizers()
         try:
             out = super().train_epoch()
         except Exception:
             if not self.weights_finite():    # e.g. torch refusing to sample from a NaN std
                 self.raise_diverged()
             raise
+        self.merge_normalizers()
         self.vec_env.clock.mark("end")
         step_time, play_time, update_time, total_time = out[:4]
         physics_s, policy_s, update_s = self.vec_env.clock.split(step_time, play_time, update_time)
         self.time_split["physics_s"] += physics_s
         self.time_split["policy_s"] += policy_s
         self.time_split["update_s"] += update_s
-        # rl_games adds this epoch's env-steps to self.frame only after we return: checkpoints
-        # saved from here on must count them already
-        self.frames_not_counted = self.curr_frames
-        env_steps = self.frame + self.curr_frames
         wall = time.monotonic() - self.started
+        # read the flag once: a signal arriving after the save decision must wait for the next
+        # epoch, not stop this one without a checkpoint
+        stop = self.stop_signal
+        bad_now = self.vec_env.env.take_nonfinite_actions()
+        # several processes stop at the same epoch (one got the signal, or is out of time)
+        stop, out_of_time, bad_now = self.agree(stop, wall >= self.run_cfg["max_time_s"],
+                                                bad_now)
+        # rl_games adds this epoch's env-steps (of all processes) to self.frame only after we
+        # return: checkpoints saved from here on must count them already
+        self.frames_not_counted = self.curr_frames * self.world_size
+        env_steps = self.frame + self.frames_not_counted
         mean = None
         if self.game_rewards.current_size > 0:
             mean = float(self.game_rewards.get_mean()[0])
             self.best_mean_reward = mean if self.best_mean_reward is None \
                 else max(self.best_mean_reward, mean)
-        bad_now = self.vec_env.env.take_nonfinite_actions()
-        if bad_now and not self.nonfinite_actions:
+        if bad_now and not self.nonfinite_actions and self.writes_files:
             warnings.warn(f"epoch {self.epoch_num}: {bad_now} actions of the policy were NaN or "
                           "infinite; their envs are reset. The count is in the progress line, "
                           "progress.csv and TensorBoard (myriad/nonfinite_actions).",
                           RuntimeWarning, stacklevel=2)
         self.nonfinite_actions += bad_now
-        rate = self.curr_frames / max(total_time, 1e-9)
+        self.metrics = self.task_metrics()
+        if self.writes_files:
+            self.report_epoch(env_steps, total_time, wall, mean, bad_now,
+                              (physics_s, policy_s, update_s))
+        if not self.weights_finite():   # the same weights on every process: all stop here
+            if self.writes_files:
+                self.write_summary(env_steps, wall, mean)
+            self.wait_for_rank_0()
+            self.raise_diverged()
+        if out_of_time and self.max_epochs != self.epoch_num:
+            if self.writes_files:
+                print(f"max_time_s={self.run_cfg['max_time_s']} reached: stopping after this "
+                      "epoch")
+            self.max_epochs = self.epoch_num       # rl_games' loop then saves and stops cleanly
+        if self.writes_files:
+            if stop is not None or out_of_time or \
+                    time.monotonic() - self.last_save > 60 or self.epoch_num >= self.max_epochs:
+                self.save_last()
+            self.write_summary(env_steps, wall, mean)
+        if stop is not None:
+            self.wait_for_rank_0()      # its files are whole before any process exits
+            raise TrainingStopped(stop)
+        self.frames_not_counted = 0
+        return out
+
+    def report_epoch(self, env_steps, total_time, wall, mean, bad_now, split):
+        """The progress line, TensorBoard's scalars and progress.csv's line of an epoch."""
+        physics_s, policy_s, update_s = split
+        rate = self.curr_frames * self.world_size / max(total_time, 1e-9)
         reward = "  (no episode finished yet)" if mean is None else \
             f"  reward {mean:9.1f}  best {self.best_mean_reward:9.1f}"
         flags = f"  non-finite actions {bad_now}" if bad_now else ""
-        self.metrics = self.task_metrics()
         shown = "".join(f"  {k} {v:.2f}" for k, v in self.metrics.items())
         print(f"epoch {self.epoch_num:5d}/{self.max_epochs}  {env_steps:>11,d} steps  "
               f"{rate:9,.0f} steps/s  {wall:7.0f} s{reward}{shown}{flags}", flush=True)
@@ -328,24 +561,6 @@ class MyriadAgent(a2c_continuous.A2CAgent):
                                     f"{update_s:.4f}", bad_now]
                                    + [f"{self.metrics.get(k, math.nan):.4f}"
                                       for k in self.metric_names])
-        if not self.weights_finite():
-            self.write_summary(env_steps, wall, mean)
-            self.raise_diverged()
-        out_of_time = wall >= self.run_cfg["max_time_s"]
-        if out_of_time and self.max_epochs != self.epoch_num:
-            print(f"max_time_s={self.run_cfg['max_time_s']} reached: stopping after this epoch")
-            self.max_epochs = self.epoch_num       # rl_games' loop then saves and stops cleanly
-        # read the flag once: a signal arriving after the save decision must wait for the next
-        # epoch, not stop this one without a checkpoint
-        stop = self.stop_signal
-        if stop is not None or out_of_time or \
-                time.monotonic() - self.last_save > 60 or self.epoch_num >= self.max_epochs:
-            self.save_last()
-        self.write_summary(env_steps, wall, mean)
-        if stop is not None:
-            raise TrainingStopped(stop)
-        self.frames_not_counted = 0
-        return out
 
     def raise_diverged(self):
         kept = ("no checkpoint was saved before" if self.checkpoint_epoch is None else
@@ -392,7 +607,20 @@ def build_agent(task, train_cfg: dict, run: dict, seed: int):
     vecenv.register("MYRIAD", lambda config_name, num_actors, **kwargs:
                     MyriadVecEnv(config_name, num_actors, **kwargs))
     params = rl_games_params(train_cfg, task, run)
-    params["seed"] = seed
+    distributed = run.get("distributed")
+    if distributed is not None and "amp" in params["config"]:
+        raise ValueError("multi_gpu=true: the AMP agent (HumanoidAMP) trains its discriminator "
+                         "in each process alone; train it in one process")
+    # several processes: each its own seed, as rl_games' multi-GPU runner gives (seed + rank)
+    params["seed"] = seed + (0 if distributed is None else distributed["rank"])
+    if distributed is not None:
+        # rl_games' Runner gives torch min(4, cores / world size) CPU threads, with a world size
+        # it knows only on its own multi-GPU set-up (1 here): each process would take all the
+        # cores, and two on two cores ran 5x slower. Keep OMP_NUM_THREADS (torchrun sets 1 per
+        # process unless it is set), else share the machine's cores among its processes.
+        local = int(os.environ.get("LOCAL_WORLD_SIZE", "1"))
+        params["torch_threads"] = 0 if "OMP_NUM_THREADS" in os.environ else \
+            max(1, min(4, (os.cpu_count() or 1) // local))
     runner = Runner()
     if "amp" in params["config"]:            # Adversarial Motion Priors (HumanoidAMP)
         from .amp import AMPAgent
@@ -405,21 +633,30 @@ def build_agent(task, train_cfg: dict, run: dict, seed: int):
 
 
 def train(task, train_cfg: dict, run: dict, seed: int, checkpoint: str | None = None) -> dict:
-    """Train until max_iterations or max_time_s; returns the summary.
+    """Train until max_iterations or max_time_s; returns the summary (on a process other than
+    rank 0 of several, which writes no summary: {}).
 
     SIGINT and SIGTERM stop at the end of the current epoch with a saved checkpoint and raise
     `TrainingStopped`; a second signal saves at once and raises KeyboardInterrupt."""
     agent = build_agent(task, train_cfg, run, seed)
+    distributed = run.get("distributed")
     if checkpoint:
+        def load():
+            # several processes: rank 0 reads the file (other nodes need not see it) and sends
+            # its contents to all
+            weights = torch_ext.load_checkpoint(checkpoint)
+            return weights if distributed is None else _to_cpu(weights)
         try:
-            agent.restore(checkpoint)
+            agent.set_full_state_weights(from_rank_0(load, distributed))
         except Exception as err:  # truncated file, or a checkpoint of another task's network
             raise ValueError(f"checkpoint {checkpoint}: cannot resume from it "
                              f"({type(err).__name__}: {err})") from err
         print(f"resuming from {checkpoint}: epoch {agent.epoch_num}, {agent.frame:,} env-steps, "
               f"best mean reward {agent.best_mean_reward}", flush=True)
-    print(f"training {run['describe']['task']} with {task.num_envs} envs on {task.device}; "
-          f"run files in {agent.experiment_dir}", flush=True)
+    processes = "" if distributed is None else \
+        f" per process, {distributed['world_size']} processes (rank 0 writes the files)"
+    print(f"training {run['describe']['task']} with {task.num_envs} envs on {task.device}"
+          f"{processes}; run files in {agent.experiment_dir}", flush=True)
 
     def on_signal(signum, frame):
         if agent.stop_signal is not None:      # the second one: no more waiting
@@ -432,14 +669,19 @@ def train(task, train_cfg: dict, run: dict, seed: int, checkpoint: str | None = 
     try:
         agent.train()
     except KeyboardInterrupt:
-        print("\ninterrupted: saving the current policy to nn/last.pth", flush=True)
-        agent.save_last()
-        mean = float(agent.game_rewards.get_mean()[0]) if agent.game_rewards.current_size else None
-        agent.write_summary(agent.frame, time.monotonic() - agent.started, mean)
+        if agent.writes_files:
+            print("\ninterrupted: saving the current policy to nn/last.pth", flush=True)
+            agent.save_last()
+            mean = float(agent.game_rewards.get_mean()[0]) \
+                if agent.game_rewards.current_size else None
+            agent.write_summary(agent.frame, time.monotonic() - agent.started, mean)
         raise
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
-        agent.writer.flush()
+        if agent.writer is not None:
+            agent.writer.flush()
+    if not agent.writes_files:
+        return {}
     with open(os.path.join(agent.experiment_dir, "summary.json")) as f:
         return json.load(f)
