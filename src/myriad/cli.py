@@ -3,10 +3,12 @@
     myriad train task=Ant [num_envs=N device=cpu|cuda:0 seed=S max_iterations=I max_time_s=T
                            experiment=NAME checkpoint=PATH resume=auto ...]   train (PPO)
     myriad play task=Ant [checkpoint=PATH num_steps=1000 video=out.mp4]   video of a policy
+    myriad export task=Ant [checkpoint=PATH output=policy.onnx]    ONNX policy + .json sidecar
     myriad demo [--model FILE ...]                                 simulate under random actions
 
-train and play take Hydra overrides: any key of cfg/config.yaml, and task.* / train.* keys of
-the task's configs (e.g. task.env.episodeLength=500, train.params.config.learning_rate=1e-4).
+train, play and export take Hydra overrides: any key of cfg/config.yaml, and task.* / train.*
+keys of the task's configs (e.g. task.env.episodeLength=500,
+train.params.config.learning_rate=1e-4).
 An unknown key fails, with or without Hydra's + or ++, naming the nearest valid keys.
 """
 
@@ -95,6 +97,9 @@ def _hydra_command(command: str, overrides: list[str]) -> int:
         print(__doc__)
         return 0
     try:
+        if command == "export":
+            from .rl import export
+            return export.export(overrides)
         return {"train": run.train, "play": run.play}[command](overrides)
     except KeyboardInterrupt:
         print("interrupted (the last checkpoint is kept)", file=sys.stderr)
@@ -112,7 +117,7 @@ def _hydra_command(command: str, overrides: list[str]) -> int:
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv and argv[0] in ("train", "play"):
+    if argv and argv[0] in ("train", "play", "export"):
         return _hydra_command(argv[0], argv[1:])
     # the raw formatter keeps the usage examples of the docstring one per line
     parser = argparse.ArgumentParser(prog="myriad", description=__doc__,
@@ -120,6 +125,8 @@ def main(argv=None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("train", help="train a task with PPO: myriad train task=Ant (Hydra overrides)")
     sub.add_parser("play", help="video of a trained policy: myriad play task=Ant checkpoint=...")
+    sub.add_parser("export", help="a trained policy as ONNX for a robot: myriad export task=Ant "
+                   "checkpoint=... output=policy.onnx")
     p = sub.add_parser("demo", help="simulate a batch of envs under random actions and report",
                        description="Simulate a batch of envs under random actions and report "
                        "the throughput and the state reached.\n\n  myriad demo --envs 64 "
