@@ -128,8 +128,13 @@ def test_lstm_policy_exports_its_state_and_matches_step_by_step(tmp_path):
     net.eval()
     h, c = torch.zeros(1, 2, 16), torch.zeros(1, 2, 16)       # zeros at the episode start
     h_onnx, c_onnx = h.numpy(), c.numpy()
-    obs = task.reset()["obs"]
+    # and `myriad play`'s policy, which carries the state itself (zeroed by `done`)
+    from myriad.rl.policy import load_policy
+    play_policy = load_policy(str(checkpoint), train_cfg, task)
+    obs, done = task.reset()["obs"], None
     for step in range(6):
+        with torch.no_grad():
+            played = play_policy(obs.clone(), done)
         with torch.no_grad():
             out = net({"is_train": False, "prev_actions": None, "obs": obs.clone(),
                        "rnn_states": (h, c)})
@@ -138,6 +143,7 @@ def test_lstm_policy_exports_its_state_and_matches_step_by_step(tmp_path):
                                                        "c_in": c_onnx})
         np.testing.assert_allclose(onnx_actions, actions.numpy(), rtol=0, atol=1e-5,
                                    err_msg=f"step {step}")
+        np.testing.assert_allclose(played.numpy(), actions.numpy(), rtol=0, atol=1e-6)
         np.testing.assert_allclose(h_onnx, h.numpy(), rtol=0, atol=1e-5)
         np.testing.assert_allclose(c_onnx, c.numpy(), rtol=0, atol=1e-5)
         obs, _, done, _ = task.step(actions)

@@ -8,7 +8,10 @@ from rl_games.algos_torch.model_builder import ModelBuilder
 
 
 def load_policy(checkpoint: str, train_cfg: dict, task):
-    """The policy's mean action (clamped to [-1, 1]) for a batch of observations of `task`."""
+    """The policy's mean action (clamped to [-1, 1]) for a batch of observations of `task`:
+    `policy(obs, new_episode=None)`. A recurrent policy (an `rnn` section) carries its state
+    from call to call, one per env, zero at the start and for the envs that `new_episode` [N]
+    (bool: the `done` of the step that produced `obs`) marks."""
     params = train_cfg["params"]
     config = params["config"]
     network = ModelBuilder().load(params).build({
@@ -26,9 +29,20 @@ def load_policy(checkpoint: str, train_cfg: dict, task):
         raise ValueError(f"checkpoint {checkpoint} does not fit the {type(task).__name__} network "
                          f"of the train config ({config.get('name')}): {err}") from err
     network.to(task.device).eval()
+    states = None
+    if network.is_rnn():            # [layers, 1, units] defaults, one row per env instead
+        states = [torch.zeros(s.shape[0], task.num_envs, s.shape[2], device=task.device)
+                  for s in network.get_default_rnn_state()]
 
-    def policy(obs: torch.Tensor) -> torch.Tensor:
-        out = network({"is_train": False, "prev_actions": None, "obs": obs, "rnn_states": None})
+    def policy(obs: torch.Tensor, new_episode: torch.Tensor | None = None) -> torch.Tensor:
+        nonlocal states
+        if states is not None and new_episode is not None:
+            keep = (~new_episode.bool()).float()[None, :, None]
+            states = [s * keep for s in states]
+        out = network({"is_train": False, "prev_actions": None, "obs": obs,
+                       "rnn_states": states})
+        if states is not None:
+            states = list(out["rnn_states"])
         return torch.clamp(out["mus"], -1.0, 1.0)
 
     return policy

@@ -516,9 +516,10 @@ def play(overrides: list[str]) -> int:
     episode_reward, finished = torch.zeros(task.num_envs, device=task.device), []
     with VideoWriter(video, task.envs, fps=fps, size=tuple(cfg.video_size), task=task) as writer:
         writer.add_frame()
+        done = None
         for step in range(int(cfg.num_steps)):
             with torch.no_grad():
-                obs, reward, done, _ = task.step(policy(obs))
+                obs, reward, done, _ = task.step(policy(obs, done))
             obs = obs["obs"]
             episode_reward += reward
             if bool(done[0]):
