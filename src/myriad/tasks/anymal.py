@@ -56,12 +56,7 @@ class Anymal(VecTask):
                                ("linearVelocityXYRewardScale", "angularVelocityZRewardScale",
                                 "torqueRewardScale")}
         e, dev = self.envs, self.device
-        defaults = env["defaultJointAngles"]
-        missing = sorted(set(n.split("/", 1)[1] for n in e.dof_names) - set(defaults))
-        if missing:
-            raise KeyError(f"env.defaultJointAngles lacks {missing}")
-        self.default_dof_pos = torch.tensor([defaults[n.split("/", 1)[1]] for n in e.dof_names],
-                                            device=dev)
+        self.default_dof_pos = default_joint_angles(e, env["defaultJointAngles"], dev)
         self.base = e.body_index("anymal/base")
         self.thighs = torch.tensor([i for i, n in enumerate(e.body_names) if "THIGH" in n],
                                    device=dev)
@@ -115,6 +110,16 @@ class Anymal(VecTask):
         self.commands[:] = where_rows(done, commands, self.commands)
         self.actions.masked_fill_(done[:, None], 0.0)
         self.progress_buf.masked_fill_(done, 0)
+
+
+def default_joint_angles(envs, defaults: dict, device) -> torch.Tensor:
+    """The config's `defaultJointAngles` (by joint name) as a [dofs] tensor in the envs' DOF
+    order; a KeyError names the joints the config lacks."""
+    names = [n.split("/", 1)[1] for n in envs.dof_names]
+    missing = sorted(set(names) - set(defaults))
+    if missing:
+        raise KeyError(f"env.defaultJointAngles lacks {missing}")
+    return torch.tensor([defaults[n] for n in names], device=device)
 
 
 def compute_anymal_observations(base_state, commands_scaled, dof_pos, default_dof_pos, dof_vel,

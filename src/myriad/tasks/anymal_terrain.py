@@ -45,6 +45,7 @@ import torch
 from ..api import Scene
 from ..assets import anymal_c_spec
 from ..torch_utils import env_mask, quat_rotate, quat_rotate_inverse, where_rows, wrap_angle
+from .anymal import default_joint_angles
 from .base import VecTask
 from .terrain import TerrainConfig, generate_terrain, height_points, next_levels, sample_heights
 
@@ -70,12 +71,7 @@ class AnymalTerrain(VecTask):
         self.torque_limit, self.action_scale = control["torqueLimit"], control["actionScale"]
         super().__init__(cfg, device)
         e, dev, N = self.envs, self.device, self.num_envs
-        defaults = env["defaultJointAngles"]
-        missing = sorted(set(n.split("/", 1)[1] for n in e.dof_names) - set(defaults))
-        if missing:
-            raise KeyError(f"env.defaultJointAngles lacks {missing}")
-        self.default_dof_pos = torch.tensor([defaults[n.split("/", 1)[1]] for n in e.dof_names],
-                                            device=dev)
+        self.default_dof_pos = default_joint_angles(e, env["defaultJointAngles"], dev)
         self.base = e.body_index("anymal/base")
         self.feet = torch.tensor([i for i, n in enumerate(e.body_names) if "SHANK" in n],
                                  device=dev)
