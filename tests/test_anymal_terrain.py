@@ -193,10 +193,9 @@ def test_curriculum_pushes_and_friction_in_the_task(device):
 def test_the_robot_stands_on_every_kind_of_tile(device):
     """Zero actions (PD to the default pose) on each kind of tile at level 6: once settled, the
     base stays up and within 1 cm for 10 s, and no base touches the ground."""
-    config = myriad.tasks.task_config("AnymalTerrain")["env"]["terrain"]
-    kinds = [next(j for j in range(20) if column_kind(j, _config(config))[0] == k)
+    task = make(device, num_envs=len(KINDS), pushInterval_s=1000)
+    kinds = [next(j for j in range(20) if column_kind(j, task.terrain_config)[0] == k)
              for k in range(len(KINDS))]
-    task = make(device, num_envs=len(kinds), pushInterval_s=1000)
     place(task, [6] * len(kinds), kinds)
     for _ in range(300):                # 6 s to drop onto the legs and settle (on the rough
         # tile the start point is a bump of the noise, and the feet find the dips around it)
@@ -209,12 +208,6 @@ def test_the_robot_stands_on_every_kind_of_tile(device):
     assert moved.max() < 0.01, moved
     height = task.envs.root_states[:, 0, 2] - task.env_origins[:, 2]
     assert height.min() > 0.3, height       # standing: 0.51 on flat ground
-
-
-def _config(section):
-    from myriad.tasks.terrain import TerrainConfig
-    return TerrainConfig(levels=section["levels"], types=section["types"],
-                         proportions=tuple(section["proportions"]))
 
 
 def _penetration(centres, radius, raw, cfg):

@@ -112,8 +112,9 @@ class AnymalTerrain(VecTask):
         self.noise_scale = self._noise_scale()
         self.push_every = max(1, round(env["pushInterval_s"] / self.dt))
         self.steps_taken = 0          # the one push counter, on the host: no device read
+        self.started = False          # the first reset places robots; later ones move levels
         self.reset()
-        self.started = True           # from now on resets move robots between levels
+        self.started = True
 
     def _noise_scale(self) -> torch.Tensor:
         """Half-width of the uniform noise on each observation entry (scaled units)."""
@@ -209,7 +210,7 @@ class AnymalTerrain(VecTask):
     def reset_idx(self, env_ids):
         done, n, dev = env_mask(env_ids, self.num_envs), self.num_envs, self.device
         e = self.envs
-        if self.curriculum and getattr(self, "started", False):
+        if self.curriculum and self.started:
             walked = torch.norm(e.root_states[:, 0, :2] - self.env_origins[:, :2], dim=-1)
             moved = next_levels(self.levels, walked, torch.norm(self.commands[:, :2], dim=-1),
                                 self.cfg["env"]["episodeLength_s"], self.terrain_config)
