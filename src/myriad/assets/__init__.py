@@ -25,6 +25,7 @@ import re
 import site
 import sys
 import tempfile
+from xml.etree import ElementTree
 
 import mujoco
 import numpy as np
@@ -211,6 +212,27 @@ FRANKA_ROBOTS = "package://example-robot-data/robots/"
 FRANKA_GRIP_SITE = 0.1025            # the original's grip point, along the hand's z (m)
 FRANKA_FINGERTIP = (0.0015, 0.0441)  # the original's fingertip points: toward the other finger
                                      # (y, its sign per finger) and along the finger's z (m)
+
+
+def urdf_velocity_limits(path: str) -> dict[str, float]:
+    """Each joint's `<limit velocity=...>` in a URDF (rad/s or m/s), by joint name. MuJoCo's
+    importer drops it; Isaac Gym applies it as the DOF's maximum speed (`Envs.sim.
+    dof_max_velocity`), which a task that follows the original sets from this."""
+    try:
+        root = ElementTree.parse(path).getroot()
+    except ElementTree.ParseError as err:
+        raise ModelError(f"{path}: not readable as XML: {err}") from err
+    return {joint.get("name"): float(limit.get("velocity"))
+            for joint in root.iter("joint")
+            if (limit := joint.find("limit")) is not None and limit.get("velocity") is not None}
+
+
+def franka_max_velocity() -> list[float]:
+    """The Panda's 9 DOF speed limits of example-robot-data's URDF, in DOF order: 2.175 rad/s
+    for joints 1-4, 2.61 for 5-7, 0.2 m/s for each finger."""
+    limits = urdf_velocity_limits(installed_file("example-robot-data", FRANKA, "arms"))
+    return [limits[f"panda_joint{k}"] for k in range(1, 8)] + \
+        [limits[f"panda_finger_joint{k}"] for k in (1, 2)]
 
 
 def franka_spec() -> mujoco.MjSpec:

@@ -7,7 +7,9 @@ The scene, in env coordinates: a table (1.2 × 1.2 × 0.05 m, top at z = 1.025),
 (`myriad.assets.franka_spec`) at (-0.45, 0, 1.125), fixed, gravity off (the original's); cube A
 (0.05 m) and cube B (0.07 m), density 1000, on the table. The arm's 7 joints take torques
 clamped to their effort limits (87 N·m for joints 1-4, 12 N·m for 5-7); the two fingers are
-position-driven (kp 5000, kd 100) between 0 (closed) and 0.04 m (open).
+position-driven (kp 5000, kd 100, at most 200 N) between 0 (closed) and 0.04 m (open). Every
+DOF keeps the URDF's speed limit, as Isaac Gym applies it: 2.175 rad/s (joints 1-4), 2.61 (5-7),
+0.2 m/s (fingers).
 
 Actions (7, "osc"): a[0:6] · (0.1, 0.1, 0.1, 0.5, 0.5, 0.5) is the task-space error Δpose of
 the grip point (m, axis-angle rad), a[6] ≥ 0 opens the gripper, < 0 closes it. The controller
@@ -28,7 +30,7 @@ Reward (A.2.2, the original's code), with d, d_l, d_r the distances from cube A 
 point and to the two fingertips, h the height of cube A's centre above the table:
     reach = 1 − tanh(10·(d + d_l + d_r)/3)
     lifted = h − 0.05 > 0.04
-    align = (1 − tanh(10·‖B − A − (0, 0, 0.06)‖))·lifted;  reach ← max(reach, align)
+    align = (1 − tanh(10·‖B − A + (0, 0, 0.06)‖))·lifted;  reach ← max(reach, align)
     stacked = ‖(B − A)_xy‖ < 0.02 and |h − 0.095| < 0.02 and d > 0.04 (the gripper let go)
     r = 16 if stacked, else 0.1·reach + 1.5·lifted + 2.0·align
 An episode ends when the cubes are stacked, or after 300 steps.
@@ -56,7 +58,7 @@ import math
 import torch
 
 from ..api import Scene
-from ..assets import franka_spec
+from ..assets import franka_max_velocity, franka_spec
 from ..torch_utils import env_mask, quat_from_angle_axis, unit_axis, where_rows, wrap_angle
 from .base import EpisodeShares, VecTask, box_spec
 
@@ -66,7 +68,7 @@ STAND_SIZE, STAND_POS = (0.2, 0.2, 0.1), (-0.5, 0.0, 1.075)
 ROBOT_POS = (-0.45, 0.0, 1.125)
 TABLE_TOP = TABLE_POS[2] + TABLE_SIZE[2] / 2
 ARM_EFFORT = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)      # N·m, the Panda's limits
-FINGER_KP, FINGER_KD = 5000.0, 100.0
+FINGER_KP, FINGER_KD, FINGER_EFFORT = 5000.0, 100.0, 200.0    # N/m, N·s/m, N (the original's)
 FINGER_OPEN, FINGER_START = 0.04, 0.035
 CUBE_A, CUBE_B = 0.05, 0.07      # m, edge lengths
 HELD = 0.02       # m: cube A's centre this close to the grip point is in the gripper (lift_rate)
@@ -128,6 +130,11 @@ class FrankaCubeStack(VecTask):
         limits = e.dof_limits()[0]
         self.dof_lower, self.dof_upper = limits[:, 0], limits[:, 1]
         self.effort = torch.tensor(ARM_EFFORT, device=dev)
+        # the URDF's speed limits, which Isaac Gym applies and MuJoCo's importer drops: the
+        # fingers close at 0.2 m/s (0.2 s from open), not in one physics step. Unlimited, they
+        # struck the cube so hard that a scripted reach-close-lift held it in 2 of 10 envs
+        e.sim.dof_max_velocity[:, e.dof_columns] = torch.tensor(franka_max_velocity(),
+                                                                 device=dev)
         names = e.model.site_names
         self.sites = torch.tensor([names.index(f"franka/{s}") for s in (
             "panda_grip_site", "panda_leftfinger_tip", "panda_rightfinger_tip")], device=dev)
@@ -148,7 +155,10 @@ class FrankaCubeStack(VecTask):
                         fix_base=True)
         scene.add_actor("stand", box_spec("stand", STAND_SIZE), pos=STAND_POS,
                         fix_base=True)
-        scene.add_actor("franka", franka_spec(), pos=ROBOT_POS, fix_base=True, gravity=False,
+        franka = franka_spec()
+        for finger in ("panda_finger_joint1", "panda_finger_joint2"):
+            franka.joint(finger).actfrcrange = [-FINGER_EFFORT, FINGER_EFFORT]
+        scene.add_actor("franka", franka, pos=ROBOT_POS, fix_base=True, gravity=False,
                         dof_mode=["effort"] * 7 + ["position"] * 2,
                         stiffness=[0.0] * 7 + [FINGER_KP] * 2,
                         damping=[0.0] * 7 + [FINGER_KD] * 2)
