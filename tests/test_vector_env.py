@@ -4,6 +4,8 @@ against a twin env whose episode goes on, seeding, gymnasium's own checks and wr
 real library, and a step that never reads the device."""
 
 import importlib.util
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -219,3 +221,27 @@ def test_asymmetric_task_gives_its_states_in_info():
     assert info["_final_obs"].all()         # Trifinger ends its episodes itself at the limit
     assert info["states"].shape == info["final_states"].shape == (2, 113)
     assert not torch.equal(info["states"], info["final_states"])
+
+
+def test_the_cleanrl_example_trains_and_keeps_its_agent(tmp_path, capsys, monkeypatch):
+    """examples/cleanrl_ppo_ant.py, two PPO iterations on 16 envs: the update runs (finite value
+    loss and KL on its progress line) and the agent is saved with changed parameters."""
+    path = Path(__file__).parent.parent / "examples" / "cleanrl_ppo_ant.py"
+    spec = importlib.util.spec_from_file_location("cleanrl_ppo_ant", path)
+    example = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, spec.name, example)     # its dataclass looks itself up
+    spec.loader.exec_module(example)
+    runs = {}
+    for iterations in (0, 2):          # the same seed: the same agent before its updates
+        runs[iterations] = tmp_path / f"agent_{iterations}.pt"
+        example.main(example.Config(num_envs=16, total_timesteps=16 * 16 * iterations,
+                                    log_every=1, save_path=str(runs[iterations])))
+    lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("iter")]
+    assert len(lines) == 2
+    value_loss, kl = float(lines[-1].split("value loss")[1].split()[0]), \
+        float(lines[-1].split("kl")[1].split()[0])
+    assert np.isfinite(value_loss) and np.isfinite(kl) and kl > 0
+    before, after = (torch.load(runs[k])["agent"] for k in (0, 2))
+    assert torch.equal(before["obs_norm.mean"], torch.zeros(60))
+    assert not torch.equal(after["actor_mean.weight"], before["actor_mean.weight"])
+    assert not torch.equal(after["value_head.weight"], before["value_head.weight"])
