@@ -252,6 +252,29 @@ def test_a_cube_set_on_the_other_stands_still_for_10_s(task):
     assert drift < 1e-3, f"cube A drifted {drift * 1000:.2f} mm on cube B"
 
 
+def test_a_stack_ends_the_episode_and_the_time_limit_is_a_time_out():
+    """A stack is a termination; the 300-step limit (3 here) is reported in `time_outs`, so PPO
+    bootstraps it (the observation has no clock to tell the critic that the end is near)."""
+    task = myriad.make("FrankaCubeStack", num_envs=2, **{"env.episodeLength": 3})
+    task.reset()
+    e = task.envs
+    roots = e.root_states.clone()       # env 1: cube A set on cube B, the gripper far away
+    roots[1, task.cube_b, 0:3] = torch.tensor([0.3, 0.3, TABLE_TOP + 0.035])
+    roots[1, task.cube_a, 0:3] = torch.tensor([0.3, 0.3, TABLE_TOP + 0.07 + 0.025])
+    for cube in (task.cube_a, task.cube_b):
+        roots[1, cube, 3:7] = torch.tensor([0.0, 0.0, 0.0, 1.0])
+        roots[1, cube, 7:13] = 0.0
+    e.set_root_states(roots)
+    task.metrics()
+    _, reward, resets, extras = task.step(torch.zeros(2, 7))
+    assert resets.tolist() == [0, 1] and extras["time_outs"].tolist() == [0, 0]
+    assert reward[1].item() == 16.0
+    for _ in range(2):
+        _, _, resets, extras = task.step(torch.zeros(2, 7))
+    assert resets.tolist() == [1, 0] and extras["time_outs"].tolist() == [1, 0]
+    assert task.metrics()["success_rate"] == 0.5
+
+
 def test_training_smoke_run_reports_the_success_and_lift_rates(tmp_path):
     args = ["train", "task=FrankaCubeStack", "num_envs=16", "max_iterations=2",
             f"train_dir={tmp_path}", "experiment=franka", "train.params.config.minibatch_size=64"]

@@ -129,8 +129,10 @@ def test_success_rate_counts_cubes_at_the_goal_when_episodes_end():
     t.goal_pos[:] = cube[:, 0:3] + torch.tensor([0.01, 0.0, 0.0])
     t.goal_rot[:] = cube[:, 3:7]
     t.goal_pos[2:, 0] += 0.05
-    t.step(torch.zeros(4, 9))                 # the third step ends every episode
+    _, _, resets, extras = t.step(torch.zeros(4, 9))    # the third step ends every episode
     assert t.metrics() == {"success_rate": 0.5}
+    # as a time-out, which PPO bootstraps (the actor's observation has no clock)
+    assert resets.tolist() == [1] * 4 and extras["time_outs"].tolist() == [1] * 4
 
 
 def test_the_wall_keeps_a_cube_thrown_at_it_inside_the_arena(task):

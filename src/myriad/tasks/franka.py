@@ -33,7 +33,8 @@ point and to the two fingertips, h the height of cube A's centre above the table
     align = (1 − tanh(10·‖B − A + (0, 0, 0.06)‖))·lifted;  reach ← max(reach, align)
     stacked = ‖(B − A)_xy‖ < 0.02 and |h − 0.095| < 0.02 and d > 0.04 (the gripper let go)
     r = 16 if stacked, else 0.1·reach + 1.5·lifted + 2.0·align
-An episode ends when the cubes are stacked, or after 300 steps.
+An episode ends when the cubes are stacked (a termination), or after 300 steps (a time-out,
+which PPO bootstraps).
 
 Resets: cube B anywhere on the table within ±0.25 m of its centre, turned about z by up to
 ±45°; cube A the same, at least 0.17 m from B (drawn up to 100 times, as the original); the arm
@@ -211,8 +212,11 @@ class FrankaCubeStack(VecTask):
         # grip point): the reward's `lifted` also pays a cube knocked into the air
         held = torch.norm(a - sites[:, 0, 0:3], dim=-1) < HELD
         self.lifted_ever |= lifted & held
-        self.reset_buf[:] = (stacked | (self.progress_buf >= self.max_episode_length - 1)).long()
-        done = self.reset_buf.bool()
+        # a stack ends the episode; the time limit is the base's, which reports it in
+        # `time_outs` so that PPO bootstraps it (the original flags its time-outs one step late,
+        # so they are never bootstrapped there; the observation has no clock to learn them from)
+        self.reset_buf[:] = stacked.long()
+        done = stacked | (self.progress_buf >= self.max_episode_length)
         self.shares.count(done, success_rate=stacked, lift_rate=self.lifted_ever)
         self.compute_observations()
 

@@ -154,8 +154,10 @@ class Trifinger(VecTask):
             self.goal_rot, self.dt, reach_active, self.cube_size, self.pose_form, **self.rewards)
         self.prev_tips[:] = tips
         self.prev_cube[:] = cube[:, 0:3]
+        # episodes end only at the time limit, which the base reports in `time_outs` (PPO
+        # bootstraps it: the actor's observation has no clock)
+        self.reset_buf.zero_()
         done = self.progress_buf >= self.max_episode_length
-        self.reset_buf[:] = done.long()
         success = reached_goal(cube[:, 0:3], cube[:, 3:7], self.goal_pos, self.goal_rot,
                                self.position_tolerance, self.orientation_tolerance)
         self.shares.count(done, success_rate=success)
