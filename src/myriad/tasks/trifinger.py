@@ -31,9 +31,9 @@ Reward per step, with f_i the fingertips, c the cube, dt = 0.02:
                      corners of K_30(‖k_cube − k_goal‖), K_a(x) = 1 / (e^(a·x) + 2 + e^(−a·x))
     pose, "position_rotation" (the paper's formula): poseWeight · dt · K_50(‖p − p*‖)
                      + poseWeight · dt / (3·|θ| + 0.01), θ the angle between the orientations
-An episode lasts 750 steps (15 s) and has no early end. `success_rate` (progress line,
-TensorBoard, summary.json): the share of the last finished episodes (at least num_envs) whose
-cube ended within 2 cm and 0.4 rad of the goal.
+An episode lasts 750 steps (15 s) and has no early end: it ends in a time-out, which PPO
+bootstraps. `success_rate` (progress line, TensorBoard, summary.json): the share of the last
+finished episodes (at least num_envs) whose cube ended within 2 cm and 0.4 rad of the goal.
 
 Resets: the fingers at (0, 0.9, -2.0) each, at rest; the cube on the floor at a uniform point of
 the disk of radius 0.195 − 0.0563 (the arena less the cube's half diagonal), turned about z
