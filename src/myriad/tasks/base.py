@@ -198,7 +198,7 @@ class VecTask:
         if dr is not None:
             dr.on_step()
         self.post_physics_step()
-        timeout = self.progress_buf >= self.max_episode_length
+        timeout = self.timed_out()
         self.timeout_buf[:] = (timeout & (self.reset_buf == 0)).long()
         # a non-finite env (blown-up physics) ends its episode; its reward must stay finite
         broken = (self.envs.sim.nonfinite != 0) | bad_action
@@ -215,6 +215,13 @@ class VecTask:
             self.envs.sim.nonfinite.masked_fill_(done, 0)
             self.compute_observations()
         return self._obs(), self.rew_buf, self.reset_buf, self.extras
+
+    def timed_out(self) -> torch.Tensor:
+        """[N] bool: the envs whose episode reaches `episodeLength` steps in this step (read after
+        `progress_buf += 1`, in `post_physics_step`). `step` ends them and flags them in
+        `time_outs`; a task reads this to count finished episodes, and never sets `reset_buf` for
+        them, or its time-outs would read as terminations."""
+        return self.progress_buf >= self.max_episode_length
 
     def reset(self) -> dict:
         """Reset every env; returns the observation dict."""

@@ -212,11 +212,10 @@ class FrankaCubeStack(VecTask):
         # grip point): the reward's `lifted` also pays a cube knocked into the air
         held = torch.norm(a - sites[:, 0, 0:3], dim=-1) < HELD
         self.lifted_ever |= lifted & held
-        # a stack ends the episode; the time limit is the base's, which reports it in
-        # `time_outs` so that PPO bootstraps it (the original flags its time-outs one step late,
-        # so they are never bootstrapped there; the observation has no clock to learn them from)
+        # a stack ends the episode; the time limit is the base's, a time-out PPO bootstraps (the
+        # original flags it a step late and never bootstraps it; the observation has no clock)
         self.reset_buf[:] = stacked.long()
-        done = stacked | (self.progress_buf >= self.max_episode_length)
+        done = stacked | self.timed_out()
         self.shares.count(done, success_rate=stacked, lift_rate=self.lifted_ever)
         self.compute_observations()
 

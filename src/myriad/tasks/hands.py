@@ -170,7 +170,7 @@ class InHandTask(VecTask):
         if self.max_consecutive_successes > 0:         # each goal gets the whole episode
             self.progress_buf.masked_fill_(reached, 0)
         self._new_goals(reached)
-        self._count_finished(reset | (self.progress_buf >= self.max_episode_length))
+        self._count_finished(reset | self.timed_out())
         self.compute_observations()
 
     def _new_goals(self, envs: torch.Tensor) -> None:

@@ -157,7 +157,7 @@ class Trifinger(VecTask):
         # episodes end only at the time limit, which the base reports in `time_outs` (PPO
         # bootstraps it: the actor's observation has no clock)
         self.reset_buf.zero_()
-        done = self.progress_buf >= self.max_episode_length
+        done = self.timed_out()
         success = reached_goal(cube[:, 0:3], cube[:, 3:7], self.goal_pos, self.goal_rot,
                                self.position_tolerance, self.orientation_tolerance)
         self.shares.count(done, success_rate=success)
