@@ -29,6 +29,9 @@ Reward, each term × dt (0.02 s), the sum clipped at 0, scales in `env.learn`:
     +1.0·Σ_feet (air time − 0.5 s) at each foot's first contact, when |v*_xy| > 0.1
   (the original's zero-weight terms, orientation, base height, stumble, hip and termination,
   are left out).
+  With `env.penaltyCurriculum` the costs (the terms with a negative scale) are multiplied by
+  k = start^(decay^(steps / 24)), which grows from `start` towards 1 (Hwangbo et al. 2019's
+  curriculum factor; `start` 1 is the original, without it; the CPU profile starts at 0.3).
 An episode ends when the base touches anything (|F| > 1 N), or after 20 s. Every 15 s (one
 counter for all envs) every base is pushed: its v_xy set to U(−1, 1) m/s. Each robot's friction
 is one of 100 values in U[0.5, 1.25] (env i takes value i mod 100), averaged with the terrain's 1.
@@ -79,6 +82,12 @@ class AnymalTerrain(VecTask):
                                   device=dev)
         self.reward_scales = {k: v * self.dt for k, v in self.learn.items()
                               if k.endswith("RewardScale")}
+        curriculum = env.get("penaltyCurriculum", {"start": 1.0, "decay": 1.0})
+        self.penalty_start, self.penalty_decay = curriculum["start"], curriculum["decay"]
+        for key in ("start", "decay"):
+            if not 0.0 < curriculum[key] <= 1.0:
+                raise ValueError(f"task.env.penaltyCurriculum.{key}={curriculum[key]}: "
+                                 "expected a value in (0, 1]")
 
         # the terrain on the device: heights for the samples, tiles' start points by (level, kind)
         self.heights = torch.as_tensor(self.terrain.heights, device=dev)
@@ -140,7 +149,20 @@ class AnymalTerrain(VecTask):
         return scene.build(self.num_envs, self.device, self.sim_params)
 
     def metrics(self) -> dict[str, float]:
-        return {"terrain_level": float(self.levels.float().mean())}
+        metrics = {"terrain_level": float(self.levels.float().mean())}
+        if self.penalty_start < 1.0:
+            metrics["penalty_factor"] = self.penalty_factor()
+        return metrics
+
+    def penalty_factor(self) -> float:
+        """The curriculum's factor on the costs now: start^(decay^(control steps / 24))."""
+        return self.penalty_start ** (self.penalty_decay ** (self.steps_taken / 24))
+
+    def scaled_rewards(self) -> dict[str, float]:
+        """The reward scales (× dt) with the costs × the curriculum's factor."""
+        k = self.penalty_factor()
+        return {name: scale * k if scale < 0 else scale
+                for name, scale in self.reward_scales.items()}
 
     # ------------------------------------------------------------------ step
     def pre_physics_step(self, actions):
@@ -169,7 +191,7 @@ class AnymalTerrain(VecTask):
         self.rew_buf[:], terminated = compute_anymal_terrain_reward(
             base, self.commands, self.torques, e.dof_vel, self.last_dof_vel, self.actions,
             self.last_actions, e.net_contact_force, self.base, self.knees, self.feet_air_time,
-            first_contact, self.reward_scales)
+            first_contact, self.scaled_rewards())
         self.feet_air_time *= ~contact
         self.reset_buf[:] = terminated.long()
         self.last_actions[:] = self.actions
