@@ -190,6 +190,27 @@ def test_curriculum_pushes_and_friction_in_the_task(device):
     assert friction[:, robot].std() > 0.1 and (friction[:, terrain] == 1.0).all()
 
 
+def test_the_penalty_curriculum_scales_the_costs_only():
+    """k = start^(decay^(steps / 24)) multiplies the terms with a negative scale; the tracking
+    and air-time terms keep theirs; start 1 (the task's config, the original) leaves all alone."""
+    plain = make("cpu", num_envs=2)
+    assert plain.penalty_factor() == 1.0 and "penalty_factor" not in plain.metrics()
+    assert plain.scaled_rewards() == plain.reward_scales
+    task = make("cpu", num_envs=2, **{"env.penaltyCurriculum.start": 0.3})
+    assert task.penalty_factor() == pytest.approx(0.3)
+    task.steps_taken = 24 * 1000
+    k = 0.3 ** (0.997 ** 1000)
+    assert task.penalty_factor() == pytest.approx(k) and 0.94 < k < 0.95
+    assert task.metrics()["penalty_factor"] == pytest.approx(k)
+    scaled = task.scaled_rewards()
+    assert scaled["linearVelocityZRewardScale"] == pytest.approx(-4.0 * DT * k)
+    assert scaled["torqueRewardScale"] == pytest.approx(-2e-5 * DT * k)
+    assert scaled["linearVelocityXYRewardScale"] == pytest.approx(1.0 * DT)
+    assert scaled["feetAirTimeRewardScale"] == pytest.approx(1.0 * DT)
+    with pytest.raises(ValueError, match="penaltyCurriculum.start=0"):
+        make("cpu", num_envs=2, **{"env.penaltyCurriculum.start": 0.0})
+
+
 def test_the_robot_stands_on_every_kind_of_tile(device):
     """Zero actions (PD to the default pose) on each kind of tile at level 6: once settled, the
     base stays up and within 1 cm for 10 s, and no base touches the ground."""
@@ -282,12 +303,31 @@ def _foot_centres(task):
     return centres.reshape(-1, 3).cpu().numpy()
 
 
-def test_training_smoke_run_reports_the_terrain_level(tmp_path):
+def test_training_smoke_run_reports_the_terrain_level_and_resumes_its_curricula(tmp_path):
+    """Two epochs, then a resume from a checkpoint whose task state says level 3 and 100
+    batches of the cost curriculum: the run goes on from there, not from level 0 and k = 0.3."""
     from myriad import cli
 
-    args = ["train", "task=AnymalTerrain", "num_envs=16", "max_iterations=2",
-            f"train_dir={tmp_path}", "experiment=terrain", "train.params.config.minibatch_size=64"]
-    assert cli.main(args) == 0
+    args = ["train", "task=AnymalTerrain", "num_envs=16", f"train_dir={tmp_path}",
+            "experiment=terrain", "train.params.config.minibatch_size=64",
+            "task.env.penaltyCurriculum.start=0.3"]
+    assert cli.main([*args, "max_iterations=2"]) == 0
     summary = json.loads((tmp_path / "terrain" / "summary.json").read_text())
     assert summary["epochs"] == 2 and summary["env_steps"] == 16 * 24 * 2
     assert 0.0 <= summary["terrain_level"] <= 9.0
+    assert summary["penalty_factor"] == pytest.approx(0.3 ** (0.997 ** 2), abs=1e-4)
+    last = tmp_path / "terrain" / "nn" / "last.pth"
+    state = torch.load(last, weights_only=False, map_location="cpu")
+    kept = state["myriad"]["task"]
+    assert kept["steps_taken"] == 48 and kept["levels"].shape == (16, )
+    kept["steps_taken"], kept["levels"] = 2400, torch.full((16, ), 3)
+    torch.save(state, last)
+    assert cli.main([*args, "max_iterations=3", "resume=auto"]) == 0
+    summary = json.loads((tmp_path / "terrain" / "summary.json").read_text())
+    assert summary["penalty_factor"] == pytest.approx(0.3 ** (0.997 ** 101), abs=1e-4)
+    # 24 steps of a 1000-step episode: only robots that fell moved, one level down
+    assert 2.0 <= summary["terrain_level"] <= 3.0
+    # a checkpoint of another env count is refused, naming what does not fit
+    task = make("cpu", num_envs=4)
+    with pytest.raises(ValueError, match=r"levels has shape \(16,\)"):
+        task.load_training_state(kept)

@@ -13,7 +13,9 @@ Files of a run, under runs/<experiment>/:
 
 A checkpoint holds everything a run needs to continue as if never stopped: the networks, the
 optimizer, the observation/value normalizers, the epoch and env-step counters, the wall time, the
-best reward and the random generators' states (the envs themselves start fresh episodes).
+best reward, the random generators' states and what spans episodes in the task
+(`VecTask.checkpointed`: terrain levels, a reward term's schedule, the randomization schedule);
+the envs themselves start fresh episodes.
 
 SIGINT (Ctrl-C) and SIGTERM (docker stop, Slurm, Kubernetes) finish the current epoch, save
 nn/last.pth and summary.json, and exit with 128 + the signal number; a second signal saves at
@@ -413,6 +415,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             "best_mean_reward": self.best_mean_reward,
             "best_saved_reward": self.best_saved_reward,
             "nonfinite_actions": self.nonfinite_actions,
+            "task": getattr(self.vec_env.env, "training_state", dict)(),
             "rng": {"torch": torch.get_rng_state(), "cuda": cuda,
                     "numpy": np.random.get_state(), "python": random.getstate()}}
         return state
@@ -429,6 +432,8 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.best_saved_reward = ours["best_saved_reward"]
         self.restored_best = self.best_saved_reward
         self.nonfinite_actions = ours["nonfinite_actions"]
+        if ours.get("task"):
+            self.vec_env.env.load_training_state(ours["task"])
         self.checkpoint_epoch = self.epoch_num
         rng = ours["rng"]
         torch.set_rng_state(rng["torch"])

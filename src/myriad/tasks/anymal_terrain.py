@@ -59,6 +59,7 @@ TERRAIN_KEYS = ("levels", "types", "proportions", "tile", "border", "horizontal_
 class AnymalTerrain(VecTask):
     num_obs = 188
     num_actions = 12
+    checkpointed = ("steps_taken", "levels")     # pushes and cost factor; the curriculum
 
     def __init__(self, cfg: dict, device: str = "cpu"):
         env = cfg["env"]
@@ -121,9 +122,20 @@ class AnymalTerrain(VecTask):
         self.noise_scale = self._noise_scale()
         self.push_every = max(1, round(env["pushInterval_s"] / self.dt))
         self.steps_taken = 0          # the one push counter, on the host: no device read
-        self.started = False          # the first reset places robots; later ones move levels
+        self.move_levels = False      # the curriculum moves robots whose episodes end in step
         self.reset()
-        self.started = True
+
+    def reset(self) -> dict:
+        """Every env to a fresh episode on the level it holds: the curriculum moves a robot only
+        when its episode ends in a step, not at the trainer's first reset or a resumed run's."""
+        self.move_levels = False
+        obs = super().reset()
+        self.move_levels = self.curriculum
+        return obs
+
+    def load_training_state(self, state: dict) -> None:
+        super().load_training_state(state)
+        self.env_origins[:] = self.tile_origins[self.levels, self.kinds]
 
     def _noise_scale(self) -> torch.Tensor:
         """Half-width of the uniform noise on each observation entry (scaled units)."""
@@ -232,7 +244,7 @@ class AnymalTerrain(VecTask):
     def reset_idx(self, env_ids):
         done, n, dev = env_mask(env_ids, self.num_envs), self.num_envs, self.device
         e = self.envs
-        if self.curriculum and self.started:
+        if self.move_levels:
             walked = torch.norm(e.root_states[:, 0, :2] - self.env_origins[:, :2], dim=-1)
             moved = next_levels(self.levels, walked, torch.norm(self.commands[:, :2], dim=-1),
                                 self.cfg["env"]["episodeLength_s"], self.terrain_config)

@@ -27,6 +27,7 @@ All buffers live on the simulation device. The original resets finished envs one
 from __future__ import annotations
 
 import math
+import operator
 
 import gymnasium as gym
 import mujoco
@@ -222,6 +223,42 @@ class VecTask:
         `time_outs`; a task reads this to count finished episodes, and never sets `reset_buf` for
         them, or its time-outs would read as terminations."""
         return self.progress_buf >= self.max_episode_length
+
+    # What a checkpoint keeps of the task: the attributes (dotted names) that span episodes, the
+    # schedules and curricula a resumed run must continue rather than restart. The envs
+    # themselves start fresh episodes on resume.
+    checkpointed: tuple[str, ...] = ()
+
+    def _checkpointed(self) -> list[str]:
+        return list(self.checkpointed) + (["randomizer.env_steps"] if self.randomizer else [])
+
+    def training_state(self) -> dict:
+        """The `checkpointed` attributes (and the randomizer's schedule), tensors on the CPU."""
+        state = {}
+        for name in self._checkpointed():
+            value = operator.attrgetter(name)(self)
+            state[name] = value.detach().cpu().clone() if torch.is_tensor(value) else value
+        return state
+
+    def load_training_state(self, state: dict) -> None:
+        """Continue from `training_state()` of a run that was stopped (before its first reset)."""
+        names = self._checkpointed()
+        unknown = sorted(set(state) - set(names))
+        if unknown:
+            raise ValueError(f"{type(self).__name__}: the checkpoint's task state has {unknown}, "
+                             f"which this task does not keep (it keeps {names})")
+        for name, value in state.items():
+            owner_name, _, attr = name.rpartition(".")
+            owner = operator.attrgetter(owner_name)(self) if owner_name else self
+            current = getattr(owner, attr)
+            if torch.is_tensor(current):
+                if tuple(value.shape) != tuple(current.shape):
+                    raise ValueError(f"{type(self).__name__}: the checkpoint's {name} has shape "
+                                     f"{tuple(value.shape)}, this task's {tuple(current.shape)} "
+                                     "(a run with another num_envs?)")
+                current.copy_(value)
+            else:
+                setattr(owner, attr, value)
 
     def reset(self) -> dict:
         """Reset every env; returns the observation dict."""

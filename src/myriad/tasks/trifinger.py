@@ -76,6 +76,7 @@ POSITION_BOUND = (0.3, 0.3, 0.3)          # |x|, |y| ≤ 0.3; 0 ≤ z ≤ 0.3 (m
 class Trifinger(VecTask):
     num_actions = 9
     num_obs = 41
+    checkpointed = ("steps_taken", )     # the reach term's schedule
 
     def __init__(self, cfg: dict, device: str = "cpu"):
         env = cfg["env"]
