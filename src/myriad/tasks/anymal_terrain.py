@@ -31,7 +31,7 @@ Reward, each term × dt (0.02 s), the sum clipped at 0, scales in `env.learn`:
   are left out).
   With `env.penaltyCurriculum` the costs (the terms with a negative scale) are multiplied by
   k = start^(decay^(steps / 24)), which grows from `start` towards 1 (Hwangbo et al. 2019's
-  curriculum factor; `start` 1 is the original, without it; the CPU profile starts at 0.3).
+  curriculum factor; `start` 1 is the original, without it; the CPU profile starts at 0.05).
 An episode ends when the base touches anything (|F| > 1 N), or after 20 s. Every 15 s (one
 counter for all envs) every base is pushed: its v_xy set to U(−1, 1) m/s. Each robot's friction
 is one of 100 values in U[0.5, 1.25] (env i takes value i mod 100), averaged with the terrain's 1.
