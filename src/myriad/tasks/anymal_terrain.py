@@ -59,7 +59,7 @@ TERRAIN_KEYS = ("levels", "types", "proportions", "tile", "border", "horizontal_
 class AnymalTerrain(VecTask):
     num_obs = 188
     num_actions = 12
-    checkpointed = ("steps_taken", "levels")     # pushes and cost factor; the curriculum
+    checkpointed = ("steps_taken", "levels")     # push clock and cost factor; terrain levels
 
     def __init__(self, cfg: dict, device: str = "cpu"):
         env = cfg["env"]
