@@ -14,7 +14,7 @@ import myriad
 from myriad import cli
 from myriad.tasks.trifinger import (TRIFINGER_ARENA_RADIUS, compute_trifinger_reward,
                                     cube_corners, logistic_kernel)
-from myriad.torch_utils import quat_from_angle_axis, rotation_angle
+from myriad.torch_utils import quat_from_angle_axis, quat_mul, rotation_angle
 
 pytestmark = pytest.mark.skipif(importlib.util.find_spec("robot_properties_fingers") is None,
                                 reason="robot-properties-fingers (myriad[arms]) is not installed")
@@ -78,6 +78,40 @@ def test_resets_put_the_fingers_home_and_the_cube_and_goal_in_the_arena():
     torch.testing.assert_close(t.goal_rot.norm(dim=-1), torch.ones(256))
     # uniform orientations: the angle from identity has mean π/2 + 2/π (1.89 rad) on SO(3)
     assert abs(rotation_angle(t.goal_rot).mean().item() - (math.pi / 2 + 2 / math.pi)) < 0.1
+
+
+@pytest.mark.parametrize("difficulty", [-1, 1, 2, 3])
+def test_the_easier_difficulties_draw_the_originals_goals_and_ignore_orientation(difficulty):
+    t = plain(num_envs=256, difficulty=difficulty, episodeLength=3)
+    t.reset()
+    rest = CUBE / 2
+    assert (t.goal_pos[:, 0:2].norm(dim=-1) <= SPAWN + 1e-6).all()
+    if difficulty in (-1, 1):                       # on the table
+        torch.testing.assert_close(t.goal_pos[:, 2], torch.full((256,), rest))
+    elif difficulty == 2:                           # one goal, 5 cm up at the centre
+        torch.testing.assert_close(t.goal_pos, torch.tensor([0.0, 0.0, rest + 0.05]).expand(256, 3))
+    else:                                           # in the air, up to 0.1 m
+        assert (t.goal_pos[:, 2] >= rest - 1e-6).all() and (t.goal_pos[:, 2] <= 0.1 + 1e-6).all()
+        assert t.goal_pos[:, 2].std() > 0.01
+    angle = rotation_angle(t.goal_rot)
+    if difficulty == -1:                            # turned about z only, any angle
+        assert torch.allclose(t.goal_rot[:, 0:2], torch.zeros(256, 2), atol=1e-6)
+        assert angle.max() > 2.5
+    else:
+        assert angle.abs().max() < 1e-6
+    # success is the position alone: a cube at its goal's position but turned 90° counts
+    t.goal_pos[:] = t.envs.root_states[:, t.cube, 0:3]
+    t.goal_rot[:] = quat_mul(t.envs.root_states[:, t.cube, 3:7], quat_from_angle_axis(
+        torch.full((256,), math.pi / 2), torch.tensor([1.0, 0.0, 0.0]).expand(256, 3)))
+    t.metrics()
+    for _ in range(t.max_episode_length):
+        t.step(torch.zeros(256, 9))
+    assert t.metrics()["success_rate"] > 0.95
+
+
+def test_an_unknown_difficulty_is_named():
+    with pytest.raises(ValueError, match="difficulty=5.*4 \\(in the air"):
+        plain(difficulty=5)
 
 
 def test_reward_terms_against_hand_computed_values():

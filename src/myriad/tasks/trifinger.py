@@ -33,11 +33,13 @@ Reward per step, with f_i the fingertips, c the cube, dt = 0.02:
                      + poseWeight · dt / (3·|θ| + 0.01), θ the angle between the orientations
 An episode lasts 750 steps (15 s) and has no early end: it ends in a time-out, which PPO
 bootstraps. `success_rate` (progress line, TensorBoard, summary.json): the share of the last
-finished episodes (at least num_envs) whose cube ended within 2 cm and 0.4 rad of the goal.
+finished episodes (at least num_envs) whose cube ended within 2 cm and 0.4 rad of the goal (2 cm
+alone below difficulty 4).
 
 Resets: the fingers at (0, 0.9, -2.0) each, at rest; the cube on the floor at a uniform point of
 the disk of radius 0.195 − 0.0563 (the arena less the cube's half diagonal), turned about z
-uniformly; the goal at a uniform point of that disk, 0.0563-0.1 m high, uniformly oriented.
+uniformly; the goal at a uniform point of that disk, 0.0563-0.1 m high, uniformly oriented
+(`difficulty` 4, the default; the original's easier goals -1 to 3 are `DIFFICULTIES`).
 Domain randomization (cfg `randomization`): observation and action noise, gravity, the joint
 limits, the cube's size, mass and friction, the table's friction.
 
@@ -62,6 +64,14 @@ from ..torch_utils import (env_mask, quat_conjugate, quat_from_angle_axis, quat_
 from .base import EpisodeShares, VecTask, box_spec
 
 POSE_FORMS = ("keypoints", "position_rotation")
+# the original's goal difficulties: goal position (and orientation) drawn at each reset
+DIFFICULTIES = {
+    -1: "on the table, turned about z",
+    1: "on the table, not turned",
+    2: "fixed 5 cm above the cube's resting height at the centre, not turned",
+    3: "in the air (resting height to 0.1 m), not turned",
+    4: "in the air (half diagonal to 0.1 m), any orientation (success needs it too)",
+}
 JOINT_LOWER = (-0.33, 0.0, -2.7)          # per finger (rad)
 JOINT_UPPER = (1.0, 1.57, 0.0)
 JOINT_START = (0.0, 0.9, -2.0)
@@ -84,6 +94,10 @@ class Trifinger(VecTask):
         self.cube_size = float(env["cubeSize"])
         self.cube_density = float(env["cubeDensity"])
         self.pose_form = env["poseRewardForm"]
+        self.difficulty = env["difficulty"]
+        if self.difficulty not in DIFFICULTIES:
+            raise ValueError(f"env.difficulty={env['difficulty']!r}; valid: "
+                             + "; ".join(f"{k} ({v})" for k, v in DIFFICULTIES.items()))
         if self.pose_form not in POSE_FORMS:
             raise ValueError(f"env.poseRewardForm={self.pose_form!r}; valid: {list(POSE_FORMS)}")
         self.rewards = {k: float(env[k]) for k in (
@@ -159,8 +173,10 @@ class Trifinger(VecTask):
         # bootstraps it: the actor's observation has no clock)
         self.reset_buf.zero_()
         done = self.timed_out()
+        # below difficulty 4 the goal's orientation is not part of the task (the original)
         success = reached_goal(cube[:, 0:3], cube[:, 3:7], self.goal_pos, self.goal_rot,
-                               self.position_tolerance, self.orientation_tolerance)
+                               self.position_tolerance,
+                               self.orientation_tolerance if self.difficulty == 4 else math.inf)
         self.shares.count(done, success_rate=success)
         self.compute_observations()
 
@@ -205,11 +221,9 @@ class Trifinger(VecTask):
         e.set_root_states(roots, done, forward=False)
         pos = self.joint_start.expand(N, -1)
         e.set_dof_state(pos, torch.zeros_like(pos), done)
-        goal_pos = torch.cat((disk_points(N, spawn, dev),
-                              half_diagonal + (0.1 - half_diagonal) * torch.rand(N, 1, device=dev)),
-                             dim=-1)
+        goal_pos, goal_rot = self.sample_goals(N, spawn)
         self.goal_pos[:] = where_rows(done, goal_pos, self.goal_pos)
-        self.goal_rot[:] = where_rows(done, uniform_orientation(N, dev), self.goal_rot)
+        self.goal_rot[:] = where_rows(done, goal_rot, self.goal_rot)
         self.prev_tips[:] = where_rows(done, e.rigid_body_states[:, self.fingertips, 0:3],
                                        self.prev_tips)
         self.prev_cube[:] = where_rows(done, e.root_states[:, self.cube, 0:3], self.prev_cube)
@@ -217,6 +231,25 @@ class Trifinger(VecTask):
         e.set_dof_efforts(self.torques)
         self.actions.masked_fill_(done[:, None], 0.0)
         self.progress_buf.masked_fill_(done, 0)
+
+    def sample_goals(self, n: int, radius: float) -> tuple[torch.Tensor, torch.Tensor]:
+        """[n, 3] goal positions and [n, 4] orientations at `difficulty` (`DIFFICULTIES`), in the
+        disk of `radius` where the goal's position varies."""
+        dev, rest = self.device, self.cube_size / 2
+        pos = torch.cat((disk_points(n, radius, dev), torch.full((n, 1), rest, device=dev)), -1)
+        rot = unit_axis(torch.zeros(n, 4, device=dev), 3)            # identity (x, y, z, w)
+        if self.difficulty == -1:
+            rot = quat_from_angle_axis(2 * math.pi * torch.rand(n, device=dev), unit_axis(pos, 2))
+        elif self.difficulty == 2:
+            pos[:, 0:2] = 0.0
+            pos[:, 2] += 0.05
+        elif self.difficulty == 3:
+            pos[:, 2] += (0.1 - rest) * torch.rand(n, device=dev)
+        elif self.difficulty == 4:
+            half_diagonal = self.cube_size * math.sqrt(3) / 2   # clear of the floor when turned
+            pos[:, 2] = half_diagonal + (0.1 - half_diagonal) * torch.rand(n, device=dev)
+            rot = uniform_orientation(n, dev)
+        return pos, rot
 
     # videos: the goal drawn where it is, as a see-through cube, and a camera on the arena
     video_camera = {"lookat": (0.0, 0.0, 0.06), "distance": 0.75, "elevation": -40.0,
