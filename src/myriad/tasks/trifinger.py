@@ -105,7 +105,9 @@ class Trifinger(VecTask):
             "positionKernelScale")}
         self.reach_steps = float(env["reachStepsThreshold"])
         self.position_tolerance = float(env["successPositionTolerance"])
-        self.orientation_tolerance = float(env["successOrientationTolerance"])
+        # below difficulty 4 the goal's orientation is not part of the task (the original)
+        self.orientation_tolerance = (float(env["successOrientationTolerance"])
+                                      if self.difficulty == 4 else math.inf)
         super().__init__(cfg, device)
 
         e, dev, N = self.envs, self.device, self.num_envs
@@ -173,10 +175,8 @@ class Trifinger(VecTask):
         # bootstraps it: the actor's observation has no clock)
         self.reset_buf.zero_()
         done = self.timed_out()
-        # below difficulty 4 the goal's orientation is not part of the task (the original)
         success = reached_goal(cube[:, 0:3], cube[:, 3:7], self.goal_pos, self.goal_rot,
-                               self.position_tolerance,
-                               self.orientation_tolerance if self.difficulty == 4 else math.inf)
+                               self.position_tolerance, self.orientation_tolerance)
         self.shares.count(done, success_rate=success)
         self.compute_observations()
 
