@@ -40,6 +40,13 @@ WORKER = textwrap.dedent("""
             torch.save({"model": state, "obs": self.obs["obs"].cpu().clone()},
                        os.path.join(out, f"rank{self.global_rank}_epoch{self.epoch_num}.pt"))
     training.MyriadAgent.train_epoch = dumping_train_epoch
+    set_full_state_weights = training.MyriadAgent.set_full_state_weights
+
+    def dumping_set_full_state_weights(self, weights, set_epoch=True):
+        set_full_state_weights(self, weights, set_epoch)
+        torch.save(self.vec_env.env.training_state(),
+                   os.path.join(out, f"rank{self.global_rank}_resumed_task.pt"))
+    training.MyriadAgent.set_full_state_weights = dumping_set_full_state_weights
 
     from myriad.train import main
     code = main()
@@ -107,6 +114,45 @@ def test_two_cpu_processes_train_one_policy_and_only_rank_0_writes(tmp_path):
     assert sorted(os.listdir(folder)) == ["nn", "progress.csv", "summaries", "summary.json"]
     assert os.listdir(folder / "nn") == ["last.pth"]
     assert sorted(os.listdir(runs)) == ["mp"]
+
+
+def test_each_process_resumes_its_own_terrain_levels_and_the_metrics_cover_all(tmp_path):
+    """AnymalTerrain in two processes: the checkpoint keeps both processes' terrain levels,
+    `terrain_level` is the mean over both processes' envs, and on resume each process continues
+    from its own levels (set here to 2 for rank 0's envs and 5 for rank 1's)."""
+    worker = tmp_path / "worker.py"
+    worker.write_text(WORKER)
+    dumps, runs = tmp_path / "dumps", tmp_path / "runs"
+    dumps.mkdir()
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+
+    def train(*extra):
+        done = subprocess.run(
+            [sys.executable, "-m", "torch.distributed.run", "--standalone",
+             "--nproc_per_node=2", str(worker), str(dumps), "task=AnymalTerrain", "device=cpu",
+             "multi_gpu=true", "num_envs=16", "train.params.config.minibatch_size=64",
+             f"train_dir={runs}", "experiment=terrain", *extra],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, timeout=600)
+        assert done.returncode == 0, done.stdout
+
+    train("max_iterations=2")
+    last = runs / "terrain" / "nn" / "last.pth"
+    state = torch.load(last, weights_only=False, map_location="cpu")
+    by_rank = state["myriad"]["task_by_rank"]
+    assert len(by_rank) == 2 and all(s["levels"].shape == (8, ) for s in by_rank)
+    assert torch.equal(by_rank[0]["levels"], state["myriad"]["task"]["levels"])
+    summary = json.loads((runs / "terrain" / "summary.json").read_text())
+    both = torch.cat([s["levels"] for s in by_rank]).float().mean()
+    assert summary["terrain_level"] == pytest.approx(float(both), abs=1e-6)
+
+    state["myriad"]["task"]["levels"] = torch.full((8, ), 2)
+    by_rank[0]["levels"], by_rank[1]["levels"] = torch.full((8, ), 2), torch.full((8, ), 5)
+    torch.save(state, last)
+    train("max_iterations=3", "resume=auto")
+    for rank, level in ((0, 2), (1, 5)):
+        resumed = torch.load(dumps / f"rank{rank}_resumed_task.pt")
+        assert torch.equal(resumed["levels"], torch.full((8, ), level)), rank
+        assert resumed["steps_taken"] == by_rank[rank]["steps_taken"] == 48
 
 
 def test_envs_and_minibatches_are_shared_among_the_processes():

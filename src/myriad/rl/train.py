@@ -28,8 +28,10 @@ the first epoch, gradients averaged across the processes at every minibatch, the
 learning rate shared. Added here: after each update the observation and value normalizers
 merge what every process added to them (so that all processes hold the same statistics, and the
 checkpoint those of all envs); after each epoch the processes agree on stopping (a signal,
-max_time_s) and on the count of non-finite actions; only rank 0 writes the run's files and
-prints the progress line, its env_steps counting the steps of all processes.
+max_time_s) and on the count of non-finite actions, and share their task metrics (averaged) and
+task state (kept by rank 0's checkpoints, each process's own restored on resume); only rank 0
+writes the run's files and prints the progress line, its env_steps counting the steps of all
+processes.
 """
 
 from __future__ import annotations
@@ -269,6 +271,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.checkpoint_epoch = None        # the epoch nn/last.pth holds
         self.frames_not_counted = 0         # this epoch's env-steps, before rl_games adds them
         self.stop_signal = None
+        self.task_states = None             # several processes: each one's task state, by rank
         self.last_save = time.monotonic()
         self.curve_path = os.path.join(self.experiment_dir, "progress.csv")
         # a task's own scalars (`metrics()`, e.g. the hands' consecutive_successes): columns
@@ -285,6 +288,21 @@ class MyriadAgent(a2c_continuous.A2CAgent):
     def task_metrics(self) -> dict[str, float]:
         metrics = getattr(self.vec_env.env, "metrics", None)
         return metrics() if metrics is not None else {}
+
+    def share_task_state(self) -> dict[str, float]:
+        """This epoch's task metrics over all processes' envs. Several processes: each metric is
+        a mean over a process's envs (or its last episodes) and every process holds as many, so
+        the processes' means are averaged; and every process's checkpointed task state (its
+        envs' terrain levels) is kept for rank 0's checkpoints, so that a resumed run gives
+        each process back its own. One all-gather of a few small objects per epoch."""
+        metrics = self.task_metrics()
+        if not self.multi_gpu:
+            return metrics
+        state = getattr(self.vec_env.env, "training_state", dict)()
+        table = [None] * self.world_size
+        dist.all_gather_object(table, (metrics, state))
+        self.task_states = [theirs for _, theirs in table]
+        return {k: sum(m[k] for m, _ in table) / self.world_size for k in metrics}
 
     # ---------------------------------------------------------------- several processes
     @property
@@ -416,6 +434,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             "best_saved_reward": self.best_saved_reward,
             "nonfinite_actions": self.nonfinite_actions,
             "task": getattr(self.vec_env.env, "training_state", dict)(),
+            "task_by_rank": self.task_states,    # several processes: as of the last epoch's end
             "rng": {"torch": torch.get_rng_state(), "cuda": cuda,
                     "numpy": np.random.get_state(), "python": random.getstate()}}
         return state
@@ -432,8 +451,9 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.best_saved_reward = ours["best_saved_reward"]
         self.restored_best = self.best_saved_reward
         self.nonfinite_actions = ours["nonfinite_actions"]
-        if ours.get("task"):
-            self.vec_env.env.load_training_state(ours["task"])
+        task = self.own_task_state(ours)
+        if task:
+            self.vec_env.env.load_training_state(task)
         self.checkpoint_epoch = self.epoch_num
         rng = ours["rng"]
         torch.set_rng_state(rng["torch"])
@@ -444,6 +464,21 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         random.setstate(rng["python"])
         if self.multi_gpu:
             self.reseed_after_resume()
+
+    def own_task_state(self, ours: dict) -> dict | None:
+        """This process's task state in a checkpoint: rank 0's is `task`, the others' are in
+        `task_by_rank` (a checkpoint of several processes). A checkpoint of another process
+        count gives every process rank 0's."""
+        by_rank = ours.get("task_by_rank")
+        processes = 1 if by_rank is None else len(by_rank)
+        if processes != self.world_size:
+            if ours.get("task") and self.writes_files:
+                warnings.warn(f"the checkpoint was written by {processes} process(es) and this "
+                              f"run has {self.world_size}: every process continues from rank "
+                              "0's task state (its terrain levels, schedules)", RuntimeWarning,
+                              stacklevel=2)
+            return ours.get("task")
+        return ours.get("task") if self.global_rank == 0 else by_rank[self.global_rank]
 
     def reseed_after_resume(self):
         """Several processes: the checkpoint holds rank 0's CPU random generators, which rank 0
@@ -520,7 +555,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
                           "progress.csv and TensorBoard (myriad/nonfinite_actions).",
                           RuntimeWarning, stacklevel=2)
         self.nonfinite_actions += bad_now
-        self.metrics = self.task_metrics()
+        self.metrics = self.share_task_state()
         if self.writes_files:
             self.report_epoch(env_steps, total_time, wall, mean, bad_now,
                               (physics_s, policy_s, update_s))
