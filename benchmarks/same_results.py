@@ -7,6 +7,10 @@ The ant, the humanoid and the hand-and-cube stand-in, 8 envs each, and 64 boxes 
 plane (2 envs: many trees, contacts between two of them), 150 steps of seeded random controls
 on one CPU thread: the final q and `dof_constraint_force` are saved, or compared
 exactly (the largest absolute difference per array is printed; 0.0 means identical).
+With `--tasks`, every task of the seed as well (4 envs, 40 steps of seeded random actions,
+resets included: observations, rewards and the simulator's q), which reaches the kernels the
+four models do not (tendons, equalities, sensors, meshes, height fields); tasks whose robot
+package is not installed are skipped and named.
 """
 
 from __future__ import annotations
@@ -41,12 +45,39 @@ def results() -> dict[str, np.ndarray]:
     return out
 
 
+def task_results() -> dict[str, np.ndarray]:
+    from myriad.tasks import TASKS
+
+    out = {}
+    for name in TASKS:
+        torch.manual_seed(0)
+        try:
+            task = myriad.make(name, num_envs=4)
+        except (ImportError, ModuleNotFoundError) as missing:
+            print(f"{name}: skipped ({missing})")
+            continue
+        gen = torch.Generator().manual_seed(1)
+        task.reset()
+        rewards = []
+        for _ in range(40):
+            actions = torch.rand(task.num_envs, task.num_actions, generator=gen) * 2 - 1
+            obs, rew, done, extras = task.step(actions)
+            rewards.append(rew.clone())
+        out[f"{name} obs"] = obs["obs"].numpy().copy()
+        out[f"{name} rewards"] = torch.stack(rewards).numpy()
+        out[f"{name} q"] = task.envs.sim.q.numpy().copy()
+    return out
+
+
 def main() -> None:
-    if len(sys.argv) != 3 or sys.argv[1] not in ("save", "compare"):
+    args = [a for a in sys.argv[1:] if a != "--tasks"]
+    if len(args) != 2 or args[0] not in ("save", "compare"):
         sys.exit(__doc__)
     wp.config.log_level = wp.LOG_WARNING
-    mode, path = sys.argv[1:]
+    mode, path = args
     now = results()
+    if "--tasks" in sys.argv:
+        now.update(task_results())
     if mode == "save":
         np.savez(path, **now)
         print(f"saved {len(now)} arrays to {path}")
