@@ -9,29 +9,28 @@ tasks run `--iterations 8`.
 
 Isaac Gym timing (dt 1/60 s in 2 substeps, TGS `--iterations`/0, contacts on), fresh random
 controls before every step (as `step_rate.py`), after `--settle` steps of them. Each stage of
-`Simulator._step_kernels` is timed on its own (the device is synchronized after each, so on
-CUDA this runs without the step's CUDA graph and the sum exceeds a graph-captured step); the
-table gives ms per step and the share of the total.
+the step is timed on its own (`Simulator.step(timings=...)`: the device is synchronized after
+each, so on CUDA this runs without the step's CUDA graph and the sum exceeds a graph-captured
+step); the table gives ms per step and the share of the total.
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
-import time
 
 import torch
 import warp as wp
 
 import myriad
 
-STAGES = ["_kinematics", "_collision", "_dynamics", "_applied_forces", "_solve_unconstrained",
-          "_constraint_rows", "_solve_constraints", "_integrate", "_constraint_outputs"]
+STAGES = list(dict.fromkeys(myriad.Simulator.SUBSTEP_STAGES + myriad.Simulator.FINAL_STAGES))
 
 
 def profile(model, n: int, steps: int, device: str, threads: int | None, iterations: int = 4,
-            settle: int = 30) -> dict:
-    params = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=iterations,
+            settle: int = 30, dt: float = 1 / 60, substeps: int = 2) -> dict:
+    """ms per step of each stage (`STAGES`), over `steps` steps of `n` envs of `model`."""
+    params = myriad.SimParams(dt=dt, substeps=substeps, position_iterations=iterations,
                               velocity_iterations=0)
     sim = myriad.Simulator(model, num_envs=n, device=device, params=params, cpu_threads=threads)
     gen = torch.Generator(device=sim.torch_device).manual_seed(0)
@@ -43,24 +42,9 @@ def profile(model, n: int, steps: int, device: str, threads: int | None, iterati
         new_controls()
         sim.step()
     spent = collections.Counter()
-    originals = {name: getattr(sim, name) for name in STAGES}
-
-    def timed(name):
-        def run():
-            wp.synchronize_device(sim.device)
-            t0 = time.perf_counter()
-            originals[name]()
-            wp.synchronize_device(sim.device)
-            spent[name] += time.perf_counter() - t0
-        return run
-    for name in STAGES:
-        setattr(sim, name, timed(name))
     for _ in range(steps):
         new_controls()
-        if sim.device.is_cuda:
-            sim._run_on_device(sim._step_kernels)
-        else:
-            sim._run_sharded(sim._step_kernels)
+        sim.step(timings=spent)
     return {name: spent[name] / steps * 1e3 for name in STAGES}
 
 
@@ -96,7 +80,7 @@ def main() -> None:
     print("|---|" + "---|" * len(rows))
     for stage in STAGES:
         cells = [f"{r[stage]:.2f} ({100 * r[stage] / sum(r.values()):.0f} %)" for r in rows.values()]
-        print(f"| {stage.strip('_').replace('_', ' ')} | " + " | ".join(cells) + " |")
+        print(f"| {stage.replace('_', ' ')} | " + " | ".join(cells) + " |")
     print("| **total** | " + " | ".join(f"{sum(r.values()):.2f}" for r in rows.values()) + " |")
 
 

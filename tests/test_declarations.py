@@ -100,3 +100,18 @@ def test_a_shard_writes_only_its_envs(sim):
     assert torch.equal(changed, (torch.arange(sim.num_envs) >= lo) & (torch.arange(sim.num_envs) < hi))
     sim.q = q
     wp.synchronize()
+
+
+def test_a_timed_step_names_every_stage_and_gives_the_same_state():
+    """`Simulator.step(timings=...)` (the profiling seam) runs the same stages stage by stage."""
+    model = myriad.load(myriad.asset_path("ant.xml"))
+    plain, timed = (myriad.Simulator(model, num_envs=3) for _ in range(2))
+    timings = {}
+    for _ in range(3):
+        for sim in (plain, timed):
+            sim.ctrl = torch.linspace(-1, 1, model.nu).expand(3, -1)
+        plain.step()
+        timed.step(timings=timings)
+    assert torch.equal(plain.q, timed.q)
+    assert set(timings) == set(Simulator.SUBSTEP_STAGES + Simulator.FINAL_STAGES)
+    assert all(t >= 0.0 for t in timings.values())

@@ -148,25 +148,46 @@ class Simulator:
         self.forward()
 
     # ------------------------------------------------------------------ pipeline
-    def step(self) -> None:
-        """Advance every env by `params.dt`."""
-        if self.device.is_cuda:
-            self._run_on_device(self._step_graph)
-        else:
-            self._run_sharded(self._step_kernels)
+    # the stages of one substep, in order, then those that run once after the last substep
+    SUBSTEP_STAGES = ("kinematics", "collision", "dynamics", "applied_forces",
+                      "solve_unconstrained", "constraint_rows", "solve_constraints", "integrate")
+    FINAL_STAGES = ("kinematics", "constraint_outputs")
 
-    def _step_kernels(self) -> None:
+    def step(self, timings: dict | None = None) -> None:
+        """Advance every env by `params.dt`.
+
+        timings: for profiling; a dict that receives, per stage name (`SUBSTEP_STAGES`,
+        `FINAL_STAGES`), the seconds the stage took in this step, added to what it holds. The
+        step then runs stage by stage, the device synchronized after each (on CUDA without the
+        step's graph, so the stages sum to more than a graphed step); results are the same.
+        With several CPU threads, each stage's time is summed over the threads.
+        """
+        run = self._step_kernels if timings is None else lambda: self._timed_stages(timings)
+        if self.device.is_cuda:
+            self._run_on_device(self._step_graph if timings is None else run)
+        else:
+            self._run_sharded(run)
+
+    def _step_kernels(self, stage=None) -> None:
+        stage = stage or (lambda name: getattr(self, "_" + name)())
         for _ in range(self.params.substeps):
-            self._kinematics()
-            self._collision()
-            self._dynamics()
-            self._applied_forces()
-            self._solve_unconstrained()
-            self._constraint_rows()
-            self._solve_constraints()
-            self._integrate()
-        self._kinematics()  # poses and velocities of the new state, for the caller
-        self._constraint_outputs()
+            for name in self.SUBSTEP_STAGES:
+                stage(name)
+        for name in self.FINAL_STAGES:  # poses and velocities of the new state, for the caller
+            stage(name)
+
+    def _timed_stages(self, timings: dict) -> None:
+        import time
+
+        def stage(name):
+            sync = (lambda: wp.synchronize_device(self.device)) if self.device.is_cuda else (
+                lambda: None)
+            sync()
+            start = time.perf_counter()
+            getattr(self, "_" + name)()
+            sync()
+            timings[name] = timings.get(name, 0.0) + time.perf_counter() - start
+        self._step_kernels(stage)
 
     def forward(self) -> None:
         """Recompute poses, velocities and bias forces from q, qd (no time passes)."""
