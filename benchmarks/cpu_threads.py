@@ -41,18 +41,18 @@ def main() -> None:
             def step():
                 sim.ctrl = torch.rand(n, model.nu) * 2 - 1
                 sim.step()
-            print(f"{asset:13s} Simulator.step, {len(sim._shards) or 1} thread(s): "
+            print(f"{asset:13s} Simulator.step, {len(sim.runtime.shards) or 1} thread(s): "
                   f"{rate(step, n, args.steps):9,.0f} env-steps/s")
     task = myriad.make("Ant", num_envs=n)
     sim = task.envs.sim
-    shards = sim._shards
+    shards = sim.runtime.shards
 
     def task_step():
         task.step(torch.rand(n, 8) * 2 - 1)
     for label, physics_shards, torch_threads in (("1 physics thread", [], None),
                                                  ("physics threads", shards, None),
                                                  ("physics threads, 1 torch thread", shards, 1)):
-        sim._shards = physics_shards
+        sim.runtime.shards = physics_shards
         default_threads = torch.get_num_threads()
         if torch_threads:
             torch.set_num_threads(torch_threads)

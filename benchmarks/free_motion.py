@@ -77,9 +77,7 @@ def memory_per_env(model, device: str) -> float:
     """Bytes of device memory per env: all simulator arrays at 2 envs minus 1 env."""
     def total(n):
         sim = myriad.Simulator(model, num_envs=n, device=device)
-        arrays = [v for v in vars(sim).values() if isinstance(v, wp.array)]
-        arrays += [getattr(s, f) for struct, s in sim._structs.items() for f in struct.fields]
-        return sum(a.capacity for a in arrays)
+        return sim.nbytes
     return total(2) - total(1)
 
 

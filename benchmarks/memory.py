@@ -35,9 +35,7 @@ def hand_and_cube_xml() -> str:
 def memory_per_env(model, params, device="cpu") -> int:
     def total(n):
         sim = myriad.Simulator(model, num_envs=n, device=device, params=params)
-        arrays = [v for v in vars(sim).values() if isinstance(v, wp.array)]
-        arrays += [getattr(s, f) for struct, s in sim._structs.items() for f in struct.fields]
-        return sum(a.capacity for a in arrays)
+        return sim.nbytes
     return total(2) - total(1)
 
 

@@ -36,7 +36,7 @@ def write_perf_map() -> tuple[str, list]:
     from warp._src import context
 
     lines, objects = [], []
-    for name in myriad.physics.kernels.kernel_modules():
+    for name in myriad.physics.runtime.kernel_modules():
         module = wp.get_module(name)
         for module_exec in module.execs.values():
             if not module_exec.device.is_cpu:

@@ -31,10 +31,10 @@ def main() -> None:
     args = ap.parse_args()
     wp.config.kernel_cache_dir = args.cache
     wp.init()
-    from myriad.physics import kernels
+    from myriad.physics import runtime
 
-    kernels.configure_modules()       # the build options the simulator uses: same hashes
-    for name in kernels.kernel_modules():
+    runtime.configure_modules()       # the build options the simulator uses: same hashes
+    for name in runtime.kernel_modules():
         importlib.import_module(name)
         module = wp.get_module(name)
         if not module.kernels:

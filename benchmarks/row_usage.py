@@ -16,7 +16,7 @@ import torch
 import warp as wp
 
 import myriad
-from myriad.physics.constraints import NORMAL
+from myriad.physics.types import NORMAL
 
 
 def usage(name: str, envs: int, steps: int) -> dict:
@@ -27,8 +27,9 @@ def usage(name: str, envs: int, steps: int) -> dict:
     for _ in range(steps):
         sim.ctrl = torch.rand(envs, model.nu, generator=gen) * 2 - 1
         sim.step()
-    row_type, lam, lam_init = (wp.to_torch(a) for a in (sim._rows.type, sim._rows.lam, sim._rows.lam_init))
-    layout = sim._rows_at
+    rows = sim.data.rows
+    row_type, lam, lam_init = (wp.to_torch(a) for a in (rows.type, rows.lam, rows.lam_init))
+    layout = sim.device_model.layout
     ncontact = sim.contact_count.clamp(max=sim.contact_capacity)
     normal = torch.zeros_like(row_type, dtype=torch.bool)
     normal[:, 0:layout.joint_limits:3] = (torch.arange(layout.joint_limits // 3)[None]

@@ -83,7 +83,10 @@ def main() -> None:
         print(f"saved {len(now)} arrays to {path}")
         return
     before = np.load(path)
-    same = True
+    missing = sorted(set(before.files) - set(now))
+    same = not missing
+    if missing:
+        print(f"not computed now: {missing}")
     for key, value in now.items():
         diff = float(np.abs(value - before[key]).max())
         same &= diff == 0.0

@@ -222,7 +222,7 @@ def test_a_drive_mode_per_dof(device):
 def test_an_actor_without_self_collisions_loses_its_explicit_pairs_too():
     """An explicit <contact><pair> collides whatever <exclude> says (MuJoCo's rule), so an
     actor added with self_collisions=False drops its pairs as well as getting the excludes."""
-    from myriad.physics.collision import candidate_pairs
+    from myriad.physics.pairs import candidate_pairs
     arm = mujoco.MjSpec.from_string("""<mujoco><worldbody><body name="a"><freejoint/>
       <geom name="ga" size="0.1" contype="1" conaffinity="0"/><body name="b" pos="0 0 0.3">
         <joint type="hinge"/><geom name="gb" size="0.1" contype="1" conaffinity="0"/></body></body>
@@ -259,7 +259,7 @@ def _halve(a: wp.array(dtype=float), out: wp.array(dtype=float)):
 @pytest.mark.skipif(platform.machine().lower() not in ("x86_64", "amd64"),
                     reason="denormals are flushed on x86 CPUs only")
 def test_the_cpu_step_flushes_denormals_and_restores_the_callers_mode():
-    from myriad.physics import float_mode
+    from myriad.physics.runtime import float_mode
 
     tiny = np.float32(1e-38)                   # below float32's smallest normal, 1.18e-38
     a, out = wp.array([tiny], dtype=float, device="cpu"), wp.zeros(1, dtype=float, device="cpu")

@@ -10,8 +10,8 @@ import torch
 import warp as wp
 
 import myriad
-from myriad.physics import collision
-from myriad.physics.collision import candidate_pairs, pair_friction
+from myriad.physics.stages import collision
+from myriad.physics.pairs import candidate_pairs, pair_friction
 from myriad.physics.types import GeomType
 
 MARGIN = 0.02
@@ -204,7 +204,7 @@ def test_collision_reads_only_the_corners_of_a_mesh_hull():
     """A mesh's vertices inside its hull (or on its faces) can never be a support point: the
     collision stage keeps the hull's corners alone, so a cube mesh with a point at its centre and
     one in a face's middle has 8."""
-    from myriad.physics.collision import shape_data
+    from myriad.physics.build import shape_data
 
     corners = " ".join(f"{x} {y} {z}" for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1))
     model = myriad.load_xml(f"""<mujoco><asset>
@@ -278,7 +278,7 @@ def test_an_overflow_keeps_the_deepest_contacts_in_the_order_found(device):
     every = myriad.Simulator(model, num_envs=2, device=device, params=myriad.SimParams(**params))
     every.collide()
     found = int(every.contact_count[0])
-    dist, key = every.contact_dist[0, :found].cpu(), every._contacts.key.numpy()[0, :found]
+    dist, key = every.contact_dist[0, :found].cpu(), every.data.contacts.key.numpy()[0, :found]
     assert found > 3 and len(set(dist.tolist())) > 2      # distances to choose among
     slots = found // 3      # all found fit the narrowphase's places, not the slots
     few = myriad.Simulator(model, num_envs=2, device=device,
@@ -287,7 +287,7 @@ def test_an_overflow_keeps_the_deepest_contacts_in_the_order_found(device):
     assert int(few.contact_count[0]) == found and few.contact_dist.shape == (2, slots)
     deepest = torch.sort(dist).values[:slots]
     torch.testing.assert_close(torch.sort(few.contact_dist[0].cpu()).values, deepest)
-    kept = list(zip(few._contacts.key.numpy()[0, :slots].tolist(), few.contact_dist[0].tolist()))
+    kept = list(zip(few.data.contacts.key.numpy()[0, :slots].tolist(), few.contact_dist[0].tolist()))
     assert kept == [c for c in zip(key.tolist(), dist.tolist()) if c in kept]
 
 
@@ -299,7 +299,7 @@ def test_contacts_found_in_any_interleaving_are_put_back_in_the_cpus_order(devic
     sim = myriad.Simulator(model, num_envs=3, device=device,
                            params=myriad.SimParams(contact_offset=MARGIN, contacts_per_env=128))
     sim.collide()
-    c = sim._contacts
+    c = sim.data.contacts
     found = int(sim.contact_count[0])
     assert found < 128      # no overflow: all found are in the order found
     fields = {name: getattr(c, name).numpy().copy() for name in ("geom", "key", "pos", "normal",

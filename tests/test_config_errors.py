@@ -8,7 +8,7 @@ import torch
 import myriad
 from myriad import cli
 from myriad.api import Scene
-from myriad.physics.devices import resolve_device
+from myriad.physics.runtime import resolve_device
 from myriad.rl import run
 
 

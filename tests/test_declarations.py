@@ -9,8 +9,8 @@ import warp as wp
 
 import myriad
 from myriad.physics import structs
-from myriad.physics.simulator import Simulator
-from myriad.physics.structs import VIEWED_AS, PublicView
+from myriad.physics.simulator import PublicView, Simulator
+from myriad.physics.structs import VIEWED_AS
 
 
 @pytest.fixture(scope="module")
@@ -29,7 +29,7 @@ def declared_fields():
 
 def test_every_declared_field_is_allocated_with_its_shape(sim):
     for struct, name, f in declared_fields():
-        array = getattr(sim._structs[struct], name)
+        array = getattr(sim.data.structs[struct], name)
         assert array.shape == structs.field_shape(f, sim.num_envs, sim.sizes), name
         assert array.dtype == f.dtype, name
         assert array.device == sim.device, name
@@ -41,7 +41,7 @@ def test_public_tensors_are_exactly_the_public_fields_and_share_their_memory(sim
         if f.public:
             assert f.public not in public, f"two fields are public as {f.public}"
             public[f.public] = f
-            array = getattr(sim._structs[struct], name)
+            array = getattr(sim.data.structs[struct], name)
             view = getattr(sim, f.public)
             if array.size:
                 assert view.data_ptr() == array.ptr, f.public          # zero copy
@@ -60,42 +60,35 @@ def test_public_tensors_are_exactly_the_public_fields_and_share_their_memory(sim
 
 
 def test_every_field_is_split_between_cpu_threads(sim):
-    assert len(sim._shards) == 3
+    rt = sim.runtime
+    assert len(rt.shards) == 3
     covered = 0
-    for lo, hi in sim._shards:
-        sim._shard_local.range = (lo, hi)
-        try:
+    for lo, hi in rt.shards:
+        with rt.in_shard(lo, hi):
             for struct, name, f in declared_fields():
-                whole = getattr(sim._structs[struct], name)
-                part = getattr(sim._shard_of(sim._structs[struct]), name)
+                whole = getattr(sim.data.structs[struct], name)
+                part = getattr(rt.shard_of(sim.data.structs[struct]), name)
                 if whole.size == 0:
                     continue
                 # the shard's rows of the same memory, reached from the struct or the array
                 assert part.shape == (hi - lo,) + whole.shape[1:], name
                 assert part.ptr == whole.ptr + lo * whole.strides[0], name
-                assert sim._shard_of(whole).ptr == part.ptr, name
-        finally:
-            sim._shard_local.range = None
+                assert rt.shard_of(whole).ptr == part.ptr, name
         covered += hi - lo
     assert covered == sim.num_envs
     # model-wide arrays are shared whole by every thread
-    sim._shard_local.range = sim._shards[1]
-    try:
-        assert sim._shard_of(sim._m) is sim._m
-        assert sim._shard_of(sim._pairs) is sim._pairs
-    finally:
-        sim._shard_local.range = None
+    with rt.in_shard(*rt.shards[1]):
+        assert rt.shard_of(sim.device_model.m) is sim.device_model.m
+        assert rt.shard_of(sim.device_model.pairs) is sim.device_model.pairs
 
 
 def test_a_shard_writes_only_its_envs(sim):
     """A kernel launched on one shard's view of a declared field changes that shard's envs only."""
-    lo, hi = sim._shards[1]
+    rt = sim.runtime
+    lo, hi = rt.shards[1]
     q = sim.q.clone()
-    sim._shard_local.range = (lo, hi)
-    try:
-        sim._shard_of(sim._s.q).fill_(7.0)
-    finally:
-        sim._shard_local.range = None
+    with rt.in_shard(lo, hi):
+        rt.shard_of(sim.data.state.q).fill_(7.0)
     changed = (sim.q != q).any(dim=1)
     assert torch.equal(changed, (torch.arange(sim.num_envs) >= lo) & (torch.arange(sim.num_envs) < hi))
     sim.q = q

@@ -238,7 +238,7 @@ def test_shadow_hand_with_explicit_contact_pairs_loads_and_steps():
     19 frictionless (condim 1) <pair>s between the fingers and the thumb, whose geoms'
     contype/conaffinity (1/0) keep them apart otherwise. It loads; each distinct pair is a
     candidate once (one is named twice), frictionless; the hand steps, finite."""
-    from myriad.physics.collision import candidate_pairs, pair_friction
+    from myriad.physics.pairs import candidate_pairs, pair_friction
     model = myriad.load(_gymnasium_robotics_asset("hand/manipulate_block.xml"))
     assert model.pair_geoms.shape == (19, 2) and np.all(model.pair_friction == 0.0)
     names = model.geom_names

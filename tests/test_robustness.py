@@ -135,7 +135,7 @@ def test_cpu_threads_give_bit_identical_results(asset, device):
     model = myriad.load(myriad.asset_path(asset))
     params = myriad.SimParams(dt=1 / 60, substeps=2)
     sims = [myriad.Simulator(model, 11, params=params, cpu_threads=k) for k in (1, 3)]
-    assert len(sims[1]._shards) == 3
+    assert len(sims[1].runtime.shards) == 3
     torch.manual_seed(0)
     for step in range(40):
         ctrl = torch.rand(11, model.nu) * 2 - 1

@@ -9,7 +9,7 @@ import torch
 import warp as wp
 
 import myriad
-from myriad.physics import sensors
+from myriad.physics.stages import sensors
 from oracle import free_motion_mujoco
 
 # A hanging arm (hinge, then hinge + limited slide), a box resting on the floor, a ball high up

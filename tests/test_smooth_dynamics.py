@@ -173,8 +173,8 @@ def test_body_wrenches_act_like_mujoco_xfrc_applied(model, device):
     rng = np.random.default_rng(6)
     wrench = rng.normal(size=(NUM_ENVS, model.nbody, 6)) * 10.0
     sim.body_force = torch.as_tensor(wrench, dtype=torch.float32, device=sim.torch_device)
-    sim._applied_forces()
-    applied = sim._d.qfrc_applied.numpy()
+    sim.forward()
+    applied = sim.data.dynamics.qfrc_applied.numpy()
     for e, d in enumerate(datas):
         expected = np.zeros(mj.nv)
         for b in range(model.nbody):

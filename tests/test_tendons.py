@@ -74,8 +74,8 @@ def test_hard_tendon_limit_in_small_length_units(device):
     sim = myriad.Simulator(myriad.load_xml(xml, "pair"), num_envs=2, device=device,
                            params=PARAMS)
     sim.step()
-    layout = sim._rows_at
-    limit_rows = sim._rows.type.numpy()[:, layout.tendon_limits:layout.equalities]
+    layout = sim.device_model.layout
+    limit_rows = sim.data.rows.type.numpy()[:, layout.tendon_limits:layout.equalities]
     assert (limit_rows == -1).all(), limit_rows      # L = 0: 0.4 rad from either side
     worst = push_against_limit(sim, 0.4)
     assert worst < 0.02, worst

@@ -282,11 +282,11 @@ def test_a_diverged_policy_stops_training_without_overwriting_the_checkpoint(tmp
 
 def test_first_run_progress_names_what_compiles_and_the_final_line_has_numbers(tmp_path,
                                                                                 capsys):
-    from myriad.physics.kernels import load_kernels
+    from myriad.physics.runtime import load_kernels
 
     lines = []
     load_kernels("cpu", report=lines.append, notice_after_s=0.0)   # every module "slow"
-    assert any("compiling myriad.physics.dynamics for cpu" in line for line in lines)
+    assert any("compiling myriad.physics.stages.dynamics for cpu" in line for line in lines)
     assert any(line.strip().startswith("done in") for line in lines)
     assert lines[-1].startswith("  physics kernels ready for cpu in")
     assert cli.main(["train", *train_args(tmp_path, "max_iterations=1", "experiment=f")]) == 0

@@ -1,6 +1,6 @@
 """The physics engine: model import, batched state, and the step pipeline."""
 
-from .kernels import configure_modules
+from .runtime import configure_modules
 from .importer import from_mujoco, load, load_xml
 from .model import Model, ModelError
 from .params import SimParams

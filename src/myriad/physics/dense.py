@@ -14,7 +14,7 @@ loop walks plain pointers from one address.
 Rows: `a[e, r]` of an [env, row, column] array, holding the dofs of its span `sp` (two dof
 ranges [sp[0], sp[1]) and [sp[2], sp[3]), stored one after the other: `constraints`);
 velocities `v[e]` of an [env, dof] array. Every engine array is contiguous (allocated whole by
-`structs.allocate`; a CPU shard is a range of envs). Nothing happens for an empty run.
+`build.allocate`; a CPU shard is a range of envs). Nothing happens for an empty run.
 
 On a CPU the contiguous loops are vectorized 8 floats wide (`VECTOR_LOOP`: clang's default
 width here, 16 floats × 4, never runs for rows of 6 to 30 floats); sums are then accumulated in

@@ -1,8 +1,19 @@
 """The engine's data, declared once: what each array holds, its shape and units.
 
-`ModelArrays` is the structure shared by all envs (the tree, joint types, frames), built from
-the `Model` on the host. Everything else has one entry per env, a leading dimension of
-`num_envs`, and is declared below as a field of one of six structs:
+Declarations only: `build` makes them on the device, the stages (`stages/`) read and write
+them, `runtime` launches the kernels over them.
+
+Shared by all envs, built from the `Model` once (`build.device_model`):
+
+| struct       | holds                                                                 |
+|--------------|-----------------------------------------------------------------------|
+| `ModelArrays`| the structure: tree, joints, dofs, geoms, sites, actuators, tendons   |
+| `Meshes`, `HFields` | collision shapes: convex hull corners, height fields           |
+| `Options`    | the step's settings: substep length, solver iterations, offsets, thresholds |
+| `RowLayout`  | where each family of constraint rows starts                           |
+
+Everything else has one entry per env, a leading dimension of `num_envs`, and is declared below
+as a field of one of six structs:
 
 | struct      | holds                                                        | who writes it        |
 |-------------|--------------------------------------------------------------|----------------------|
@@ -14,21 +25,16 @@ the `Model` on the host. Everything else has one entry per env, a leading dimens
 | `Rows`      | constraint rows: Jacobians, responses, bounds, impulses      | constraints, solver  |
 
 A field is declared as `name = per_env(*dims, dtype=..., doc=..., public=...)`: `dims` are the
-sizes after the env dimension, named after the `Simulator`'s sizes (`"nv"`, `"nbody"`, ...).
-`allocate` makes every field of a struct in one loop, `shard` gives the struct restricted to a
-range of envs (a CPU thread's share), and a field with a `public` name is the `Simulator`
+sizes after the env dimension, named after the built model's sizes (`"nv"`, `"nbody"`, ...).
+`build.allocate` makes every field of a struct in one loop, `runtime` gives the struct restricted
+to a range of envs (a CPU thread's share), and a field with a `public` name is the `Simulator`
 attribute of that name: a zero-copy torch view, writable where `writable`. A field added to a
 declaration is allocated, sharded and (if public) exposed without another line of code.
 """
 
-import mmap
 from typing import NamedTuple
 
-import numpy as np
-import torch
 import warp as wp
-
-from .types import EqualityType, SensorType
 
 
 class Field(NamedTuple):
@@ -63,120 +69,9 @@ def field_shape(f: Field, num_envs: int, sizes: dict) -> tuple:
     return (num_envs,) + tuple(sizes[d] if isinstance(d, str) else d for d in f.dims)
 
 
-def allocate(struct, num_envs: int, sizes: dict, device, values: dict | None = None):
-    """An instance of `struct` with every field allocated: zeros, or the per-env copy of
-    values[name] (one env's value, broadcast to all). On a CPU the fields share one block of
-    host memory (`_host_memory`)."""
-    out = struct()
-    shapes = {name: field_shape(f, num_envs, sizes) for name, f in struct.fields.items()}
-    if wp.get_device(device).is_cpu:
-        arrays = _host_arrays({name: (shapes[name], f.dtype) for name, f in struct.fields.items()})
-    else:
-        arrays = {name: wp.zeros(shapes[name], dtype=f.dtype, device=device)
-                  for name, f in struct.fields.items()}
-    for name, array in arrays.items():
-        if values is not None and name in values:
-            scalar = getattr(struct.fields[name].dtype, "_wp_scalar_type_",
-                             struct.fields[name].dtype)
-            one = np.asarray(values[name], wp.dtype_to_numpy(scalar))
-            assert one.shape[:len(shapes[name]) - 1] == shapes[name][1:], (name, one.shape)
-            array.assign(np.ascontiguousarray(np.broadcast_to(one, (num_envs,) + one.shape)))
-        setattr(out, name, array)
-    return out
-
-
-HUGE_PAGE = 1 << 21
-
-
-def _host_arrays(fields: dict) -> dict:
-    """Zeroed CPU arrays {name: (shape, dtype)} laid out one after another (64-byte aligned)
-    in one block from `_host_memory`."""
-    layout, size = {}, 0
-    for name, (shape, dtype) in fields.items():
-        inner = tuple(getattr(dtype, "_shape_", ()))
-        scalar = wp.dtype_to_numpy(getattr(dtype, "_wp_scalar_type_", dtype))
-        nbytes = int(np.prod(shape)) * wp.types.type_size_in_bytes(dtype)
-        layout[name] = (size, nbytes, shape + inner, scalar, dtype)
-        size += -(-nbytes // 64) * 64
-    memory = _host_memory(size)
-    return {name: wp.array(memory[at:at + nbytes].view(scalar).reshape(full), dtype=dtype,
-                           device="cpu", copy=False)
-            for name, (at, nbytes, full, scalar, dtype) in layout.items()}
-
-
-def _host_memory(nbytes: int) -> np.ndarray:
-    """nbytes of zeroed host memory. Where the OS offers transparent huge pages on request
-    (Linux, `madvise` mode), a block of 2 MB or more is an anonymous mapping advised to use
-    them: the per-env arrays of 1024 envs span tens of MB, touched env after env by every
-    stage, and with 4 KB pages more of the address translations miss the TLB (humanoid step
-    1-3 % faster with huge pages, ant 1-2 %, benchmarks/step_ab.py on two machines)."""
-    if nbytes < HUGE_PAGE or not hasattr(mmap, "MADV_HUGEPAGE"):
-        return np.zeros(nbytes, np.uint8)
-    size = -(-nbytes // HUGE_PAGE) * HUGE_PAGE
-    # private and anonymous: zero pages, none touched yet (a shared mapping would be shmem,
-    # which takes huge pages only where the system allows them for shmem too)
-    block = mmap.mmap(-1, size + HUGE_PAGE, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS)
-    start = (-np.frombuffer(block, np.uint8).ctypes.data) % HUGE_PAGE   # 2 MB aligned
-    try:
-        block.madvise(mmap.MADV_HUGEPAGE, start, size)
-    except OSError:
-        pass                                      # THP off: ordinary pages
-    return np.frombuffer(block, np.uint8)[start:start + nbytes]
-
-
-def shard(struct, whole, lo: int, hi: int):
-    """`whole` restricted to envs [lo, hi): every field a view of its rows, no copy."""
-    part = struct()
-    for name in struct.fields:
-        array = getattr(whole, name)
-        setattr(part, name, array[lo:hi] if array.size else array)  # empty: nothing to read
-    return part
-
-
 # a public view of a field declared over the first size shows only the second's leading part:
 # the contacts in use, not the narrowphase's overflow places
 VIEWED_AS = {"ncandidate": "ncontact"}
-
-
-def public_tensor(array: wp.array, f: Field, sizes: dict) -> torch.Tensor:
-    """The zero-copy torch view of a declared field that its public name shows."""
-    view = wp.to_torch(array)
-    for axis, d in enumerate(f.dims, start=1):
-        if d in VIEWED_AS:
-            view = view.narrow(axis, 0, sizes[VIEWED_AS[d]])
-    return view
-
-
-class PublicView:
-    """A public per-env tensor of the simulator: a zero-copy torch view of a declared field;
-    assigning to a writable one copies into it (broadcasting, shape checked)."""
-
-    def __init__(self, name: str, field: Field):
-        self.name, self.writable = name, field.writable
-        dims = ", ".join(["N"] + [str(VIEWED_AS.get(d, d)) for d in field.dims])
-        self.__doc__ = f"[{dims}] {field.doc}" + ("" if field.writable else " (read-only)")
-
-    def __get__(self, sim, owner=None):
-        if sim is None:
-            return self
-        return sim._views[self.name]
-
-    def __set__(self, sim, value):
-        if not self.writable:
-            raise AttributeError(f"sim.{self.name} is read-only (the step computes it)")
-        view = sim._views[self.name]
-        if not isinstance(value, torch.Tensor):
-            value = torch.as_tensor(value, dtype=view.dtype, device=view.device)
-        try:
-            fits = torch.broadcast_shapes(value.shape, view.shape) == view.shape
-        except RuntimeError:
-            fits = False
-        if not fits:
-            raise ValueError(f"sim.{self.name}: cannot write a tensor of shape {tuple(value.shape)} "
-                             f"into shape {tuple(view.shape)}")
-        if value.device != view.device:
-            raise ValueError(f"sim.{self.name}: value is on {value.device}, the simulator on {view.device}")
-        view.copy_(value)
 
 
 @wp.struct
@@ -272,87 +167,58 @@ class ModelArrays:
     sensor_slot: wp.array(dtype=wp.int32)   # force/torque: its site's row of sensor_wrench; else -1
 
 
-def tree_spans(model) -> tuple[np.ndarray, np.ndarray]:
-    """[lo, hi) of the dof tree of each dof [nv, 2] and of each body's moving dofs [nbody, 2].
-
-    A dof tree is a top dof (no parent dof) with all its descendants: in MuJoCo's depth-first
-    order its dofs are contiguous, and dofs of different trees never couple in the mass matrix.
-    """
-    top = np.arange(model.nv)
-    for i in range(model.nv):                      # parents come first in MuJoCo's order
-        if model.dof_parent[i] >= 0:
-            top[i] = top[model.dof_parent[i]]
-    dof_span = np.zeros((model.nv, 2), np.int32)
-    for t in np.unique(top):
-        members = np.flatnonzero(top == t)
-        assert members[-1] - members[0] + 1 == len(members), "a dof tree is not contiguous"
-        dof_span[members] = (members[0], members[-1] + 1)
-    body_span = np.zeros((model.nbody, 2), np.int32)
-    moved = model.body_last_dof >= 0
-    body_span[moved] = dof_span[model.body_last_dof[moved]]
-    return dof_span, body_span
+@wp.struct
+class Meshes:
+    """Convex hulls of the model's meshes (collision reads only their corners)."""
+    vert: wp.array(dtype=wp.vec3)      # every mesh's convex hull corners, mesh frame
+    vertadr: wp.array(dtype=wp.int32)
+    vertnum: wp.array(dtype=wp.int32)
+    rbound: wp.array(dtype=float)      # per mesh: largest vertex distance from the mesh origin
+    box_center: wp.array(dtype=wp.vec3)   # per mesh: the box round its hull, in the mesh frame
+    box_half: wp.array(dtype=wp.vec3)
 
 
-def mass_matrix_layout(dof_parent: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(dof_madr [nv], dof_mnum [nv], mass_col [nmass]): where the entries of M that can be
-    nonzero sit in a per-env array of nmass floats (MuJoCo's sparse mass matrix, lower half).
-
-    M(i, j) is nonzero only for j = i or an ancestor of i on its `dof_parent` chain. Dof i's row
-    holds those entries contiguously from dof_madr[i]: (i, i), then (i, parent), (i,
-    grandparent), ... (dof_mnum[i] of them); mass_col gives each entry's column. Since the
-    ancestors of an ancestor j are the rest of i's chain, j's row and the tail of i's row from
-    (i, j) on have the same columns in the same order: the factorization and the solves run
-    over contiguous entries instead of walking `dof_parent`.
-    """
-    cols = []
-    for i in range(len(dof_parent)):
-        chain = [i]
-        while dof_parent[chain[-1]] >= 0:
-            chain.append(int(dof_parent[chain[-1]]))
-        cols.append(chain)
-    mnum = np.asarray([len(c) for c in cols], np.int32)
-    madr = (np.cumsum(mnum) - mnum).astype(np.int32)
-    mass_col = np.asarray([j for c in cols for j in c], np.int32)
-    return madr, mnum, mass_col
+@wp.struct
+class HFields:
+    """The model's height fields."""
+    size: wp.array(dtype=wp.vec4)     # x half-size, y half-size, top height, base depth
+    nrow: wp.array(dtype=wp.int32)    # rows run along y
+    ncol: wp.array(dtype=wp.int32)    # columns run along x
+    adr: wp.array(dtype=wp.int32)
+    data: wp.array(dtype=float)       # heights in [0, 1], times the top height
+    riser: wp.array(dtype=float)      # m: a steeper rise in a cell is a vertical wall; 0: none
 
 
-def equality_rows(model) -> dict:
-    """eq_rowadr, eq_rownum: each equality constraint's rows within the equality family."""
-    rownum = np.asarray([6 if t == EqualityType.WELD and rot else
-                         3 if t in (EqualityType.CONNECT, EqualityType.WELD) else 1
-                         for t, rot in zip(model.eq_type, model.eq_rotation)], np.int32)
-    return dict(eq_rownum=rownum, eq_rowadr=(np.cumsum(rownum) - rownum).astype(np.int32))
+@wp.struct
+class Options:
+    """The step's settings on the device, from `SimParams` (PhysX's names and meaning)."""
+    h: float                      # substep length, dt / substeps (s)
+    position_iterations: int      # TGS: sub-steps of h, one sweep each; PGS: sweeps
+    velocity_iterations: int      # sweeps without position bias after them
+    tgs: int                      # 1: TGS, 0: PGS
+    contact_offset: float         # shapes closer than this make contacts (m)
+    rest_offset: float            # shapes come to rest this far apart (m)
+    bounce_threshold: float       # no restitution below this approach speed (m/s)
+    max_depenetration: float      # cap on the speed that resolves a penetration (m/s)
+    limit_jnt: wp.array(dtype=wp.int32)     # the limited joints, in the order of their rows
+    limit_tendon: wp.array(dtype=wp.int32)  # the limited tendons, in the order of their rows
 
 
-def model_arrays(model, device, pair_friction=None) -> ModelArrays:
-    """`model` on the device: each field of ModelArrays is the Model's attribute of the same
-    name, except the few derived here. `pair_friction`: per candidate pair of the simulator
-    (`collision.pair_friction`); None: no candidate pairs."""
-    dof_span, body_span = tree_spans(model)
-    madr, mnum, mass_col = mass_matrix_layout(model.dof_parent)
-    sites = model.force_sensor_sites
-    slot = [sites.index(int(o)) if t in (SensorType.FORCE, SensorType.TORQUE) else -1
-            for t, o in zip(model.sensor_type, model.sensor_objid)]
-    derived = dict(dof_tree_span=dof_span, body_tree_span=body_span,
-                   dof_madr=madr, dof_mnum=mnum, mass_col=mass_col,
-                   **equality_rows(model),
-                   actuator_qposadr=model.jnt_qposadr[model.dof_jnt[model.actuator_dof]],
-                   sensor_slot=np.asarray(slot, np.int32),
-                   pair_friction=np.zeros(0, np.float32) if pair_friction is None
-                   else pair_friction)
-    out = ModelArrays()
-    for name, var in ModelArrays.vars.items():
-        value = derived[name] if name in derived else getattr(model, name)
-        if not isinstance(var.type, wp.array):       # a size
-            setattr(out, name, int(value))
-            continue
-        dtype = var.type.dtype
-        scalar = getattr(dtype, "_wp_scalar_type_", dtype)       # of a vector type, or itself
-        value = np.ascontiguousarray(value, {wp.float32: np.float32, wp.int32: np.int32}[scalar])
-        if scalar is not dtype:
-            value = value.reshape(-1, dtype._length_)
-        setattr(out, name, wp.array(value, dtype=dtype, device=device))
-    return out
+@wp.struct
+class RowLayout:
+    """Where each family of rows starts among an env's rows, fixed when the simulator is built.
+    The families are contiguous, in this order: contacts from row 0 (3 rows per contact slot:
+    normal, two friction), joint limits (2 per limited joint: lower, upper), hard tendon limits
+    (2 per limited tendon), equality constraints (`ModelArrays.eq_rownum` each), tendon
+    spring-dampers (1 per tendon), dofs (1 per dof: dry friction and speed cap; none without
+    constraints)."""
+    contact_slots: int   # contacts an env holds (its rows: [0, 3 · contact_slots))
+    joint_limits: int    # first joint-limit row
+    tendon_limits: int   # first tendon-limit row
+    equalities: int      # first equality row
+    springs: int         # first tendon spring-damper row
+    dofs: int            # first dof row
+    end: int             # number of rows
 
 
 # ---------------------------------------------------------------------------------- per env
@@ -557,12 +423,3 @@ class Rows:
 
 
 STRUCTS = (EnvParams, State, Control, Dynamics, Contacts, Rows)
-
-
-def add_public_views(cls) -> None:
-    """Every field declared with a public name becomes a `PublicView` attribute of `cls` (the
-    Simulator), read from the instance's `_views`."""
-    for struct in STRUCTS:
-        for name, f in struct.fields.items():
-            if f.public:
-                setattr(cls, f.public, PublicView(f.public, f))

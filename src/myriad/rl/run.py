@@ -179,7 +179,7 @@ def resolve_device(device) -> str:
     one line."""
     import torch
 
-    from ..physics.devices import device_name
+    from ..physics.runtime import device_name
 
     name = str(device).strip()
     if name == "auto":
@@ -394,7 +394,7 @@ def train(overrides: list[str]) -> int:
 
 
 def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
-    from ..physics.kernels import load_kernels
+    from ..physics.runtime import load_kernels
     from ..tasks import TASKS
     from .train import TrainingStopped, from_rank_0, train as run_training
 

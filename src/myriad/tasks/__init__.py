@@ -114,7 +114,7 @@ def make(name: str, num_envs: int | None = None, device: str = "cpu", **override
     Keyword overrides are config keys of the task's `env` section, or dotted paths into the whole
     config (write those as `**{"sim.dt": 0.01}`).
     """
-    from ..physics.devices import resolve_device
+    from ..physics.runtime import resolve_device
 
     cfg = task_config(name)
     cfg.pop("cpu", None)

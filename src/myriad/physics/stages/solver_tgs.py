@@ -26,10 +26,10 @@ separation speed of e times its approach speed.
 
 import warp as wp
 
-from . import dense
-from .constraints import RowLayout, build_contact_rows, build_dof_row
-from .types import DOF, EQUALITY, FRICTION, NORMAL, SOFT
-from .structs import Contacts, Dynamics, ModelArrays, Rows, State
+from .. import dense
+from .constraints import build_contact_rows, build_dof_row
+from ..types import DOF, EQUALITY, FRICTION, NORMAL, SOFT
+from ..structs import Contacts, Dynamics, ModelArrays, Options, RowLayout, Rows, State
 
 # fraction of the last substep's impulse a limit row, or the normal row of a contact with the
 # ground, starts from: below 1 so that the impulses of a configuration with no solution (a hand
@@ -512,9 +512,7 @@ def _apply2(e: int, r: int, dl1: float, dl2: float, minv_jt: wp.array3d(dtype=fl
 
 
 @wp.kernel
-def solve(m: ModelArrays, layout: RowLayout, limit_jnt: wp.array(dtype=wp.int32), h: float,
-          position_iterations: int, velocity_iterations: int, tgs: int,
-          max_depenetration: float,
+def solve(m: ModelArrays, opt: Options, layout: RowLayout,
           d: Dynamics,     # in: factor
           c: Contacts,     # in: count; out: slid
           # in: rows as built; out: their impulses (lam), and responses built on demand
@@ -523,6 +521,12 @@ def solve(m: ModelArrays, layout: RowLayout, limit_jnt: wp.array(dtype=wp.int32)
           # qd_before (the old), dq (the displacement to integrate)
           s: State):
     e = wp.tid()
+    limit_jnt = opt.limit_jnt
+    h = opt.h
+    position_iterations = opt.position_iterations
+    velocity_iterations = opt.velocity_iterations
+    tgs = opt.tgs
+    max_depenetration = opt.max_depenetration
     nv = m.nv
     for i in range(nv):
         s.qd_before[e, i] = s.qd[e, i]
@@ -568,11 +572,12 @@ def solve(m: ModelArrays, layout: RowLayout, limit_jnt: wp.array(dtype=wp.int32)
 
 
 @wp.kernel
-def constraint_forces(m: ModelArrays, layout: RowLayout, h: float, rows: Rows,
+def constraint_forces(m: ModelArrays, opt: Options, layout: RowLayout, rows: Rows,
                       # in: the contacts; out: their forces (force, net_force)
                       c: Contacts):
     """Forces of the last substep: per contact (on geom 2, world), net per body, per dof."""
     e = wp.tid()
+    h = opt.h
     for b in range(m.nbody):
         c.net_force[e, b] = wp.vec3()
     ncontact = wp.min(c.count[e], layout.contact_slots)

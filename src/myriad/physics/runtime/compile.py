@@ -18,7 +18,7 @@ import warp as wp
 
 def kernel_modules() -> list[str]:
     """Names of the engine's modules (myriad.physics and below)."""
-    from .. import physics
+    from ... import physics
 
     return [m.name for m in pkgutil.walk_packages(physics.__path__, physics.__name__ + ".")]
 

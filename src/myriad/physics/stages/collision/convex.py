@@ -21,7 +21,8 @@ boxes and cylinders then correct its depth where one of them needs less translat
 
 import warp as wp
 
-from ..types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
+from ...structs import Meshes
+from ...types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
 
 MPR_ITERATIONS = wp.constant(48)
 
@@ -53,16 +54,6 @@ epa_face_normals = wp.types.matrix(shape=(EPA_FACES, 3), dtype=float)
 epa_face_values = wp.types.vector(length=EPA_FACES, dtype=float)
 epa_face_flags = wp.types.vector(length=EPA_FACES, dtype=wp.int32)
 epa_edges = wp.types.vector(length=EPA_VERTS, dtype=wp.int32)
-
-
-@wp.struct
-class Meshes:
-    vert: wp.array(dtype=wp.vec3)      # every mesh's convex hull corners, mesh frame
-    vertadr: wp.array(dtype=wp.int32)
-    vertnum: wp.array(dtype=wp.int32)
-    rbound: wp.array(dtype=float)      # per mesh: largest vertex distance from the mesh origin
-    box_center: wp.array(dtype=wp.vec3)   # per mesh: the box round its hull, in the mesh frame
-    box_half: wp.array(dtype=wp.vec3)
 
 
 @wp.func

@@ -25,18 +25,9 @@ onto the top, unless it is nearer the riser's face than the top (then it leaves 
 
 import warp as wp
 
-from ..types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
-from .convex import Meshes, box_corner, support
-
-
-@wp.struct
-class HFields:
-    size: wp.array(dtype=wp.vec4)     # x half-size, y half-size, top height, base depth
-    nrow: wp.array(dtype=wp.int32)    # rows run along y
-    ncol: wp.array(dtype=wp.int32)    # columns run along x
-    adr: wp.array(dtype=wp.int32)
-    data: wp.array(dtype=float)       # heights in [0, 1], times the top height
-    riser: wp.array(dtype=float)      # m: a steeper rise in a cell is a vertical wall; 0: none
+from ...structs import HFields, Meshes
+from ...types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
+from .convex import box_corner, support
 
 
 @wp.func

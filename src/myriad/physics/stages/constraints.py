@@ -24,42 +24,12 @@ where it began to stick, which its friction rows hold together.
 
 import warp as wp
 
-from . import dense
+from .. import dense
 from .dynamics import solve_span
-from .spatial import tangents, velocity_at
-from .structs import Contacts, Dynamics, EnvParams, ModelArrays, Rows, State
-from .types import (CONNECT, DOF, EQ_JOINT, EQUALITY, FRICTION, FRICTION2, HFIELD, INACTIVE,
+from ..spatial import tangents, velocity_at
+from ..structs import Contacts, Dynamics, EnvParams, ModelArrays, Options, RowLayout, Rows, State
+from ..types import (CONNECT, DOF, EQ_JOINT, EQUALITY, FRICTION, FRICTION2, HFIELD, INACTIVE,
                     NORMAL, PLANE, SOFT, WELD)
-
-
-@wp.struct
-class RowLayout:
-    """Where each family of rows starts among an env's rows, fixed when the simulator is built.
-    The families are contiguous, in this order: contacts from row 0 (3 rows per contact slot:
-    normal, two friction), joint limits (2 per limited joint: lower, upper), hard tendon limits
-    (2 per limited tendon), equality constraints (`ModelArrays.eq_rownum` each), tendon
-    spring-dampers (1 per tendon), dofs (1 per dof: dry friction and speed cap; none without
-    constraints)."""
-    contact_slots: int   # contacts an env holds (its rows: [0, 3 · contact_slots))
-    joint_limits: int    # first joint-limit row
-    tendon_limits: int   # first tendon-limit row
-    equalities: int      # first equality row
-    springs: int         # first tendon spring-damper row
-    dofs: int            # first dof row
-    end: int             # number of rows
-
-
-def row_layout(contact_slots: int, limited_joints: int, limited_tendons: int,
-               equality_rows: int, tendons: int, dof_rows: int) -> RowLayout:
-    layout = RowLayout()
-    layout.contact_slots = contact_slots
-    layout.joint_limits = 3 * contact_slots
-    layout.tendon_limits = layout.joint_limits + 2 * limited_joints
-    layout.equalities = layout.tendon_limits + 2 * limited_tendons
-    layout.springs = layout.equalities + equality_rows
-    layout.dofs = layout.springs + tendons
-    layout.end = layout.dofs + dof_rows
-    return layout
 
 
 # a contact whose J M⁻¹ Jᵀ is below this fraction of its bodies' free 1/m1 + 1/m2 is dropped
@@ -68,20 +38,6 @@ UNREACHABLE = wp.constant(1.0e-4)
 # a limit row is active when the joint is within this distance (rad or m) of its limit, plus
 # the distance it can travel in two substeps
 LIMIT_MARGIN = wp.constant(0.1)
-
-
-def row_width(dof_tree_span, tendon_dofs) -> int:
-    """Columns a row needs: its widest possible span, at most nv. A contact touches two dof
-    trees at most, a tendon row the trees between its joints' (one range), any other row one
-    tree. `dof_tree_span` [nv, 2] per dof; `tendon_dofs` the dofs of each tendon's joints."""
-    nv = len(dof_tree_span)
-    sizes = sorted({(int(lo), int(hi)) for lo, hi in dof_tree_span}, key=lambda s: s[0] - s[1])
-    widest = sum(hi - lo for lo, hi in sizes[:2])
-    for dofs in tendon_dofs:
-        if len(dofs):
-            spans = dof_tree_span[list(dofs)]
-            widest = max(widest, int(spans[:, 1].max() - spans[:, 0].min()))
-    return min(widest, nv)
 
 
 @wp.func
@@ -200,9 +156,7 @@ def tendon_length(m: ModelArrays, p: EnvParams, s: State, e: int, t: int):
 
 
 @wp.kernel
-def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float,
-               bounce_threshold: float, limit_jnt: wp.array(dtype=wp.int32),
-               limit_tendon: wp.array(dtype=wp.int32), p: EnvParams,
+def build_rows(m: ModelArrays, opt: Options, layout: RowLayout, p: EnvParams,
                s: State,        # in: q, qd, qacc, body_x, cdof
                d: Dynamics,     # in: factor
                # in: contacts, slid; out: anchor, and the keys and anchors for the next
@@ -212,6 +166,11 @@ def build_rows(m: ModelArrays, layout: RowLayout, h: float, rest_offset: float,
                rows: Rows):
     """Every row of one env for this substep, family by family (`RowLayout`)."""
     e = wp.tid()
+    h = opt.h
+    rest_offset = opt.rest_offset
+    bounce_threshold = opt.bounce_threshold
+    limit_jnt = opt.limit_jnt
+    limit_tendon = opt.limit_tendon
     contact_rows(m, e, h, rest_offset, bounce_threshold, p, s, d.factor, contacts, rows)
     joint_limit_rows(m, e, layout.joint_limits, h, limit_jnt, p, s, d.factor, rows)
     tendon_limit_rows(m, e, layout.tendon_limits, h, limit_tendon, p, s, d.factor, rows)

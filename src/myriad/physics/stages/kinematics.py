@@ -8,9 +8,9 @@ point), its time derivative `cdof_dot`, and body velocities, as `mj_comVel` does
 
 import warp as wp
 
-from .types import BALL, FREE, HINGE, SLIDE
-from .spatial import motion_cross, velocity_at
-from .structs import EnvParams, ModelArrays, State
+from ..types import BALL, FREE, HINGE, SLIDE
+from ..spatial import motion_cross, velocity_at
+from ..structs import EnvParams, ModelArrays, State
 
 
 

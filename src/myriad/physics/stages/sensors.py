@@ -26,9 +26,9 @@ acceleration of the world), which the accelerometers and frame accelerations rea
 import warp as wp
 
 from .dynamics import accumulate_subtrees, body_forces
-from .spatial import velocity_at
-from .structs import Contacts, Dynamics, EnvParams, ModelArrays, State
-from .types import (BOX, CAPSULE, CYLINDER, DATA_POSITIVE, DATA_REAL, ELLIPSOID, OBJ_BODY,
+from ..spatial import velocity_at
+from ..structs import Contacts, Dynamics, EnvParams, ModelArrays, Options, State
+from ..types import (BOX, CAPSULE, CYLINDER, DATA_POSITIVE, DATA_REAL, ELLIPSOID, OBJ_BODY,
                     OBJ_GEOM, OBJ_SITE, OBJ_UNKNOWN, SENS_ACCELEROMETER, SENS_ACTUATORFRC,
                     SENS_FORCE, SENS_FRAMEANGACC, SENS_FRAMEANGVEL, SENS_FRAMELINACC,
                     SENS_FRAMELINVEL, SENS_FRAMEPOS, SENS_FRAMEQUAT, SENS_FRAMEXAXIS,
@@ -37,7 +37,7 @@ from .types import (BOX, CAPSULE, CYLINDER, DATA_POSITIVE, DATA_REAL, ELLIPSOID,
 
 
 @wp.kernel
-def force_sensors(m: ModelArrays, p: EnvParams, h: float,
+def force_sensors(m: ModelArrays, p: EnvParams, opt: Options,
                   sensor_site_body: wp.array(dtype=wp.int32),
                   sensor_site: wp.array(dtype=wp.int32),
                   # in: body_x, body_com, body_iframe, cvel, cdof, cdof_dot, qd, qd_before, site_x;
@@ -46,6 +46,7 @@ def force_sensors(m: ModelArrays, p: EnvParams, h: float,
                   c: Contacts,   # in: count, geom, pos, force
                   d: Dynamics):  # out: cacc (read by `sensor_readings`); scratch: cfrc
     e = wp.tid()
+    h = opt.h
     body_forces(m, p, s, e, s.qd_before, 1.0 / h, d)
     # contacts are external forces: subtract what they supply (force on geom 2, minus on geom 1)
     for k in range(wp.min(c.count[e], c.force.shape[1])):

@@ -11,9 +11,9 @@ an env whose state is no longer finite is flagged in `nonfinite`.
 
 import warp as wp
 
-from .types import BALL, FREE
-from .spatial import quat_integrate, row_finite
-from .structs import ModelArrays, State
+from ..types import BALL, FREE
+from ..spatial import quat_integrate, row_finite
+from ..structs import ModelArrays, State
 
 
 

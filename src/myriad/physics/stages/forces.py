@@ -20,14 +20,14 @@ other envs are untouched (every kernel is per env).
 
 import warp as wp
 
-from .types import HINGE, MOTOR, POSITION, SLIDE
-from .spatial import row_finite
-from .structs import Control, Dynamics, EnvParams, ModelArrays, State
+from ..types import HINGE, MOTOR, POSITION, SLIDE
+from ..spatial import row_finite
+from ..structs import Control, Dynamics, EnvParams, ModelArrays, Options, State
 
 
 
 @wp.kernel
-def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
+def generalized_forces(m: ModelArrays, p: EnvParams, opt: Options,
                        s: State,      # in: q, qd; out: nonfinite
                        c: Control,    # in: ctrl
                        # in: qfrc_applied, bias; out: qfrc_actuator, actuator_force, qfrc,
@@ -36,6 +36,7 @@ def generalized_forces(m: ModelArrays, p: EnvParams, h: float,
     """Explicit generalized force `qfrc` (minus the bias) and the implicit diagonal of this
     substep, from the applied forces (`body_wrenches`), actuators, damping and joint springs."""
     e = wp.tid()
+    h = opt.h
     for i in range(m.nv):
         damping = p.dof_damping[e, i]
         d.qfrc[e, i] = d.qfrc_applied[e, i] - d.bias[e, i] - damping * s.qd[e, i]

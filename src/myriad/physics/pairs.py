@@ -35,7 +35,7 @@ import warnings
 import mujoco
 import numpy as np
 
-from ..types import EqualityType, GeomType, JointType
+from .types import EqualityType, GeomType, JointType
 
 
 def candidate_pairs(model, self_collision=True) -> np.ndarray:

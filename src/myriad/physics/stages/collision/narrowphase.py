@@ -17,12 +17,12 @@ from __future__ import annotations
 
 import warp as wp
 
-from ..spatial import tangents
-from ..structs import Contacts, EnvParams, ModelArrays, State
-from ..types import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPHERE
-from .convex import (Meshes, bounding_box, bounding_radius, box_corner, boxes_apart,
+from ...spatial import tangents
+from ...structs import Contacts, EnvParams, HFields, Meshes, ModelArrays, Options, State
+from ...types import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPHERE
+from .convex import (bounding_box, bounding_radius, box_corner, boxes_apart,
                      convex_contact, mat43, support)
-from .heightfield import HFields, ellipsoid_probe, probe_point, riser_contact, surface
+from .heightfield import ellipsoid_probe, probe_point, riser_contact, surface
 
 
 # probes per shape against a height field (see heightfield.probe_point); meshes: at most this many
@@ -595,24 +595,25 @@ def geom_frames(m: ModelArrays, p: EnvParams, meshes: Meshes,
 
 
 @wp.kernel
-def narrowphase(m: ModelArrays, pairs: wp.array(dtype=wp.vec2i), p: EnvParams, meshes: Meshes,
-                hfields: HFields, margin: float,
+def narrowphase(m: ModelArrays, opt: Options, pairs: wp.array(dtype=wp.vec2i), p: EnvParams,
+                meshes: Meshes, hfields: HFields,
                 s: State,       # in: geom_x, geom_bound
                 contacts: Contacts):   # in: count (zero); out: count, geom, key, pos, normal, dist
     """One thread per (env, candidate pair): the launch for a GPU."""
     e, k = wp.tid()
-    _pair(m, e, k, pairs, p, meshes, hfields, margin, s, contact_slots(contacts))
+    _pair(m, e, k, pairs, p, meshes, hfields, opt.contact_offset, s, contact_slots(contacts))
 
 
 @wp.kernel
-def narrowphase_per_env(m: ModelArrays, pairs: wp.array(dtype=wp.vec2i), p: EnvParams,
-                        meshes: Meshes, hfields: HFields, margin: float, s: State,
+def narrowphase_per_env(m: ModelArrays, opt: Options, pairs: wp.array(dtype=wp.vec2i),
+                        p: EnvParams, meshes: Meshes, hfields: HFields, s: State,
                         contacts: Contacts):
     """One thread per env, walking its candidate pairs in order: the launch for a CPU, where a
     thread's start (reading the kernel's arguments) costs more than most pairs' broadphase test.
     Contacts land in the same slots as with `narrowphase` run on a CPU."""
     e = wp.tid()
     out = contact_slots(contacts)
+    margin = opt.contact_offset
     for k in range(pairs.shape[0]):
         _pair(m, e, k, pairs, p, meshes, hfields, margin, s, out)
 

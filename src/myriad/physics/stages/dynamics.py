@@ -18,9 +18,8 @@ of at most 15 (243 in all, against 729 for its square block).
 
 import warp as wp
 
-from . import dense
-from .spatial import force_cross, inertia_about_point, inertia_matrix, inertia_times
-from .structs import Dynamics, EnvParams, ModelArrays, State
+from ..spatial import force_cross, inertia_about_point, inertia_matrix, inertia_times
+from ..structs import Dynamics, EnvParams, ModelArrays, State
 
 
 @wp.func

@@ -1,0 +1,158 @@
+"""Where and how the step's kernels run: `Runtime` launches them on the CUDA stream (the whole
+step captured once as a CUDA graph and replayed) or on the CPU, the envs split into shards, one
+thread each.
+
+Warp runs a CPU kernel on the calling thread and releases the GIL while it runs, so shards of
+envs advance in parallel; every kernel reads and writes its own envs only, so the result is the
+same bit for bit with any number of threads. A shard's launches see the per-env structs
+(`build.Data`) and their arrays restricted to its envs (`shard`); model-wide arrays are passed
+whole. On a CPU thread denormal floats are flushed to zero while the engine runs (`float_mode`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import threading
+import weakref
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import torch
+import warp as wp
+
+from . import float_mode
+
+
+def shard(struct, whole, lo: int, hi: int):
+    """`whole` (an instance of a declared per-env struct) restricted to envs [lo, hi): every
+    field a view of its rows, no copy."""
+    part = struct()
+    for name in struct.fields:
+        array = getattr(whole, name)
+        setattr(part, name, array[lo:hi] if array.size else array)  # empty: nothing to read
+    return part
+
+
+class Runtime:
+    """Runs a simulator's launches on its device: `launch` inside `run` (a stage, forward(), a
+    read-out) or `run_step` (the step: a CUDA graph, replayed; on a CPU, the shards)."""
+
+    def __init__(self, device, num_envs: int, structs: dict, cpu_threads: int | None):
+        if cpu_threads is not None and (not isinstance(cpu_threads, int) or cpu_threads < 1):
+            raise ValueError(f"cpu_threads={cpu_threads!r}: must be an integer >= 1 (or None: "
+                             "one per CPU core)")
+        self.device, self.num_envs = device, num_envs
+        self._graph = None
+        self._local = threading.local()     # .range: the envs of this thread's shard
+        self.shards, self._pool, self._parts = [], None, {}
+        self._control_words = wp.zeros(1, dtype=wp.uint32, device="cpu")   # float_mode
+        if device.is_cuda:
+            self._stream = wp.Stream(device)
+            return
+        threads = cpu_threads or max(1, min(os.cpu_count() or 1, num_envs // 64))
+        threads = min(threads, num_envs)
+        if threads == 1:
+            return
+        bounds = np.linspace(0, num_envs, threads + 1).round().astype(int)
+        self.shards = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+        self._control_words = wp.zeros(len(self.shards), dtype=wp.uint32, device="cpu")
+        # each per-env struct, and each of its arrays (by address), per shard
+        for struct, whole in structs.items():
+            for lo, hi in self.shards:
+                part = shard(struct, whole, lo, hi)
+                self._parts[(lo, hi), id(whole)] = part
+                for name in struct.fields:
+                    array = getattr(whole, name)
+                    if array.size:
+                        self._parts[(lo, hi), array.ptr] = getattr(part, name)
+        self._pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="myriad-sim")
+        weakref.finalize(self, self._pool.shutdown, wait=False)
+
+    # ------------------------------------------------------------------ launching
+    def launch(self, kernel, dim, inputs) -> None:
+        """wp.launch of `kernel` over `dim` (the env count first), restricted to the calling
+        thread's shard of envs inside a sharded run."""
+        shard = getattr(self._local, "range", None)
+        if shard is not None:     # a CPU thread's share of the envs: per-env arrays sliced
+            inputs = [self.shard_of(a) for a in inputs]
+            size = shard[1] - shard[0]
+            dim = (size,) + tuple(dim[1:]) if isinstance(dim, tuple) else size
+        wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
+
+    def shard_of(self, a):
+        """`a` restricted to the current thread's envs (unchanged outside a sharded run)."""
+        shard = getattr(self._local, "range", None)
+        if shard is None:
+            return a
+        if isinstance(a, wp.array):
+            if not a.size or (shard, a.ptr) not in self._parts:
+                return a        # model-wide, or empty
+            part = self._parts[shard, a.ptr]
+            # a view of a per-env array with another shape (qacc as [N, 1, nv]) keeps its shape
+            return part if part.shape[1:] == a.shape[1:] else a[shard[0]:shard[1]]
+        return self._parts.get((shard, id(a)), a)
+
+    @contextlib.contextmanager
+    def in_shard(self, lo: int, hi: int):
+        """Launches and `shard_of` inside see envs [lo, hi) (one of `shards`) alone."""
+        self._local.range = (lo, hi)
+        try:
+            yield
+        finally:
+            self._local.range = None
+
+    # ------------------------------------------------------------------ running
+    def run(self, fn, whole: bool = False) -> None:
+        """fn's per-env launches: on the device's stream, or on the CPU shards; `whole`: on the
+        calling CPU thread over all envs (launches whose outputs are not per-env structs)."""
+        if self.device.is_cuda:
+            self._run_on_device(fn)
+        elif whole:
+            fn()
+        else:
+            self._run_sharded(fn)
+
+    def run_step(self, fn) -> None:
+        """fn's launches as the step: on CUDA captured as a graph the first time (every kernel
+        module loaded before the capture) and replayed after; on a CPU, `run`."""
+        if not self.device.is_cuda:
+            return self._run_sharded(fn)
+
+        def replay():
+            if self._graph is None:
+                wp.load_module("myriad.physics", device=self.device, recursive=True)
+                with wp.ScopedCapture(device=self.device, stream=self._stream) as capture:
+                    fn()
+                self._graph = capture.graph
+            wp.capture_launch(self._graph, stream=self._stream)
+        self._run_on_device(replay)
+
+    def _run_on_device(self, fn) -> None:
+        """Run `fn`'s launches on Warp's stream, ordered after and before torch's work."""
+        torch_stream = wp.stream_from_torch(torch.cuda.current_stream(
+            wp.device_to_torch(self.device)))
+        self._stream.wait_stream(torch_stream)
+        with wp.ScopedStream(self._stream):
+            fn()
+        torch_stream.wait_stream(self._stream)
+
+    def _run_sharded(self, fn) -> None:
+        """Run fn's launches on this thread, or each shard's on a pool thread, with denormals
+        flushed to zero on the thread (`float_mode`)."""
+        if not self.shards:
+            with float_mode.flushing_denormals(self._control_words):
+                fn()
+            return
+
+        def run(k, shard):
+            with self.in_shard(*shard), float_mode.flushing_denormals(
+                    self._control_words[k:k + 1]):
+                fn()
+
+        for future in [self._pool.submit(run, k, shard) for k, shard in enumerate(self.shards)]:
+            future.result()
+
+    def synchronize(self) -> None:
+        if self.device.is_cuda:
+            wp.synchronize_device(self.device)

@@ -1,0 +1,112 @@
+"""One step of the engine, stage by stage: read `step` first.
+
+Each stage is a few kernel launches of a module in `stages/`, over the launch dimensions written
+here: the env count first, then the elements a thread takes (geoms, pairs, sites). `rt` (a
+`runtime.Runtime`) launches them on the device, `dm` (a `build.DeviceModel`) is what all envs
+share, `d` (a `build.Data`) the per-env structs.
+"""
+
+from __future__ import annotations
+
+from .stages import (collision, constraints, dynamics, forces, integrate, kinematics, sensors,
+                     solver_tgs)
+
+# the stages of one substep, in order, then those that run once after the last substep
+SUBSTEP_STAGES = ("kinematics", "collision", "dynamics", "applied_forces", "solve_unconstrained",
+                  "constraint_rows", "solve_constraints", "integrate")
+FINAL_STAGES = ("kinematics", "constraint_outputs")
+
+
+def step(rt, dm, d, substeps: int, stage=None) -> None:
+    """Advance every env by `substeps` substeps of dm.opt.h. `stage(name, run)` runs each stage
+    (default: run it), so that a caller can time them."""
+    stage = stage or (lambda name, run: run(rt, dm, d))
+    for _ in range(substeps):
+        for name in SUBSTEP_STAGES:
+            stage(name, STAGES[name])
+    for name in FINAL_STAGES:     # poses and velocities of the new state, for the caller
+        stage(name, STAGES[name])
+
+
+def forward(rt, dm, d) -> None:
+    """Poses, velocities, bias and applied forces from q, qd (no time passes)."""
+    run_kinematics(rt, dm, d)
+    run_dynamics(rt, dm, d)
+    rt.launch(forces.body_wrenches, rt.num_envs, [dm.m, d.state, d.control, d.dynamics])
+
+
+# ---------------------------------------------------------------------------------- the stages
+def run_kinematics(rt, dm, d) -> None:
+    rt.launch(kinematics.kinematics, rt.num_envs, [dm.m, d.state])
+    if dm.sizes["nsite"]:
+        rt.launch(kinematics.site_frames, (rt.num_envs, dm.sizes["nsite"]),
+                  [dm.m, d.env_params, d.state])
+
+
+def run_collision(rt, dm, d) -> None:
+    if dm.contact_capacity == 0:
+        return
+    n, c = rt.num_envs, d.contacts
+    rt.launch(collision.geom_frames, (n, dm.sizes["ngeom"]),
+              [dm.m, d.env_params, dm.meshes, d.state])
+    rt.shard_of(c.count).zero_()
+    if dm.pairs.shape[0]:
+        # a GPU runs a thread per (env, pair); a CPU thread per env walks its pairs
+        kernel, dim = ((collision.narrowphase, (n, dm.pairs.shape[0])) if rt.device.is_cuda
+                       else (collision.narrowphase_per_env, n))
+        rt.launch(kernel, dim, [dm.m, dm.opt, dm.pairs, d.env_params, dm.meshes, dm.hfields,
+                                d.state, c])
+        if rt.device.is_cuda:
+            rt.launch(collision.order_by_pair, n, [c])
+        rt.launch(collision.keep_deepest, n, [c])
+
+
+def run_dynamics(rt, dm, d) -> None:
+    rt.launch(dynamics.bias_forces, rt.num_envs, [dm.m, d.env_params, d.state, d.dynamics])
+
+
+def run_applied_forces(rt, dm, d) -> None:
+    rt.launch(forces.body_wrenches, rt.num_envs, [dm.m, d.state, d.control, d.dynamics])
+    rt.launch(forces.generalized_forces, rt.num_envs,
+              [dm.m, d.env_params, dm.opt, d.state, d.control, d.dynamics])
+
+
+def run_solve_unconstrained(rt, dm, d) -> None:
+    rt.launch(dynamics.solve_acceleration, rt.num_envs, [
+        dm.m, d.env_params, d.state, d.dynamics,
+        d.state.qacc.reshape((rt.num_envs, 1, dm.sizes["nv"]))])
+
+
+def run_constraint_rows(rt, dm, d) -> None:
+    if dm.nrow == 0:
+        return
+    rt.launch(constraints.build_rows, rt.num_envs, [
+        dm.m, dm.opt, dm.layout, d.env_params, d.state, d.dynamics, d.contacts, d.rows])
+
+
+def run_solve_constraints(rt, dm, d) -> None:
+    rt.launch(solver_tgs.solve, rt.num_envs,
+              [dm.m, dm.opt, dm.layout, d.dynamics, d.contacts, d.rows, d.state])
+
+
+def run_integrate(rt, dm, d) -> None:
+    rt.launch(integrate.integrate, rt.num_envs, [dm.m, d.state])
+
+
+def run_constraint_outputs(rt, dm, d) -> None:
+    rt.launch(solver_tgs.constraint_forces, rt.num_envs,
+              [dm.m, dm.opt, dm.layout, d.rows, d.contacts])
+    # sensors: site poses and velocities are current (the final kinematics computed them)
+    if dm.sensor_accelerations:
+        rt.launch(sensors.force_sensors, rt.num_envs, [
+            dm.m, d.env_params, dm.opt, dm.sensor_site_body, dm.sensor_site, d.state,
+            d.contacts, d.dynamics])
+    if dm.m.nsensor:
+        rt.launch(sensors.sensor_readings, rt.num_envs,
+                  [dm.m, d.env_params, d.state, d.contacts, d.dynamics])
+
+
+STAGES = {"kinematics": run_kinematics, "collision": run_collision, "dynamics": run_dynamics,
+          "applied_forces": run_applied_forces, "solve_unconstrained": run_solve_unconstrained,
+          "constraint_rows": run_constraint_rows, "solve_constraints": run_solve_constraints,
+          "integrate": run_integrate, "constraint_outputs": run_constraint_outputs}
