@@ -12,6 +12,10 @@ the cache key is the module's content hash, the same on both machines for the sa
 Warp loads these CUBINs when the GPU's driver is older than Warp's CUDA toolkit (Warp 1.19 with
 CUDA 13.4 against the lent machines' 13.0 driver); with a newer driver it prefers PTX and
 compiles (`warp.config.cuda_output = "cubin"` makes it take the cubins anyway).
+
+Warp compiles a module once per block size it is launched with: every module for the default
+(256 threads), and a module with cooperative kernels (`myriad.physics.lanes`: their last
+argument is `lanes`) also for `runtime.BlockDim.threads`.
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ def main() -> None:
     wp.config.kernel_cache_dir = args.cache
     wp.init()
     from myriad.physics import runtime
+    from myriad.physics.runtime.launch import BLOCK_DIM
 
     runtime.configure_modules()       # the build options the simulator uses: same hashes
     for name in runtime.kernel_modules():
@@ -39,10 +44,16 @@ def main() -> None:
         module = wp.get_module(name)
         if not module.kernels:
             continue
-        start = time.perf_counter()
-        wp.compile_aot_module(module, arch=args.arch, use_ptx=False)
-        print(f"{name}: sm_{'/'.join(map(str, args.arch))} in {time.perf_counter() - start:.1f} s",
-              flush=True)
+        default = module.options["block_dim"]
+        cooperative = any(k.adj.args and k.adj.args[-1].label == "lanes"
+                          for k in module.kernels.values())
+        for block_dim in sorted({default, BLOCK_DIM.threads} if cooperative else {default}):
+            start = time.perf_counter()
+            wp.set_module_options({"block_dim": block_dim}, name)
+            wp.compile_aot_module(module, arch=args.arch, use_ptx=False)
+            print(f"{name}: sm_{'/'.join(map(str, args.arch))}, {block_dim} threads per block, "
+                  f"in {time.perf_counter() - start:.1f} s", flush=True)
+        wp.set_module_options({"block_dim": default}, name)
 
 
 if __name__ == "__main__":

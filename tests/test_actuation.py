@@ -10,6 +10,8 @@ import torch
 import myriad
 from oracle import free_motion_mujoco
 
+pytestmark = pytest.mark.lanes   # also run with MYRIAD_CPU_BLOCK_DIM=32 (tests/test_lanes.py)
+
 SPRINGS_AND_MOTORS = """<mujoco><worldbody>
 <body name="a" pos="0 0 1"><joint name="h1" type="hinge" axis="0 1 0" stiffness="3" springref="0.3" damping="0.1"/>
   <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1"/>

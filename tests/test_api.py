@@ -12,6 +12,8 @@ import warp as wp
 import myriad
 from myriad.api import Scene
 
+pytestmark = pytest.mark.lanes   # also run with MYRIAD_CPU_BLOCK_DIM=32 (tests/test_lanes.py)
+
 ANT = myriad.asset_path("ant.xml")
 N = 4
 

@@ -14,6 +14,8 @@ from myriad.physics.stages import collision
 from myriad.physics.pairs import candidate_pairs, pair_friction
 from myriad.physics.types import GeomType
 
+pytestmark = pytest.mark.lanes   # also run with MYRIAD_CPU_BLOCK_DIM=32 (tests/test_lanes.py)
+
 MARGIN = 0.02
 # Isaac Gym's settings: dt 1/60, 2 substeps, TGS with 4 position and 1 velocity iteration
 ISAAC_PARAMS = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=4,

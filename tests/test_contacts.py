@@ -14,6 +14,8 @@ import myriad
 import stacks                                            # benchmarks/stacks.py
 from limit_chain import chain_xml as limit_chain_xml     # benchmarks/limit_chain.py
 
+pytestmark = pytest.mark.lanes   # also run with MYRIAD_CPU_BLOCK_DIM=32 (tests/test_lanes.py)
+
 ISAAC = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=4, velocity_iterations=1)
 
 

@@ -9,6 +9,8 @@ import torch
 
 import myriad
 
+pytestmark = pytest.mark.lanes   # also run with MYRIAD_CPU_BLOCK_DIM=32 (tests/test_lanes.py)
+
 # two fingers on slides; the second follows the first through MuJoCo's quartic coupling
 # q2 - q2_0 = c0 + c1·(q1 - q1_0) + c2·(q1 - q1_0)², as a URDF <mimic> joint becomes
 FINGERS = """<mujoco><option timestep="0.002"/>

@@ -7,6 +7,8 @@ import math
 
 import pytest
 
+pytestmark = pytest.mark.lanes   # also run with MYRIAD_CPU_BLOCK_DIM=32 (tests/test_lanes.py)
+
 grasp = pytest.importorskip("grasp")        # benchmarks/grasp.py (conftest puts it on the path)
 
 

@@ -50,6 +50,7 @@ def test_random_torques_for_10000_steps_stay_finite(name, device):
     assert int(sim.nonfinite.sum()) == 0
 
 
+@pytest.mark.lanes
 def test_non_finite_env_is_flagged_and_isolated(device):
     model = myriad.load(myriad.asset_path("ant.xml"))
     sim = myriad.Simulator(model, num_envs=3, device=device)
@@ -68,6 +69,7 @@ def test_non_finite_env_is_flagged_and_isolated(device):
     assert torch.isfinite(sim.q[1]).all() and sim.nonfinite.tolist() == [0, 0, 0]
 
 
+@pytest.mark.lanes
 @pytest.mark.parametrize("name, index, value", [
     ("ctrl", (1, 0), float("nan")),          # the ctrlrange clamp once turned it into -1
     ("ctrl", (1, 7), float("-inf")),
@@ -110,6 +112,7 @@ def test_non_finite_input_flags_its_env_and_leaves_the_others_alone(name, index,
     assert torch.equal(sim.q[0], ref.q[0]) and torch.equal(sim.q[2], ref.q[2])
 
 
+@pytest.mark.lanes
 def test_non_finite_force_on_a_body_no_dof_moves_is_flagged(device):
     """A static body's force never reaches a dof; its env is flagged all the same."""
     model = myriad.load_xml("""<mujoco><worldbody>
@@ -127,6 +130,7 @@ def test_non_finite_force_on_a_body_no_dof_moves_is_flagged(device):
     assert torch.equal(sim.q[1], ref.q[1]) and torch.equal(sim.qd[1], ref.qd[1])
 
 
+@pytest.mark.lanes
 @pytest.mark.parametrize("asset", ["ant.xml", "humanoid.xml"])
 def test_cpu_threads_give_bit_identical_results(asset, device):
     """Envs split into uneven shards, one CPU thread each, step exactly as one thread does."""

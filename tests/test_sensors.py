@@ -12,6 +12,8 @@ import myriad
 from myriad.physics.stages import sensors
 from oracle import free_motion_mujoco
 
+pytestmark = pytest.mark.lanes   # also run with MYRIAD_CPU_BLOCK_DIM=32 (tests/test_lanes.py)
+
 # A hanging arm (hinge, then hinge + limited slide), a box resting on the floor, a ball high up
 # in free fall, a post welded to the world, three kinds of actuators, and one sensor of each kind Myriad computes: on sites,
 # geoms, bodies (inertial frame) and body frames, with and without a reference frame, some with

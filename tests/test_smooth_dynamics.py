@@ -14,6 +14,8 @@ import myriad
 from models import capsule_chain_xml, chain_xml, random_tree_xml
 from oracle import free_motion_mujoco, full_mass_matrix, random_qpos
 
+pytestmark = pytest.mark.lanes   # also run with MYRIAD_CPU_BLOCK_DIM=32 (tests/test_lanes.py)
+
 NUM_ENVS = 4
 
 MODELS = {

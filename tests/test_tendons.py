@@ -6,6 +6,8 @@ import torch
 
 import myriad
 
+pytestmark = pytest.mark.lanes   # also run with MYRIAD_CPU_BLOCK_DIM=32 (tests/test_lanes.py)
+
 PAIR = """<mujoco><compiler angle="radian"/><option gravity="0 0 0"/><worldbody>
   <body name="a"><joint name="j1" type="hinge" axis="0 0 1" damping="0.05"/>
     <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="0.5"/></body>

@@ -209,6 +209,36 @@ def mass_matrix_layout(dof_parent: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     return madr, mnum, mass_col
 
 
+def tree_levels(model) -> dict:
+    """The bodies by depth and each body's children (`ModelArrays.level_adr` ...), the dof
+    trees, and each dof's actuators: the index lists that let a kernel's lanes share a world's
+    bodies, trees or dofs."""
+    depth = np.zeros(model.nbody, np.int32)
+    for b in range(model.nbody):                   # parents come first in MuJoCo's order
+        if model.body_parent[b] >= 0:
+            depth[b] = depth[model.body_parent[b]] + 1
+    nlevel = int(depth.max()) + 1 if model.nbody else 0
+    level_body = np.argsort(depth, kind="stable").astype(np.int32)
+    level_adr = np.searchsorted(depth[level_body], np.arange(nlevel + 1)).astype(np.int32)
+    children = [[] for _ in range(model.nbody)]
+    for b in range(model.nbody - 1, -1, -1):       # highest index first
+        if model.body_parent[b] >= 0:
+            children[model.body_parent[b]].append(b)
+    child_num = np.asarray([len(c) for c in children], np.int32)
+    dof_span = tree_spans(model)[0]
+    acts = [np.flatnonzero(model.actuator_dof == i) for i in range(model.nv)]
+    act_num = np.asarray([len(a) for a in acts], np.int32)
+    return dict(nlevel=nlevel, level_adr=level_adr, level_body=level_body,
+                body_child_adr=(np.cumsum(child_num) - child_num).astype(np.int32),
+                body_child_num=child_num,
+                body_child=np.asarray([c for cs in children for c in cs], np.int32),
+                ntree=len(np.unique(dof_span[:, 0])),
+                tree_dofs=np.unique(dof_span, axis=0).reshape(-1, 2).astype(np.int32),
+                dof_actuator_adr=(np.cumsum(act_num) - act_num).astype(np.int32),
+                dof_actuator_num=act_num,
+                dof_actuator=np.concatenate(acts + [np.zeros(0, np.int64)]).astype(np.int32))
+
+
 def equality_rows(model) -> dict:
     """eq_rowadr, eq_rownum: each equality constraint's rows within the equality family."""
     rownum = np.asarray([6 if t == EqualityType.WELD and rot else
@@ -228,7 +258,7 @@ def model_arrays(model, device, pair_friction=None) -> ModelArrays:
             for t, o in zip(model.sensor_type, model.sensor_objid)]
     derived = dict(dof_tree_span=dof_span, body_tree_span=body_span,
                    dof_madr=madr, dof_mnum=mnum, mass_col=mass_col,
-                   **equality_rows(model),
+                   **equality_rows(model), **tree_levels(model),
                    actuator_qposadr=model.jnt_qposadr[model.dof_jnt[model.actuator_dof]],
                    sensor_slot=np.asarray(slot, np.int32),
                    pair_friction=np.zeros(0, np.float32) if pair_friction is None

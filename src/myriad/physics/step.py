@@ -1,13 +1,15 @@
 """One step of the engine, stage by stage: read `step` first.
 
 Each stage is a few kernel launches of a module in `stages/`, over the launch dimensions written
-here: the env count first, then the elements a thread takes (geoms, pairs, sites). `rt` (a
-`runtime.Runtime`) launches them on the device, `dm` (a `build.DeviceModel`) is what all envs
-share, `d` (a `build.Data`) the per-env structs.
+here: the env count first, then the elements a thread takes (geoms, pairs, sites); cooperative
+kernels (`lanes`) take `lanes` threads per env, their counts declared in `runtime.BlockDim`.
+`rt` (a `runtime.Runtime`) launches them on the device, `dm` (a `build.DeviceModel`) is what all
+envs share, `d` (a `build.Data`) the per-env structs.
 """
 
 from __future__ import annotations
 
+from .runtime.launch import BLOCK_DIM
 from .stages import (collision, constraints, dynamics, forces, integrate, kinematics, sensors,
                      solver_tgs)
 
@@ -32,12 +34,13 @@ def forward(rt, dm, d) -> None:
     """Poses, velocities, bias and applied forces from q, qd (no time passes)."""
     run_kinematics(rt, dm, d)
     run_dynamics(rt, dm, d)
-    rt.launch(forces.body_wrenches, rt.num_envs, [dm.m, d.state, d.control, d.dynamics])
+    rt.launch_lanes(forces.body_wrenches, BLOCK_DIM.bodies,
+                    [dm.m, d.state, d.control, d.dynamics])
 
 
 # ---------------------------------------------------------------------------------- the stages
 def run_kinematics(rt, dm, d) -> None:
-    rt.launch(kinematics.kinematics, rt.num_envs, [dm.m, d.state])
+    rt.launch_lanes(kinematics.kinematics, BLOCK_DIM.bodies, [dm.m, d.state])
     if dm.sizes["nsite"]:
         rt.launch(kinematics.site_frames, (rt.num_envs, dm.sizes["nsite"]),
                   [dm.m, d.env_params, d.state])
@@ -62,17 +65,19 @@ def run_collision(rt, dm, d) -> None:
 
 
 def run_dynamics(rt, dm, d) -> None:
-    rt.launch(dynamics.bias_forces, rt.num_envs, [dm.m, d.env_params, d.state, d.dynamics])
+    rt.launch_lanes(dynamics.bias_forces, BLOCK_DIM.bodies,
+                    [dm.m, d.env_params, d.state, d.dynamics])
 
 
 def run_applied_forces(rt, dm, d) -> None:
-    rt.launch(forces.body_wrenches, rt.num_envs, [dm.m, d.state, d.control, d.dynamics])
-    rt.launch(forces.generalized_forces, rt.num_envs,
-              [dm.m, d.env_params, dm.opt, d.state, d.control, d.dynamics])
+    rt.launch_lanes(forces.body_wrenches, BLOCK_DIM.bodies,
+                    [dm.m, d.state, d.control, d.dynamics])
+    rt.launch_lanes(forces.generalized_forces, BLOCK_DIM.dofs,
+                    [dm.m, d.env_params, dm.opt, d.state, d.control, d.dynamics])
 
 
 def run_solve_unconstrained(rt, dm, d) -> None:
-    rt.launch(dynamics.solve_acceleration, rt.num_envs, [
+    rt.launch_lanes(dynamics.solve_acceleration, BLOCK_DIM.bodies, [
         dm.m, d.env_params, d.state, d.dynamics,
         d.state.qacc.reshape((rt.num_envs, 1, dm.sizes["nv"]))])
 
@@ -90,7 +95,7 @@ def run_solve_constraints(rt, dm, d) -> None:
 
 
 def run_integrate(rt, dm, d) -> None:
-    rt.launch(integrate.integrate, rt.num_envs, [dm.m, d.state])
+    rt.launch_lanes(integrate.integrate, BLOCK_DIM.dofs, [dm.m, d.state])
 
 
 def run_constraint_outputs(rt, dm, d) -> None:

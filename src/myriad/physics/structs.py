@@ -93,6 +93,17 @@ class ModelArrays:
     body_jntnum: wp.array(dtype=wp.int32)
     body_last_dof: wp.array(dtype=wp.int32)
     body_gravcomp: wp.array(dtype=float)
+    # the tree by levels (`build.tree_levels`), for kernels whose lanes take one level's bodies
+    # at a time: level k holds the bodies with k ancestors, level_body[level_adr[k]:
+    # level_adr[k + 1]] in ascending order; a body's children are body_child[body_child_adr[b]:
+    # body_child_adr[b] + body_child_num[b]], highest index first (the order in which a walk
+    # of the bodies from the last to the first adds them into their parent)
+    nlevel: int
+    level_adr: wp.array(dtype=wp.int32)        # [nlevel + 1]
+    level_body: wp.array(dtype=wp.int32)       # [nbody]
+    body_child_adr: wp.array(dtype=wp.int32)   # [nbody]
+    body_child_num: wp.array(dtype=wp.int32)   # [nbody]
+    body_child: wp.array(dtype=wp.int32)       # [nbody - number of roots]
 
     jnt_type: wp.array(dtype=wp.int32)
     jnt_qposadr: wp.array(dtype=wp.int32)
@@ -106,6 +117,14 @@ class ModelArrays:
 
     dof_body: wp.array(dtype=wp.int32)
     dof_parent: wp.array(dtype=wp.int32)
+    dof_jnt: wp.array(dtype=wp.int32)
+    # the actuators driving each dof, in actuator order: dof_actuator[dof_actuator_adr[i]:
+    # dof_actuator_adr[i] + dof_actuator_num[i]]
+    dof_actuator_adr: wp.array(dtype=wp.int32)   # [nv]
+    dof_actuator_num: wp.array(dtype=wp.int32)   # [nv]
+    dof_actuator: wp.array(dtype=wp.int32)       # [nu]
+    ntree: int
+    tree_dofs: wp.array(dtype=wp.vec2i)   # [ntree] [lo, hi) of each dof tree, in dof order
     # [lo, hi) of the dofs in the same dof tree (a dof, its ancestors and descendants): the
     # mass matrix is block-diagonal over these trees, so a row's response stays inside them
     dof_tree_span: wp.array(dtype=wp.vec2i)

@@ -1,6 +1,6 @@
 """Where and how the step's kernels run: `Runtime` launches them on the CUDA stream (the whole
 step captured once as a CUDA graph and replayed) or on the CPU, the envs split into shards, one
-thread each.
+thread each. The block sizes of the cooperative kernels (`lanes`) are declared here (`BlockDim`).
 
 Warp runs a CPU kernel on the calling thread and releases the GIL while it runs, so shards of
 envs advance in parallel; every kernel reads and writes its own envs only, so the result is the
@@ -12,6 +12,7 @@ whole. On a CPU thread denormal floats are flushed to zero while the engine runs
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import threading
 import weakref
@@ -22,6 +23,34 @@ import torch
 import warp as wp
 
 from . import float_mode
+
+
+@dataclasses.dataclass(frozen=True)
+class BlockDim:
+    """Threads per block and lanes per world of the cooperative kernels (`lanes`) on CUDA.
+
+    A block holds threads // lanes worlds. One warp per block keeps `sync()` cheap; lanes per
+    world follow the parallel work a world offers: a tree level's bodies (widest level: ant 4,
+    humanoid 3, a five-finger hand 5) or its dofs and joints (14 to 36 in the seed's tasks).
+    Not yet tuned on a GPU.
+    """
+    threads: int = 32
+    bodies: int = 4      # kernels over a tree level's bodies (kinematics, dynamics, forces)
+    dofs: int = 8        # kernels over dofs or joints (generalized forces, integration)
+
+
+BLOCK_DIM = BlockDim()
+
+
+def cpu_block_dim() -> int:
+    """Threads per block of the cooperative kernels on a CPU: 1 (one lane per world, the CPU's
+    own path), or N from the environment variable MYRIAD_CPU_BLOCK_DIM (2 to 1024), which runs
+    them as CUDA does, through Warp's cooperative CPU fibers (for tests of the GPU's launch
+    configuration on a machine without one)."""
+    value = os.environ.get("MYRIAD_CPU_BLOCK_DIM", "1").strip() or "1"
+    if not value.isdigit() or not 1 <= int(value) <= 1024:
+        raise ValueError(f"MYRIAD_CPU_BLOCK_DIM={value!r}: must be an integer from 1 to 1024")
+    return int(value)
 
 
 def shard(struct, whole, lo: int, hi: int):
@@ -47,6 +76,9 @@ class Runtime:
         self._local = threading.local()     # .range: the envs of this thread's shard
         self.shards, self._pool, self._parts = [], None, {}
         self._control_words = wp.zeros(1, dtype=wp.uint32, device="cpu")   # float_mode
+        self.block_threads = BLOCK_DIM.threads if device.is_cuda else cpu_block_dim()
+        if self.block_threads > 1 and not device.is_cuda:
+            wp.config.enable_cpu_blocks = True
         if device.is_cuda:
             self._stream = wp.Stream(device)
             return
@@ -79,6 +111,22 @@ class Runtime:
             size = shard[1] - shard[0]
             dim = (size,) + tuple(dim[1:]) if isinstance(dim, tuple) else size
         wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
+
+    def launch_lanes(self, kernel, lanes: int, inputs) -> None:
+        """Launch a cooperative kernel (`lanes`) with `lanes` threads per world (at most the
+        block's threads) and as many worlds per block as fit; the kernel takes the lane count
+        as its last argument."""
+        lanes = max(1, min(lanes, self.block_threads))
+        per_block = self.block_threads // lanes
+        shard = getattr(self._local, "range", None)
+        if shard is not None:
+            inputs = [self.shard_of(a) for a in inputs]
+        worlds = self.num_envs if shard is None else shard[1] - shard[0]
+        threads = per_block * lanes
+        # (blocks, threads) with blocks of `threads`: wp.tid() is (block, thread), as
+        # wp.launch_tiled gives, without its extra Python work per launch
+        wp.launch(kernel, dim=(-(-worlds // per_block), threads), inputs=[*inputs, lanes],
+                  block_dim=threads, device=self.device)
 
     def shard_of(self, a):
         """`a` restricted to the current thread's envs (unchanged outside a sharded run)."""

@@ -1,7 +1,10 @@
 """Stage 3, dynamics: bias forces (RNEA), the factor of the mass matrix from the articulated-body
 inertias, the solve for qacc, and the mass matrix itself (CRBA) for `Simulator.mass_matrix`.
 
-One thread per env. All spatial quantities of a tree are taken at that tree's reference point
+A world's lanes (`lanes`) take the bodies of one tree level at a time: parents first for the
+accelerations, children first for the subtree sums, where each body gathers its children's
+share (highest index first, the order of a walk from the last body to the first); then its
+dofs or its dof trees. All spatial quantities of a tree are taken at that tree's reference point
 (see `spatial`), so inertias of a parent and its children add directly.
 
 The mass matrix has the branch-induced sparsity of the kinematic tree: entry (i, j) is nonzero
@@ -18,6 +21,7 @@ of at most 15 (243 in all, against 729 for its square block).
 
 import warp as wp
 
+from ..lanes import level_body, level_range, stop, sync, world_lane
 from ..spatial import force_cross, inertia_about_point, inertia_matrix, inertia_times
 from ..structs import Dynamics, EnvParams, ModelArrays, State
 
@@ -60,62 +64,78 @@ def mass_matrix(m: ModelArrays, p: EnvParams,
             d.qm[e, a + t] = wp.dot(s.cdof[e, m.mass_col[a + t]], f)
 
 
-@wp.func
-def body_forces(m: ModelArrays, p: EnvParams, s: State, e: int,
-                qd_before: wp.array2d(dtype=float), inv_h: float, d: Dynamics):
-    """Forward pass of Newton-Euler: each body's acceleration and the force it needs,
-    I·a + v ×* I·v, into d.cacc and d.cfrc.
+@wp.func(inline=True)
+def newton_euler(m: ModelArrays, p: EnvParams, s: State, e: int, lane: int, lanes: int,
+                 active: bool, qd_before: wp.array2d(dtype=float), inv_h: float, d: Dynamics):
+    """Forward pass of Newton-Euler, level by level (parents first): each body's acceleration
+    and the force it needs, I·a + v ×* I·v, into d.cacc and d.cfrc.
 
     Accelerations come from the velocity-product terms plus (qd - qd_before)·inv_h (inv_h = 0:
     none, for the bias force). Gravity enters as an upward acceleration of the world, less the
     share `body_gravcomp` of each body's weight that an applied force at its centre of mass
-    holds up (MuJoCo's gravcomp).
+    holds up (MuJoCo's gravcomp). (A function called once per thread, the bodies' work inline:
+    a CPU build passes the structs to a function by value, a copy per call.)
     """
     world_acc = wp.spatial_vector(wp.vec3(), -p.gravity[e])
-    for b in range(m.nbody):
-        parent = m.body_parent[b]
-        a = world_acc
-        if parent >= 0:
-            a = d.cacc[e, parent]
-        if m.body_jntnum[b] > 0:
-            for i in range(m.jnt_dofadr[m.body_jntadr[b]], m.body_last_dof[b] + 1):
-                a = (a + s.cdof_dot[e, i] * s.qd[e, i]
-                     + s.cdof[e, i] * ((s.qd[e, i] - qd_before[e, i]) * inv_h))
-        d.cacc[e, b] = a
-        mass, h, rot_inertia = body_inertia(m, p, s, e, b)
-        v = s.cvel[e, b]
-        d.cfrc[e, b] = inertia_times(mass, h, rot_inertia, a) + force_cross(
-            v, inertia_times(mass, h, rot_inertia, v))
-        if m.body_gravcomp[b] != 0.0:
-            d.cfrc[e, b] = d.cfrc[e, b] - m.body_gravcomp[b] * inertia_times(
-                mass, h, rot_inertia, world_acc)
+    for k in range(m.nlevel):
+        start, end = level_range(m, k, lane, lanes, active, False)
+        for i in range(start, end, lanes):
+            b = level_body(m, i, lanes, False)
+            parent = m.body_parent[b]
+            a = world_acc
+            if parent >= 0:
+                a = d.cacc[e, parent]
+            if m.body_jntnum[b] > 0:
+                for k in range(m.jnt_dofadr[m.body_jntadr[b]], m.body_last_dof[b] + 1):
+                    a = (a + s.cdof_dot[e, k] * s.qd[e, k]
+                         + s.cdof[e, k] * ((s.qd[e, k] - qd_before[e, k]) * inv_h))
+            d.cacc[e, b] = a
+            mass, h, rot_inertia = body_inertia(m, p, s, e, b)
+            v = s.cvel[e, b]
+            d.cfrc[e, b] = inertia_times(mass, h, rot_inertia, a) + force_cross(
+                v, inertia_times(mass, h, rot_inertia, v))
+            if m.body_gravcomp[b] != 0.0:
+                d.cfrc[e, b] = d.cfrc[e, b] - m.body_gravcomp[b] * inertia_times(
+                    mass, h, rot_inertia, world_acc)
+        if lanes > 1:
+            sync()
 
 
-@wp.func
-def accumulate_subtrees(m: ModelArrays, e: int, cfrc: wp.array2d(dtype=wp.spatial_vector)):
-    """Children before parents: each body's force becomes that of its whole subtree."""
-    for k in range(m.nbody):
-        b = m.nbody - 1 - k
-        parent = m.body_parent[b]
-        if parent >= 0:
-            cfrc[e, parent] = cfrc[e, parent] + cfrc[e, b]
+@wp.func(inline=True)
+def subtree_sums(m: ModelArrays, e: int, lane: int, lanes: int, active: bool,
+                 x: wp.array2d(dtype=wp.spatial_vector)):
+    """x[b] <- the sum of x over b's subtree, level by level (children first): each body adds
+    its children's, highest index first (the order of a walk from the last body to the first,
+    adding each into its parent)."""
+    for k in range(m.nlevel):
+        start, end = level_range(m, k, lane, lanes, active, True)
+        for i in range(start, end, lanes):
+            b = level_body(m, i, lanes, True)
+            total = x[e, b]
+            for c in range(m.body_child_adr[b], m.body_child_adr[b] + m.body_child_num[b]):
+                total = total + x[e, m.body_child[c]]
+            x[e, b] = total
+        if lanes > 1:
+            sync()
 
 
 @wp.kernel
 def bias_forces(m: ModelArrays, p: EnvParams,
                 s: State,       # in: body_x, body_com, body_iframe, qd, cvel, cdof, cdof_dot
-                d: Dynamics):   # out: bias; scratch: cacc, cfrc
+                d: Dynamics,    # out: bias; scratch: cacc, cfrc
+                lanes: int):
     """Recursive Newton-Euler at qdd = 0: Coriolis, centrifugal and gravity (MuJoCo's qfrc_bias)."""
-    e = wp.tid()
-    body_forces(m, p, s, e, s.qd, 0.0, d)
-    accumulate_subtrees(m, e, d.cfrc)
-    for i in range(m.nv):
+    block, thread = wp.tid()
+    e, lane, active = world_lane(block, thread, lanes, s.nonfinite.shape[0])
+    newton_euler(m, p, s, e, lane, lanes, active, s.qd, 0.0, d)
+    subtree_sums(m, e, lane, lanes, active, d.cfrc)
+    for i in range(lane, stop(m.nv, 0, active), lanes):
         d.bias[e, i] = wp.dot(s.cdof[e, i], d.cfrc[e, m.dof_body[i]])
 
 
-@wp.func
-def articulated_factor(m: ModelArrays, p: EnvParams, s: State, e: int,
-                       implicit_diag: wp.array2d(dtype=float),
+@wp.func(inline=True)
+def articulated_factor(m: ModelArrays, p: EnvParams, s: State, e: int, lane: int, lanes: int,
+                       active: bool, implicit_diag: wp.array2d(dtype=float),
                        articulated: wp.array2d(dtype=wp.spatial_matrix),
                        factor: wp.array2d(dtype=float)):
     """factor <- Lᵀ D L of (M + diag(implicit_diag)), from the articulated-body inertias.
@@ -132,31 +152,42 @@ def articulated_factor(m: ModelArrays, p: EnvParams, s: State, e: int,
     same chain's qacc is within 1 % of MuJoCo's (float64), a 20-link chain's within 1e-4.
     `implicit_diag` holds h·d + h²·k of implicit dampers and drives; `factor` keeps L (strictly
     lower part, on the ancestor pattern) and D⁻¹ (on its diagonal: the solves multiply by it).
+
+    Level by level, leaves first: body b takes its own inertia plus what each child passes on
+    (gathered highest index first, the order in which a walk from the last body to the first
+    added them into their parent), eliminates its own dofs from the last to the first, and
+    leaves in `articulated[b]` what it passes on to its parent.
     """
-    for b in range(m.nbody):
+    for b in range(lane, stop(m.nbody, 0, active), lanes):
         mass, h, rot_inertia = body_inertia(m, p, s, e, b)
         articulated[e, b] = inertia_matrix(mass, h, rot_inertia)
-    # children before parents; a body's dofs from its last to its first (each one's parent)
-    for k in range(m.nbody):
-        b = m.nbody - 1 - k
-        parent = m.body_parent[b]
-        ia = articulated[e, b]
-        if m.body_jntnum[b] > 0:
-            first = m.jnt_dofadr[m.body_jntadr[b]]
-            i = m.body_last_dof[b]
-            while i >= first:
-                u = ia * s.cdof[e, i]
-                inv_d = 1.0 / (wp.dot(s.cdof[e, i], u) + p.dof_armature[e, i]
-                               + implicit_diag[e, i])
-                a = m.dof_madr[i]
-                factor[e, a] = inv_d
-                for t in range(1, m.dof_mnum[i]):
-                    factor[e, a + t] = wp.dot(s.cdof[e, m.mass_col[a + t]], u) * inv_d
-                if i > first or parent >= 0:      # a tree's first dof passes nothing on
-                    ia = ia - wp.outer(u, u) * inv_d
-                i -= 1
-        if parent >= 0:
-            articulated[e, parent] = articulated[e, parent] + ia
+    if lanes > 1:
+        sync()
+    for k in range(m.nlevel):
+        start, end = level_range(m, k, lane, lanes, active, True)
+        for n in range(start, end, lanes):
+            b = level_body(m, n, lanes, True)
+            ia = articulated[e, b]
+            for c in range(m.body_child_adr[b], m.body_child_adr[b] + m.body_child_num[b]):
+                ia = ia + articulated[e, m.body_child[c]]
+            parent = m.body_parent[b]
+            if m.body_jntnum[b] > 0:
+                first = m.jnt_dofadr[m.body_jntadr[b]]
+                i = m.body_last_dof[b]
+                while i >= first:
+                    u = ia * s.cdof[e, i]
+                    inv_d = 1.0 / (wp.dot(s.cdof[e, i], u) + p.dof_armature[e, i]
+                                   + implicit_diag[e, i])
+                    a = m.dof_madr[i]
+                    factor[e, a] = inv_d
+                    for t in range(1, m.dof_mnum[i]):
+                        factor[e, a + t] = wp.dot(s.cdof[e, m.mass_col[a + t]], u) * inv_d
+                    if i > first or parent >= 0:      # a tree's first dof passes nothing on
+                        ia = ia - wp.outer(u, u) * inv_d
+                    i -= 1
+            articulated[e, b] = ia
+        if lanes > 1:
+            sync()
 
 
 @wp.func_native("""
@@ -214,22 +245,20 @@ def solve_span(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
     ...
 
 
-@wp.func
-def solve_in_place(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
-                   x: wp.array3d(dtype=float), r: int):
-    """x[e, r, :] <- (Lᵀ D L)⁻¹ x[e, r, :]."""
-    solve_span(m, e, factor, x, r, 1, 0, m.nv, 0)
-
-
 @wp.kernel
 def solve_acceleration(m: ModelArrays, p: EnvParams,
                        s: State,                        # in: body_x, body_com, body_iframe, cdof
                        d: Dynamics,                     # in: implicit_diag, qfrc; out: factor;
                                                         # scratch: articulated
-                       qacc: wp.array3d(dtype=float)):  # out: State.qacc viewed as [N, 1, nv]
+                       qacc: wp.array3d(dtype=float),   # out: State.qacc viewed as [N, 1, nv]
+                       lanes: int):
     """Unconstrained qacc = (M + implicit_diag)⁻¹ qfrc, and the factor the constraint rows use."""
-    e = wp.tid()
-    articulated_factor(m, p, s, e, d.implicit_diag, d.articulated, d.factor)
-    for i in range(m.nv):
-        qacc[e, 0, i] = d.qfrc[e, i]
-    solve_in_place(m, e, d.factor, qacc, 0)
+    block, thread = wp.tid()
+    e, lane, active = world_lane(block, thread, lanes, s.nonfinite.shape[0])
+    articulated_factor(m, p, s, e, lane, lanes, active, d.implicit_diag, d.articulated, d.factor)
+    # the solve, a dof tree per lane: the factor never couples two trees
+    for t in range(lane, stop(m.ntree, 0, active), lanes):
+        tree = m.tree_dofs[t]
+        for i in range(tree[0], tree[1]):
+            qacc[e, 0, i] = d.qfrc[e, i]
+        solve_span(m, e, d.factor, qacc, 0, 1, tree[0], tree[1], tree[0])

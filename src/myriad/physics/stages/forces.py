@@ -20,8 +20,10 @@ other envs are untouched (every kernel is per env).
 
 import warp as wp
 
+from ..lanes import stop, sync, world_lane
 from ..types import HINGE, MOTOR, POSITION, SLIDE
 from ..spatial import row_finite
+from .dynamics import subtree_sums
 from ..structs import Control, Dynamics, EnvParams, ModelArrays, Options, State
 
 
@@ -32,83 +34,86 @@ def generalized_forces(m: ModelArrays, p: EnvParams, opt: Options,
                        c: Control,    # in: ctrl
                        # in: qfrc_applied, bias; out: qfrc_actuator, actuator_force, qfrc,
                        # implicit_diag
-                       d: Dynamics):
+                       d: Dynamics,
+                       lanes: int):
     """Explicit generalized force `qfrc` (minus the bias) and the implicit diagonal of this
-    substep, from the applied forces (`body_wrenches`), actuators, damping and joint springs."""
-    e = wp.tid()
+    substep, from the applied forces (`body_wrenches`), actuators, damping and joint springs:
+    a world's lanes take its dofs, each dof with its actuators (in their order) and its joint."""
+    block, thread = wp.tid()
+    e, lane, active = world_lane(block, thread, lanes, s.nonfinite.shape[0])
     h = opt.h
-    for i in range(m.nv):
+    # non-finite input: the clamps below would turn a NaN ctrl into a bound, so the check
+    # looks at the inputs themselves; the env is flagged and its forces poisoned, never patched
+    bad = False
+    if active:
+        bad = not (row_finite(c.ctrl, e, m.nu) and row_finite(d.qfrc_applied, e, m.nv))
+        if bad and lane == 0:
+            s.nonfinite[e] = 1
+    for i in range(lane, stop(m.nv, 0, active), lanes):
         damping = p.dof_damping[e, i]
-        d.qfrc[e, i] = d.qfrc_applied[e, i] - d.bias[e, i] - damping * s.qd[e, i]
-        d.implicit_diag[e, i] = h * damping
-        d.qfrc_actuator[e, i] = 0.0
-
-    for a in range(m.nu):
-        i = m.actuator_dof[a]
-        g = p.actuator_gear[e, a]
-        u = c.ctrl[e, a]
-        if m.actuator_ctrllimited[a] != 0:
-            r = m.actuator_ctrlrange[a]
-            u = wp.clamp(u, r[0], r[1])
-        kind = m.actuator_kind[a]
-        force = float(0.0)
-        stiff = float(0.0)
-        damp = float(0.0)
-        if kind == MOTOR:
-            force = p.actuator_gain[e, a] * u
-        else:
-            kv = p.actuator_kv[e, a]
-            if kind == POSITION:
-                kp = p.actuator_kp[e, a]
-                length = g * s.q[e, m.actuator_qposadr[a]]
-                force = kp * (u - length - h * g * s.qd[e, i]) - kv * g * s.qd[e, i]
-                stiff = kp
+        qfrc = d.qfrc_applied[e, i] - d.bias[e, i] - damping * s.qd[e, i]
+        implicit = h * damping
+        actuated = float(0.0)
+        for k in range(m.dof_actuator_adr[i], m.dof_actuator_adr[i] + m.dof_actuator_num[i]):
+            a = m.dof_actuator[k]
+            g = p.actuator_gear[e, a]
+            u = c.ctrl[e, a]
+            if m.actuator_ctrllimited[a] != 0:
+                r = m.actuator_ctrlrange[a]
+                u = wp.clamp(u, r[0], r[1])
+            kind = m.actuator_kind[a]
+            force = float(0.0)
+            stiff = float(0.0)
+            damp = float(0.0)
+            if kind == MOTOR:
+                force = p.actuator_gain[e, a] * u
             else:
-                force = kv * (u - g * s.qd[e, i])
-            damp = kv
-        # what MuJoCo reports as actuator_force: the force at this state, without the implicit
-        # step's prediction of the position (-kp·h·g·qd above), clamped to the force range
-        reported = force
-        if kind == POSITION:
-            reported = (p.actuator_kp[e, a] * (u - g * s.q[e, m.actuator_qposadr[a]])
-                        - p.actuator_kv[e, a] * g * s.qd[e, i])
-        if m.actuator_forcelimited[a] != 0:
-            r = m.actuator_forcerange[a]
-            reported = wp.clamp(reported, r[0], r[1])
-            if force < r[0] or force > r[1]:
-                force = wp.clamp(force, r[0], r[1])
-                stiff = 0.0
-                damp = 0.0
-        d.actuator_force[e, a] = reported
-        d.qfrc_actuator[e, i] = d.qfrc_actuator[e, i] + g * force
-        d.implicit_diag[e, i] = d.implicit_diag[e, i] + g * g * (h * damp + h * h * stiff)
-
-    for j in range(m.njnt):
+                kv = p.actuator_kv[e, a]
+                if kind == POSITION:
+                    kp = p.actuator_kp[e, a]
+                    length = g * s.q[e, m.actuator_qposadr[a]]
+                    force = kp * (u - length - h * g * s.qd[e, i]) - kv * g * s.qd[e, i]
+                    stiff = kp
+                else:
+                    force = kv * (u - g * s.qd[e, i])
+                damp = kv
+            # what MuJoCo reports as actuator_force: the force at this state, without the
+            # implicit step's prediction of the position (-kp·h·g·qd above), clamped to the
+            # force range
+            reported = force
+            if kind == POSITION:
+                reported = (p.actuator_kp[e, a] * (u - g * s.q[e, m.actuator_qposadr[a]])
+                            - p.actuator_kv[e, a] * g * s.qd[e, i])
+            if m.actuator_forcelimited[a] != 0:
+                r = m.actuator_forcerange[a]
+                reported = wp.clamp(reported, r[0], r[1])
+                if force < r[0] or force > r[1]:
+                    force = wp.clamp(force, r[0], r[1])
+                    stiff = 0.0
+                    damp = 0.0
+            d.actuator_force[e, a] = reported
+            if bad:
+                d.actuator_force[e, a] = wp.nan
+            actuated = actuated + g * force
+            implicit = implicit + g * g * (h * damp + h * h * stiff)
+        j = m.dof_jnt[i]
         t = m.jnt_type[j]
         if t == HINGE or t == SLIDE:
-            a = m.jnt_qposadr[j]
-            i = m.jnt_dofadr[j]
-            k = p.joint_stiffness[e, j]
-            d.qfrc[e, i] = d.qfrc[e, i] - k * (s.q[e, a] - m.jnt_springref[j])
-            # effort limit on the joint's total actuator force (URDF effort, MJCF actuatorfrcrange)
+            qfrc = qfrc - p.joint_stiffness[e, j] * (s.q[e, m.jnt_qposadr[j]]
+                                                     - m.jnt_springref[j])
+            # effort limit on the joint's total actuator force (URDF effort, MJCF
+            # actuatorfrcrange)
             if m.jnt_actfrclimited[j] != 0:
                 r = m.jnt_actfrcrange[j]
-                f = d.qfrc_actuator[e, i]
-                if f < r[0] or f > r[1]:
-                    d.qfrc_actuator[e, i] = wp.clamp(f, r[0], r[1])
-                    d.implicit_diag[e, i] = h * p.dof_damping[e, i]
-    for i in range(m.nv):
-        d.qfrc[e, i] = d.qfrc[e, i] + d.qfrc_actuator[e, i]
-
-    # non-finite input: the clamps above would have turned a NaN ctrl into a bound, so the check
-    # looks at the inputs themselves; the env is flagged and its forces poisoned, never patched
-    if not (row_finite(c.ctrl, e, m.nu) and row_finite(d.qfrc_applied, e, m.nv)):
-        s.nonfinite[e] = 1
-        for i in range(m.nv):
+                if actuated < r[0] or actuated > r[1]:
+                    actuated = wp.clamp(actuated, r[0], r[1])
+                    implicit = h * damping
+        d.qfrc_actuator[e, i] = actuated
+        d.qfrc[e, i] = qfrc + actuated
+        d.implicit_diag[e, i] = implicit
+        if bad:
             d.qfrc_actuator[e, i] = wp.nan
             d.qfrc[e, i] = wp.nan
-        for a in range(m.nu):
-            d.actuator_force[e, a] = wp.nan
 
 
 @wp.kernel
@@ -116,7 +121,8 @@ def body_wrenches(m: ModelArrays,
                   s: State,      # in: body_x, body_com, cdof; out: nonfinite
                   c: Control,    # in: joint_force, body_force
                   # out: qfrc_applied; scratch: wrench (each body's, then its subtree's)
-                  d: Dynamics):
+                  d: Dynamics,
+                  lanes: int):
     """qfrc_applied = joint_force + Jᵀ·(force at the center of mass, torque) of every body.
 
     `body_force[e, b]` is (force, torque) in world axes, the force acting at the body's center of
@@ -125,25 +131,24 @@ def body_wrenches(m: ModelArrays,
     flags the env and makes all of its `qfrc_applied` NaN, even on a body that no dof carries
     (a non-finite `joint_force` reaches `generalized_forces` through `qfrc_applied`).
     """
-    e = wp.tid()
+    block, thread = wp.tid()
+    e, lane, active = world_lane(block, thread, lanes, s.nonfinite.shape[0])
     bad = int(0)
-    for b in range(m.nbody):
+    for b in range(stop(m.nbody, 0, active)):        # every lane reads them all
         if not wp.isfinite(c.body_force[e, b]):
             bad = 1
-    for b in range(m.nbody):
+    for b in range(lane, stop(m.nbody, 0, active), lanes):
         f = wp.spatial_top(c.body_force[e, b])
         torque = wp.spatial_bottom(c.body_force[e, b])
         arm = s.body_com[e, b] - wp.transform_get_translation(s.body_x[e, m.body_root[b]])
         d.wrench[e, b] = wp.spatial_vector(torque + wp.cross(arm, f), f)
-    for k in range(m.nbody):
-        b = m.nbody - 1 - k
-        parent = m.body_parent[b]
-        if parent >= 0:
-            d.wrench[e, parent] = d.wrench[e, parent] + d.wrench[e, b]
-    for i in range(m.nv):
+    if lanes > 1:
+        sync()
+    subtree_sums(m, e, lane, lanes, active, d.wrench)
+    for i in range(lane, stop(m.nv, 0, active), lanes):
         d.qfrc_applied[e, i] = (c.joint_force[e, i]
                                 + wp.dot(s.cdof[e, i], d.wrench[e, m.dof_body[i]]))
-    if bad != 0:
-        s.nonfinite[e] = 1
-        for i in range(m.nv):
+        if bad != 0:
             d.qfrc_applied[e, i] = wp.nan
+    if bad != 0 and lane == 0:
+        s.nonfinite[e] = 1

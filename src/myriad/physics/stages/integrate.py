@@ -12,19 +12,31 @@ an env whose state is no longer finite is flagged in `nonfinite`.
 import warp as wp
 
 from ..types import BALL, FREE
-from ..spatial import quat_integrate, row_finite
+from ..lanes import stop, world_lane
+from ..spatial import quat_integrate
 from ..structs import ModelArrays, State
 
 
 
 @wp.kernel
 def integrate(m: ModelArrays,
-              s: State):    # in: dq, qd; in and out: q; out: nonfinite
-    e = wp.tid()
-    for j in range(m.njnt):
+              s: State,     # in: dq, qd; in and out: q; out: nonfinite
+              lanes: int):
+    """A world's lanes take its joints."""
+    block, thread = wp.tid()
+    e, lane, active = world_lane(block, thread, lanes, s.nonfinite.shape[0])
+    for j in range(lane, stop(m.njnt, 0, active), lanes):
         t = m.jnt_type[j]
         a = m.jnt_qposadr[j]
         d = m.jnt_dofadr[j]
+        check_q = wp.vec2i(a, a + 1)      # the joint's coordinates and dofs, checked below
+        check_d = wp.vec2i(d, d + 1)
+        if t == FREE:
+            check_q = wp.vec2i(a, a + 7)
+            check_d = wp.vec2i(d, d + 6)
+        elif t == BALL:
+            check_q = wp.vec2i(a, a + 4)
+            check_d = wp.vec2i(d, d + 3)
         if t == FREE or t == BALL:
             if t == FREE:
                 for k in range(3):
@@ -41,6 +53,14 @@ def integrate(m: ModelArrays,
                 s.q[e, a + k] = rot[k]
         else:
             s.q[e, a] = s.q[e, a] + s.dq[e, d]
-    # flag an env whose state is no longer finite; it stays flagged until its owner resets it
-    if not (row_finite(s.q, e, s.q.shape[1]) and row_finite(s.qd, e, m.nv)):
-        s.nonfinite[e] = 1
+        # flag an env whose state is no longer finite (every coordinate and dof belongs to a
+        # joint); it stays flagged until its owner resets it
+        bad = int(0)
+        for k in range(check_q[0], check_q[1]):
+            if not wp.isfinite(s.q[e, k]):
+                bad = 1
+        for k in range(check_d[0], check_d[1]):
+            if not wp.isfinite(s.qd[e, k]):
+                bad = 1
+        if bad != 0:
+            s.nonfinite[e] = 1

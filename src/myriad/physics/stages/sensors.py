@@ -25,7 +25,7 @@ acceleration of the world), which the accelerometers and frame accelerations rea
 
 import warp as wp
 
-from .dynamics import accumulate_subtrees, body_forces
+from .dynamics import newton_euler, subtree_sums
 from ..spatial import velocity_at
 from ..structs import Contacts, Dynamics, EnvParams, ModelArrays, Options, State
 from ..types import (BOX, CAPSULE, CYLINDER, DATA_POSITIVE, DATA_REAL, ELLIPSOID, OBJ_BODY,
@@ -47,7 +47,7 @@ def force_sensors(m: ModelArrays, p: EnvParams, opt: Options,
                   d: Dynamics):  # out: cacc (read by `sensor_readings`); scratch: cfrc
     e = wp.tid()
     h = opt.h
-    body_forces(m, p, s, e, s.qd_before, 1.0 / h, d)
+    newton_euler(m, p, s, e, 0, 1, True, s.qd_before, 1.0 / h, d)     # one lane
     # contacts are external forces: subtract what they supply (force on geom 2, minus on geom 1)
     for k in range(wp.min(c.count[e], c.force.shape[1])):
         pair = c.geom[e, k]
@@ -61,7 +61,7 @@ def force_sensors(m: ModelArrays, p: EnvParams, opt: Options,
                 ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
                 fb = f * sign
                 d.cfrc[e, b] = d.cfrc[e, b] - wp.spatial_vector(wp.cross(c.pos[e, k] - ref, fb), fb)
-    accumulate_subtrees(m, e, d.cfrc)
+    subtree_sums(m, e, 0, 1, True, d.cfrc)
     for i in range(sensor_site.shape[0]):
         b = sensor_site_body[i]
         x = s.site_x[e, sensor_site[i]]

@@ -1,0 +1,91 @@
+"""The GPU's launch configuration, on the CPU: cooperative kernels (`myriad.physics.lanes`) give
+the same numbers with any number of lanes per world and any number of worlds per block, and a
+world's trajectory depends neither on its index nor on the worlds stepped beside it.
+
+`MYRIAD_CPU_BLOCK_DIM=N` makes a CPU simulator launch the cooperative kernels in blocks of N
+threads, through Warp's cooperative CPU fibers, exactly as CUDA does (`runtime.BlockDim`: lanes
+per world, worlds per block); it is read when a simulator is built, so one test process can
+compare configurations side by side. Every item of a world (a body, a dof, a joint) is computed
+by one lane in the same arithmetic and sums keep a fixed order, so the comparisons are exact.
+"""
+
+import numpy as np
+import pytest
+import torch
+import warp as wp
+
+import myriad
+from memory import hand_and_cube_xml      # benchmarks/memory.py: the 30-DoF stand-in
+from myriad.physics.lanes import world_lane
+
+pytestmark = pytest.mark.lanes
+
+MODELS = {"ant": lambda: myriad.load(myriad.asset_path("ant.xml")),
+          "humanoid": lambda: myriad.load(myriad.asset_path("humanoid.xml")),
+          "hand-and-cube": lambda: myriad.load_xml(hand_and_cube_xml(), "hand-and-cube")}
+
+
+def run(model, controls: torch.Tensor, block_dim: int, monkeypatch) -> torch.Tensor:
+    """q after stepping one env per row of `controls` [steps, envs, nu] with blocks of
+    `block_dim` CPU threads."""
+    monkeypatch.setenv("MYRIAD_CPU_BLOCK_DIM", str(block_dim))
+    sim = myriad.Simulator(model, num_envs=controls.shape[1], cpu_threads=1)
+    for ctrl in controls:
+        sim.ctrl = ctrl
+        sim.step()
+    assert int(sim.contact_count.sum()) > 0        # contacts were part of it
+    return sim.q.clone()
+
+
+@pytest.mark.parametrize("name", list(MODELS))
+def test_any_lane_count_gives_the_one_lane_results_bit_for_bit(name, monkeypatch):
+    """10 steps with contacts: one lane per world against blocks of 32 threads (the CUDA
+    configuration: several worlds per block, the last block partly empty) and of 3 (lanes
+    that do not divide the items evenly)."""
+    model = MODELS[name]()
+    controls = torch.rand(10, 5, model.nu, generator=torch.Generator().manual_seed(0)) * 2 - 1
+    one_lane = run(model, controls, 1, monkeypatch)
+    assert torch.isfinite(one_lane).all()
+    assert torch.equal(run(model, controls, 1, monkeypatch), one_lane)        # run to run
+    for block_dim in (32, 3):
+        assert torch.equal(run(model, controls, block_dim, monkeypatch), one_lane), block_dim
+
+
+@pytest.mark.parametrize("block_dim", [1, 32])
+def test_a_worlds_trajectory_does_not_depend_on_its_index_or_its_neighbours(block_dim,
+                                                                          monkeypatch):
+    """The humanoid's world 3 of 5 steps exactly as the same world alone, and as the last of 9."""
+    model = MODELS["humanoid"]()
+    controls = torch.rand(10, 5, model.nu, generator=torch.Generator().manual_seed(1)) * 2 - 1
+    batch = run(model, controls, block_dim, monkeypatch)
+    alone = run(model, controls[:, 3:4], block_dim, monkeypatch)
+    others = torch.rand(10, 8, model.nu, generator=torch.Generator().manual_seed(2)) * 2 - 1
+    last = run(model, torch.cat([others, controls[:, 3:4]], dim=1), block_dim, monkeypatch)
+    assert torch.equal(alone[0], batch[3])
+    assert torch.equal(last[8], batch[3])
+
+
+def test_a_bad_block_dim_is_named(monkeypatch):
+    monkeypatch.setenv("MYRIAD_CPU_BLOCK_DIM", "many")
+    with pytest.raises(ValueError, match="MYRIAD_CPU_BLOCK_DIM='many'"):
+        myriad.Simulator(MODELS["ant"](), num_envs=1)
+
+
+@wp.kernel
+def _who_runs(out: wp.array2d(dtype=int), lanes: int):
+    block, thread = wp.tid()
+    e, lane, active = world_lane(block, thread, lanes, out.shape[0])
+    if active:
+        out[e, lane] = 100 * lanes + wp.block_dim()
+
+
+@pytest.mark.parametrize("block_dim, expected", [(1, [101, 0, 0, 0]), (32, [432] * 4),
+                                                 (2, [202, 202, 0, 0])])
+def test_the_block_dim_reaches_the_kernels(block_dim, expected, monkeypatch):
+    """Each world gets min(4, block_dim) lanes in blocks of block_dim threads: the launch runs
+    as configured (so the comparisons above did compare configurations)."""
+    monkeypatch.setenv("MYRIAD_CPU_BLOCK_DIM", str(block_dim))
+    sim = myriad.Simulator(MODELS["ant"](), num_envs=5, cpu_threads=1)
+    out = wp.zeros((5, 4), dtype=int, device="cpu")
+    sim.runtime.launch_lanes(_who_runs, 4, [out])
+    np.testing.assert_array_equal(out.numpy(), np.tile(expected, (5, 1)))
