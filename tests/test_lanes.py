@@ -25,16 +25,17 @@ MODELS = {"ant": lambda: myriad.load(myriad.asset_path("ant.xml")),
           "hand-and-cube": lambda: myriad.load_xml(hand_and_cube_xml(), "hand-and-cube")}
 
 
-def run(model, controls: torch.Tensor, block_dim: int, monkeypatch) -> torch.Tensor:
+def run(model, controls: torch.Tensor, block_dim: int, monkeypatch,
+        device: str = "cpu") -> torch.Tensor:
     """q after stepping one env per row of `controls` [steps, envs, nu] with blocks of
-    `block_dim` CPU threads."""
+    `block_dim` CPU threads (on CUDA: `runtime.BlockDim`'s)."""
     monkeypatch.setenv("MYRIAD_CPU_BLOCK_DIM", str(block_dim))
-    sim = myriad.Simulator(model, num_envs=controls.shape[1], cpu_threads=1)
-    for ctrl in controls:
+    sim = myriad.Simulator(model, num_envs=controls.shape[1], device=device, cpu_threads=1)
+    for ctrl in controls.to(sim.torch_device):
         sim.ctrl = ctrl
         sim.step()
     assert int(sim.contact_count.sum()) > 0        # contacts were part of it
-    return sim.q.clone()
+    return sim.q.cpu().clone()
 
 
 @pytest.mark.parametrize("name", list(MODELS))
@@ -52,15 +53,20 @@ def test_any_lane_count_gives_the_one_lane_results_bit_for_bit(name, monkeypatch
 
 
 @pytest.mark.parametrize("block_dim", [1, 32])
-def test_a_worlds_trajectory_does_not_depend_on_its_index_or_its_neighbours(block_dim,
-                                                                          monkeypatch):
-    """The humanoid's world 3 of 5 steps exactly as the same world alone, and as the last of 9."""
+def test_a_worlds_trajectory_repeats_and_does_not_depend_on_its_index_or_neighbours(
+        block_dim, monkeypatch, device):
+    """The humanoid's world 3 of 5 steps exactly as in a second run, as the same world alone,
+    and as the last of 9 (on CUDA too, where contacts are found by a thread per pair)."""
+    if device != "cpu" and block_dim != 1:
+        pytest.skip("MYRIAD_CPU_BLOCK_DIM is the CPU's; CUDA runs runtime.BlockDim")
     model = MODELS["humanoid"]()
     controls = torch.rand(10, 5, model.nu, generator=torch.Generator().manual_seed(1)) * 2 - 1
-    batch = run(model, controls, block_dim, monkeypatch)
-    alone = run(model, controls[:, 3:4], block_dim, monkeypatch)
+    batch = run(model, controls, block_dim, monkeypatch, device)
+    assert torch.equal(run(model, controls, block_dim, monkeypatch, device), batch)
+    alone = run(model, controls[:, 3:4], block_dim, monkeypatch, device)
     others = torch.rand(10, 8, model.nu, generator=torch.Generator().manual_seed(2)) * 2 - 1
-    last = run(model, torch.cat([others, controls[:, 3:4]], dim=1), block_dim, monkeypatch)
+    last = run(model, torch.cat([others, controls[:, 3:4]], dim=1), block_dim, monkeypatch,
+               device)
     assert torch.equal(alone[0], batch[3])
     assert torch.equal(last[8], batch[3])
 
