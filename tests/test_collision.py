@@ -454,3 +454,54 @@ def test_a_pair_sets_the_friction_of_its_contacts(pair, mu, device):
     else:
         assert (positions[59] - positions[29]).norm().item() < 1e-4
         assert speeds[59] < 1e-2
+
+
+@pytest.mark.parametrize("slots_of_found", [3, 5])
+def test_the_gpus_collision_path_keeps_the_cpus_contacts_whatever_its_atomics_did(
+        slots_of_found):
+    """A GPU finds contacts by a thread per (env, pair), taking places through an atomic
+    counter. Here that path runs on the CPU, its places then filled with junk in a count past
+    them (any order the atomics could have left): an env within its places is put in the
+    pairs' order (`order_by_pair`), one past them is walked again pair by pair
+    (`redo_overflowed`); either way the kept contacts are the CPU path's, contact for contact.
+    With 1/3 of the contacts found in slots the places (4 per slot) hold them all; with 1/5
+    they overflow."""
+    model = myriad.load_xml(_scene(0), "scene0")
+    probe = myriad.Simulator(model, num_envs=1, params=myriad.SimParams(contact_offset=MARGIN))
+    probe.collide()
+    slots = int(probe.contact_count[0]) // slots_of_found
+    params = myriad.SimParams(contact_offset=MARGIN, contacts_per_env=slots)
+    cpu, gpu_path = (myriad.Simulator(model, num_envs=3, params=params, cpu_threads=1)
+                     for _ in range(2))
+    cpu.collide()
+    rt, dm, c = gpu_path.runtime, gpu_path.device_model, gpu_path.data.contacts
+    inputs = [dm.m, dm.opt, dm.pairs, gpu_path.data.env_params, dm.meshes, dm.hfields,
+              gpu_path.data.state, c]
+    rt.launch(collision.geom_frames, (3, model.ngeom),
+              [dm.m, gpu_path.data.env_params, dm.meshes, gpu_path.data.state])
+    c.count.zero_()
+    rt.launch(collision.narrowphase, (3, dm.pairs.shape[0]), inputs)
+    places = c.geom.shape[1]
+    found = c.count.numpy().copy()
+    assert (found > places).all() == (slots_of_found == 5)
+    if (found > places).all():     # whatever the atomics left in the places
+        for name in ("geom", "key", "pos", "normal", "dist"):
+            array = getattr(c, name)
+            array.assign(np.random.default_rng(0).permutation(array.numpy(), axis=1))
+    else:                          # pairs in reverse, each pair's own contacts in their order
+        order = np.argsort(-(c.key.numpy()[:, :found[0]] >> 5), axis=1, kind="stable")
+        assert not (order == np.arange(found[0])).all()
+        for name in ("geom", "key", "pos", "normal", "dist"):
+            array = getattr(c, name)
+            value = array.numpy()
+            for e in range(3):
+                value[e, :found[e]] = value[e, order[e]]
+            array.assign(value)
+    rt.launch(collision.redo_overflowed, 3, inputs)
+    rt.launch(collision.order_by_pair, 3, [c])
+    rt.launch(collision.keep_deepest, 3, [c])
+    assert torch.equal(gpu_path.contact_count, cpu.contact_count)
+    for name in ("geom", "key", "pos", "normal", "dist"):
+        np.testing.assert_array_equal(getattr(c, name).numpy()[:, :slots],
+                                      getattr(cpu.data.contacts, name).numpy()[:, :slots],
+                                      err_msg=name)

@@ -54,13 +54,17 @@ def run_collision(rt, dm, d) -> None:
               [dm.m, d.env_params, dm.meshes, d.state])
     rt.shard_of(c.count).zero_()
     if dm.pairs.shape[0]:
-        # a GPU runs a thread per (env, pair); a CPU thread per env walks its pairs
-        kernel, dim = ((collision.narrowphase, (n, dm.pairs.shape[0])) if rt.device.is_cuda
-                       else (collision.narrowphase_per_env, n))
-        rt.launch(kernel, dim, [dm.m, dm.opt, dm.pairs, d.env_params, dm.meshes, dm.hfields,
-                                d.state, c])
+        # a GPU runs a thread per (env, pair), whose contacts take places through an atomic
+        # counter, then puts them in the order a CPU thread gives by walking an env's pairs;
+        # an env that overflowed its places is walked again that way, so which contacts were
+        # kept never depends on which atomic came first
+        inputs = [dm.m, dm.opt, dm.pairs, d.env_params, dm.meshes, dm.hfields, d.state, c]
         if rt.device.is_cuda:
+            rt.launch(collision.narrowphase, (n, dm.pairs.shape[0]), inputs)
+            rt.launch(collision.redo_overflowed, n, inputs)
             rt.launch(collision.order_by_pair, n, [c])
+        else:
+            rt.launch(collision.narrowphase_per_env, n, inputs)
         rt.launch(collision.keep_deepest, n, [c])
 
 

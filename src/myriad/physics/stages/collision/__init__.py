@@ -2,7 +2,7 @@
 (`pairs`), per (env, pair) on a GPU or per env on a CPU."""
 
 from .narrowphase import (CANDIDATES_PER_SLOT, geom_frames, keep_deepest, narrowphase,
-                          narrowphase_per_env, order_by_pair)
+                          narrowphase_per_env, order_by_pair, redo_overflowed)
 
 __all__ = ["CANDIDATES_PER_SLOT", "geom_frames", "keep_deepest", "narrowphase",
-           "narrowphase_per_env", "order_by_pair"]
+           "narrowphase_per_env", "order_by_pair", "redo_overflowed"]

@@ -4,8 +4,10 @@ One thread per (env, pair). A contact is kept when the signed distance between t
 below the contact offset (PhysX's contactOffset; MuJoCo's margin). It records, as MuJoCo does,
 the two geoms, the midpoint between the surfaces, the normal from geom 1 to geom 2 and the
 signed distance (negative: penetration). Contacts go to the env's preallocated places through
-an atomic counter (on a GPU, `order_by_pair` then puts them in the CPU's order); a count above
-the slots is an overflow, reported by the simulator. There are
+an atomic counter; on a GPU `order_by_pair` then puts them in the CPU's order, and an env whose
+contacts overflowed its places is walked again in that order (`redo_overflowed`), so that the
+contacts kept never depend on which thread's atomic came first. A count above the slots is an
+overflow, reported by the simulator. There are
 CANDIDATES_PER_SLOT places per slot, and `keep_deepest` keeps the deepest contacts in the slots:
 a robot curled up on itself (G1 with hands: 780 contacts within the offset, 64 slots) lost
 whichever contacts came last, a foot's or a penetrating one's among them, and 5 of 40 envs went
@@ -612,6 +614,24 @@ def narrowphase_per_env(m: ModelArrays, opt: Options, pairs: wp.array(dtype=wp.v
     thread's start (reading the kernel's arguments) costs more than most pairs' broadphase test.
     Contacts land in the same slots as with `narrowphase` run on a CPU."""
     e = wp.tid()
+    out = contact_slots(contacts)
+    margin = opt.contact_offset
+    for k in range(pairs.shape[0]):
+        _pair(m, e, k, pairs, p, meshes, hfields, margin, s, out)
+
+
+@wp.kernel
+def redo_overflowed(m: ModelArrays, opt: Options, pairs: wp.array(dtype=wp.vec2i), p: EnvParams,
+                    meshes: Meshes, hfields: HFields, s: State, contacts: Contacts):
+    """An env whose contacts overflowed its places under `narrowphase` is found again by one
+    thread walking its pairs in order, as `narrowphase_per_env` does: which contacts an
+    overflow dropped then follows the pairs' order, not which threads' atomics came first.
+    Envs within their places return at once (their contacts are put in order by
+    `order_by_pair`); an overflow is rare, and the walk costs only the envs that need it."""
+    e = wp.tid()
+    if contacts.count[e] <= contacts.geom.shape[1]:
+        return
+    contacts.count[e] = 0
     out = contact_slots(contacts)
     margin = opt.contact_offset
     for k in range(pairs.shape[0]):
