@@ -73,6 +73,16 @@ def row_apply(v: wp.array2d(dtype=float), e: int, dl: float, a: wp.array3d(dtype
 
 
 @wp.func_native("""
+    return acc + dl * x;
+""")
+def add_scaled(acc: float, dl: float, x: float) -> float:
+    """acc + dl·x, in the form row_apply's loop writes it (`v += dl * row`): the compiler
+    contracts both alike (an FMA on CPUs and GPUs that have one), so a sum gathered one term
+    at a time equals the one row_apply scatters, bit for bit."""
+    ...
+
+
+@wp.func_native("""
     const float* ap = wp::address(a, e, ra, 0);
     const float* bp = wp::address(b, e, rb, 0);
     float s = 0.0f;

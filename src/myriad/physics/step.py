@@ -103,16 +103,16 @@ def run_integrate(rt, dm, d) -> None:
 
 
 def run_constraint_outputs(rt, dm, d) -> None:
-    rt.launch(solver_tgs.constraint_forces, rt.num_envs,
-              [dm.m, dm.opt, dm.layout, d.rows, d.contacts])
+    rt.launch_lanes(solver_tgs.constraint_forces, BLOCK_DIM.dofs,
+                    [dm.m, dm.opt, dm.layout, d.rows, d.contacts])
     # sensors: site poses and velocities are current (the final kinematics computed them)
     if dm.sensor_accelerations:
-        rt.launch(sensors.force_sensors, rt.num_envs, [
+        rt.launch_lanes(sensors.force_sensors, BLOCK_DIM.bodies, [
             dm.m, d.env_params, dm.opt, dm.sensor_site_body, dm.sensor_site, d.state,
             d.contacts, d.dynamics])
     if dm.m.nsensor:
-        rt.launch(sensors.sensor_readings, rt.num_envs,
-                  [dm.m, d.env_params, d.state, d.contacts, d.dynamics])
+        rt.launch_lanes(sensors.sensor_readings, BLOCK_DIM.dofs,
+                        [dm.m, d.env_params, d.state, d.contacts, d.dynamics])
 
 
 STAGES = {"kinematics": run_kinematics, "collision": run_collision, "dynamics": run_dynamics,

@@ -35,8 +35,9 @@ class BlockDim:
     Not yet tuned on a GPU.
     """
     threads: int = 32
-    bodies: int = 4      # kernels over a tree level's bodies (kinematics, dynamics, forces)
-    dofs: int = 8        # kernels over dofs or joints (generalized forces, integration)
+    bodies: int = 4      # over a tree level's bodies: kinematics, dynamics, forces, force sensors
+    dofs: int = 8        # over dofs, joints, contacts or sensors: generalized forces,
+                         # integration, constraint forces, sensor readings
 
 
 BLOCK_DIM = BlockDim()

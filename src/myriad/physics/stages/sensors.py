@@ -2,7 +2,7 @@
 
 `Model.sensor_*` lists the sensors in MuJoCo's order; `sensor_readings` writes their values into
 the flat `sensor_data` [N, nsensordata], laid out as MuJoCo's `d.sensordata` (quaternions
-w, x, y, z), one thread per env walking the sensors as `mj_sensorPos/Vel/Acc` do. What a sensor
+w, x, y, z), a world's lanes taking its sensors, each as `mj_sensorPos/Vel/Acc` do. What a sensor
 reads, and when:
 
 - position and velocity sensors (joint position and velocity, frame position, orientation, axes
@@ -25,6 +25,7 @@ acceleration of the world), which the accelerometers and frame accelerations rea
 
 import warp as wp
 
+from ..lanes import stop, sync, world_lane
 from .dynamics import newton_euler, subtree_sums
 from ..spatial import velocity_at
 from ..structs import Contacts, Dynamics, EnvParams, ModelArrays, Options, State
@@ -44,25 +45,37 @@ def force_sensors(m: ModelArrays, p: EnvParams, opt: Options,
                   # out: sensor_wrench, [env, sensor site] (force, torque) in the site frame
                   s: State,
                   c: Contacts,   # in: count, geom, pos, force
-                  d: Dynamics):  # out: cacc (read by `sensor_readings`); scratch: cfrc
-    e = wp.tid()
+                  d: Dynamics,   # out: cacc (read by `sensor_readings`); scratch: cfrc
+                  lanes: int):
+    """A world's lanes take its bodies level by level, then its sensor sites."""
+    block, thread = wp.tid()
+    e, lane, active = world_lane(block, thread, lanes, s.nonfinite.shape[0])
     h = opt.h
-    newton_euler(m, p, s, e, 0, 1, True, s.qd_before, 1.0 / h, d)     # one lane
-    # contacts are external forces: subtract what they supply (force on geom 2, minus on geom 1)
-    for k in range(wp.min(c.count[e], c.force.shape[1])):
-        pair = c.geom[e, k]
-        f = c.force[e, k]
-        for side in range(2):
-            b = m.geom_body[pair[side]]
-            if b >= 0:
-                sign = 1.0
-                if side == 0:
-                    sign = -1.0
-                ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
-                fb = f * sign
-                d.cfrc[e, b] = d.cfrc[e, b] - wp.spatial_vector(wp.cross(c.pos[e, k] - ref, fb), fb)
-    subtree_sums(m, e, 0, 1, True, d.cfrc)
-    for i in range(sensor_site.shape[0]):
+    newton_euler(m, p, s, e, lane, lanes, active, s.qd_before, 1.0 / h, d)
+    if lanes > 1:
+        sync()
+    # contacts are external forces: each body subtracts what they supply it, in their order
+    # (the force on geom 2, minus it on geom 1)
+    ncontact = int(0)
+    if active:
+        ncontact = wp.min(c.count[e], c.force.shape[1])
+    for b in range(lane, stop(m.nbody, 0, active), lanes):
+        ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
+        total = d.cfrc[e, b]
+        for k in range(ncontact):
+            pair = c.geom[e, k]
+            for side in range(2):
+                if m.geom_body[pair[side]] == b:
+                    sign = 1.0
+                    if side == 0:
+                        sign = -1.0
+                    fb = c.force[e, k] * sign
+                    total = total - wp.spatial_vector(wp.cross(c.pos[e, k] - ref, fb), fb)
+        d.cfrc[e, b] = total
+    if lanes > 1:
+        sync()
+    subtree_sums(m, e, lane, lanes, active, d.cfrc)
+    for i in range(lane, stop(sensor_site.shape[0], 0, active), lanes):
         b = sensor_site_body[i]
         x = s.site_x[e, sensor_site[i]]
         point = wp.transform_get_translation(x)
@@ -294,9 +307,12 @@ def sensor_readings(m: ModelArrays, p: EnvParams,
                     # out: sensor_data
                     s: State,
                     c: Contacts,   # in: count, geom, pos, normal, force
-                    d: Dynamics):  # in: actuator_force; cacc (`force_sensors`) if a sensor needs it
-    e = wp.tid()
-    for i in range(m.nsensor):
+                    d: Dynamics,   # in: actuator_force; cacc (`force_sensors`) if a sensor needs it
+                    lanes: int):
+    """A world's lanes take its sensors."""
+    block, thread = wp.tid()
+    e, lane, active = world_lane(block, thread, lanes, s.nonfinite.shape[0])
+    for i in range(lane, stop(m.nsensor, 0, active), lanes):
         t = m.sensor_type[i]
         obj = m.sensor_objid[i]
         adr = m.sensor_adr[i]

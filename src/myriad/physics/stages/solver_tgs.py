@@ -27,8 +27,9 @@ separation speed of e times its approach speed.
 import warp as wp
 
 from .. import dense
-from .constraints import build_contact_rows, build_dof_row
+from .constraints import _col, build_contact_rows, build_dof_row
 from ..types import DOF, EQUALITY, FRICTION, NORMAL, SOFT
+from ..lanes import stop, sync, world_lane
 from ..structs import Contacts, Dynamics, ModelArrays, Options, RowLayout, Rows, State
 
 # fraction of the last substep's impulse a limit row, or the normal row of a contact with the
@@ -574,31 +575,55 @@ def solve(m: ModelArrays, opt: Options, layout: RowLayout,
 @wp.kernel
 def constraint_forces(m: ModelArrays, opt: Options, layout: RowLayout, rows: Rows,
                       # in: the contacts; out: their forces (force, net_force)
-                      c: Contacts):
-    """Forces of the last substep: per contact (on geom 2, world), net per body, per dof."""
-    e = wp.tid()
+                      c: Contacts,
+                      lanes: int):
+    """Forces of the last substep: per contact (on geom 2, world), net per body, per dof; a
+    world's lanes take its contacts, then its bodies, then its dofs."""
+    block, thread = wp.tid()
+    e, lane, active = world_lane(block, thread, lanes, c.count.shape[0])
     h = opt.h
-    for b in range(m.nbody):
-        c.net_force[e, b] = wp.vec3()
-    ncontact = wp.min(c.count[e], layout.contact_slots)
-    for k in range(layout.contact_slots):
+    ncontact = int(0)
+    if active:
+        ncontact = wp.min(c.count[e], layout.contact_slots)
+    for k in range(lane, stop(layout.contact_slots, 0, active), lanes):
         f = wp.vec3()
         if k < ncontact:
             for d in range(3):
                 f = f + rows.dir[e, 3 * k + d] * rows.lam[e, 3 * k + d]
             f = f / h
-            pair = c.geom[e, k]
-            b1 = m.geom_body[pair[0]]
-            b2 = m.geom_body[pair[1]]
-            if b2 >= 0:
-                c.net_force[e, b2] = c.net_force[e, b2] + f
-            if b1 >= 0:
-                c.net_force[e, b1] = c.net_force[e, b1] - f
         c.force[e, k] = f
+    if lanes > 1:
+        sync()
+    # each body's sum over the contacts in their order: + on geom 2's body, - on geom 1's
+    for b in range(lane, stop(m.nbody, 0, active), lanes):
+        net = wp.vec3()
+        for k in range(ncontact):
+            pair = c.geom[e, k]
+            if m.geom_body[pair[1]] == b:
+                net = net + c.force[e, k]
+            if m.geom_body[pair[0]] == b:
+                net = net - c.force[e, k]
+        c.net_force[e, b] = net
     used = 3 * ncontact
-    for i in range(m.nv):
-        rows.dof_force[e, i] = 0.0
-    for rr in range(used + layout.end - layout.joint_limits):
-        r = _row_in_use(rr, used, layout)
-        if rows.type[e, r] >= 0 and rows.lam[e, r] != 0.0:   # (an unbuilt dof row has no impulse)
-            dense.row_apply(rows.dof_force, e, rows.lam[e, r] / h, rows.jac, r, rows.span[e, r])
+    in_use = used + layout.end - layout.joint_limits
+    if lanes == 1:
+        # one lane: each row adds its force over its span (the native 8-wide loop)
+        for i in range(stop(m.nv, 0, active)):
+            rows.dof_force[e, i] = 0.0
+        for rr in range(stop(in_use, 0, active)):
+            r = _row_in_use(rr, used, layout)
+            if rows.type[e, r] >= 0 and rows.lam[e, r] != 0.0:   # (an unbuilt dof row: none)
+                dense.row_apply(rows.dof_force, e, rows.lam[e, r] / h, rows.jac, r,
+                                rows.span[e, r])
+    else:
+        # lanes: each dof gathers the same terms in the same order, the same sum bit for bit
+        for i in range(lane, stop(m.nv, 0, active), lanes):
+            total = float(0.0)
+            for rr in range(in_use):
+                r = _row_in_use(rr, used, layout)
+                if rows.type[e, r] >= 0 and rows.lam[e, r] != 0.0:
+                    sp = rows.span[e, r]
+                    if (i >= sp[0] and i < sp[1]) or (i >= sp[2] and i < sp[3]):
+                        total = dense.add_scaled(total, rows.lam[e, r] / h,
+                                                 rows.jac[e, r, _col(sp, i)])
+            rows.dof_force[e, i] = total
