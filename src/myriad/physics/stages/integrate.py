@@ -12,7 +12,7 @@ an env whose state is no longer finite is flagged in `nonfinite`.
 import warp as wp
 
 from ..types import BALL, FREE
-from ..lanes import stop, world_lane
+from ..lanes import stop, sync, world_lane
 from ..spatial import quat_integrate
 from ..structs import ModelArrays, State
 
@@ -29,14 +29,6 @@ def integrate(m: ModelArrays,
         t = m.jnt_type[j]
         a = m.jnt_qposadr[j]
         d = m.jnt_dofadr[j]
-        check_q = wp.vec2i(a, a + 1)      # the joint's coordinates and dofs, checked below
-        check_d = wp.vec2i(d, d + 1)
-        if t == FREE:
-            check_q = wp.vec2i(a, a + 7)
-            check_d = wp.vec2i(d, d + 6)
-        elif t == BALL:
-            check_q = wp.vec2i(a, a + 4)
-            check_d = wp.vec2i(d, d + 3)
         if t == FREE or t == BALL:
             if t == FREE:
                 for k in range(3):
@@ -53,14 +45,15 @@ def integrate(m: ModelArrays,
                 s.q[e, a + k] = rot[k]
         else:
             s.q[e, a] = s.q[e, a] + s.dq[e, d]
-        # flag an env whose state is no longer finite (every coordinate and dof belongs to a
-        # joint); it stays flagged until its owner resets it
-        bad = int(0)
-        for k in range(check_q[0], check_q[1]):
-            if not wp.isfinite(s.q[e, k]):
-                bad = 1
-        for k in range(check_d[0], check_d[1]):
-            if not wp.isfinite(s.qd[e, k]):
-                bad = 1
-        if bad != 0:
-            s.nonfinite[e] = 1
+    if lanes > 1:
+        sync()
+    # flag an env whose state is no longer finite; it stays flagged until its owner resets it
+    bad = int(0)
+    for i in range(lane, stop(s.q.shape[1], 0, active), lanes):
+        if not wp.isfinite(s.q[e, i]):
+            bad = 1
+    for i in range(lane, stop(m.nv, 0, active), lanes):
+        if not wp.isfinite(s.qd[e, i]):
+            bad = 1
+    if bad != 0:
+        s.nonfinite[e] = 1

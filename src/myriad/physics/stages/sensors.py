@@ -55,23 +55,18 @@ def force_sensors(m: ModelArrays, p: EnvParams, opt: Options,
     if lanes > 1:
         sync()
     # contacts are external forces: each body subtracts what they supply it, in their order
-    # (the force on geom 2, minus it on geom 1)
+    # (the force on geom 2, minus it on geom 1); one lane takes each contact to its two bodies,
+    # lanes gather per body (the same sums)
     ncontact = int(0)
     if active:
         ncontact = wp.min(c.count[e], c.force.shape[1])
-    for b in range(lane, stop(m.nbody, 0, active), lanes):
-        ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
-        total = d.cfrc[e, b]
-        for k in range(ncontact):
-            pair = c.geom[e, k]
+    for i in range(stop(ncontact, 0, active and lanes == 1)):
+        for side in range(2):
+            contact_wrench_out(m, s, c, e, i, side, m.geom_body[c.geom[e, i][side]], d.cfrc)
+    for b in range(lane, stop(m.nbody, 0, active and lanes > 1), lanes):
+        for i in range(ncontact):
             for side in range(2):
-                if m.geom_body[pair[side]] == b:
-                    sign = 1.0
-                    if side == 0:
-                        sign = -1.0
-                    fb = c.force[e, k] * sign
-                    total = total - wp.spatial_vector(wp.cross(c.pos[e, k] - ref, fb), fb)
-        d.cfrc[e, b] = total
+                contact_wrench_out(m, s, c, e, i, side, b, d.cfrc)
     if lanes > 1:
         sync()
     subtree_sums(m, e, lane, lanes, active, d.cfrc)
@@ -86,6 +81,20 @@ def force_sensors(m: ModelArrays, p: EnvParams, opt: Options,
         rot = wp.transform_get_rotation(x)
         s.sensor_wrench[e, i] = wp.spatial_vector(wp.quat_rotate_inv(rot, force),
                                                   wp.quat_rotate_inv(rot, torque))
+
+
+@wp.func(inline=True)
+def contact_wrench_out(m: ModelArrays, s: State, c: Contacts, e: int, k: int, side: int,
+                       b: int, cfrc: wp.array2d(dtype=wp.spatial_vector)):
+    """cfrc[b] -= the wrench contact k puts on body b (its geom 2's body: the contact force;
+    geom 1's: minus it), if b is the body on that side of it."""
+    if b >= 0 and m.geom_body[c.geom[e, k][side]] == b:
+        sign = 1.0
+        if side == 0:
+            sign = -1.0
+        ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
+        fb = c.force[e, k] * sign
+        cfrc[e, b] = cfrc[e, b] - wp.spatial_vector(wp.cross(c.pos[e, k] - ref, fb), fb)
 
 
 # ------------------------------------------------------------------ objects and their frames

@@ -594,16 +594,27 @@ def constraint_forces(m: ModelArrays, opt: Options, layout: RowLayout, rows: Row
         c.force[e, k] = f
     if lanes > 1:
         sync()
-    # each body's sum over the contacts in their order: + on geom 2's body, - on geom 1's
+    # each body's sum over the contacts in their order: + on geom 2's body, - on geom 1's; one
+    # lane adds each contact into its two bodies, lanes gather per body (the same sums)
     for b in range(lane, stop(m.nbody, 0, active), lanes):
         net = wp.vec3()
+        if lanes > 1:
+            for k in range(ncontact):
+                pair = c.geom[e, k]
+                if m.geom_body[pair[1]] == b:
+                    net = net + c.force[e, k]
+                if m.geom_body[pair[0]] == b:
+                    net = net - c.force[e, k]
+        c.net_force[e, b] = net
+    if lanes == 1:
         for k in range(ncontact):
             pair = c.geom[e, k]
-            if m.geom_body[pair[1]] == b:
-                net = net + c.force[e, k]
-            if m.geom_body[pair[0]] == b:
-                net = net - c.force[e, k]
-        c.net_force[e, b] = net
+            b1 = m.geom_body[pair[0]]
+            b2 = m.geom_body[pair[1]]
+            if b2 >= 0:
+                c.net_force[e, b2] = c.net_force[e, b2] + c.force[e, k]
+            if b1 >= 0:
+                c.net_force[e, b1] = c.net_force[e, b1] - c.force[e, k]
     used = 3 * ncontact
     in_use = used + layout.end - layout.joint_limits
     if lanes == 1:
