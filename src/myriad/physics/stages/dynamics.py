@@ -104,18 +104,24 @@ def newton_euler(m: ModelArrays, p: EnvParams, s: State, e: int, lane: int, lane
 @wp.func(inline=True)
 def subtree_sums(m: ModelArrays, e: int, lane: int, lanes: int, active: bool,
                  x: wp.array2d(dtype=wp.spatial_vector)):
-    """x[b] <- the sum of x over b's subtree, level by level (children first): each body adds
-    its children's, highest index first (the order of a walk from the last body to the first,
-    adding each into its parent)."""
-    for k in range(m.nlevel):
-        start, end = level_range(m, k, lane, lanes, active, True)
-        for i in range(start, end, lanes):
-            b = level_body(m, i, lanes, True)
-            total = x[e, b]
-            for c in range(m.body_child_adr[b], m.body_child_adr[b] + m.body_child_num[b]):
-                total = total + x[e, m.body_child[c]]
-            x[e, b] = total
-        if lanes > 1:
+    """x[b] <- the sum of x over b's subtree. One lane walks the bodies from the last to the
+    first, adding each into its parent; lanes go level by level (children first), each body
+    gathering its children's, highest index first: the same sums in the same order."""
+    if lanes == 1:
+        for k in range(stop(m.nbody, 0, active)):
+            b = m.nbody - 1 - k
+            parent = m.body_parent[b]
+            if parent >= 0:
+                x[e, parent] = x[e, parent] + x[e, b]
+    else:
+        for k in range(m.nlevel):
+            start, end = level_range(m, k, lane, lanes, active, True)
+            for i in range(start, end, lanes):
+                b = level_body(m, i, lanes, True)
+                total = x[e, b]
+                for c in range(m.body_child_adr[b], m.body_child_adr[b] + m.body_child_num[b]):
+                    total = total + x[e, m.body_child[c]]
+                x[e, b] = total
             sync()
 
 
@@ -153,10 +159,11 @@ def articulated_factor(m: ModelArrays, p: EnvParams, s: State, e: int, lane: int
     `implicit_diag` holds h·d + h²·k of implicit dampers and drives; `factor` keeps L (strictly
     lower part, on the ancestor pattern) and D⁻¹ (on its diagonal: the solves multiply by it).
 
-    Level by level, leaves first: body b takes its own inertia plus what each child passes on
-    (gathered highest index first, the order in which a walk from the last body to the first
-    added them into their parent), eliminates its own dofs from the last to the first, and
-    leaves in `articulated[b]` what it passes on to its parent.
+    Leaves first: body b takes its own inertia plus what each child passes on, eliminates its
+    own dofs from the last to the first, and passes the rest on. One lane walks the bodies from
+    the last to the first, adding what b passes on into its parent's slot; lanes go level by
+    level, b gathering its children's (left in their own slots), highest index first: the same
+    sums in the same order.
     """
     for b in range(lane, stop(m.nbody, 0, active), lanes):
         mass, h, rot_inertia = body_inertia(m, p, s, e, b)
@@ -168,8 +175,9 @@ def articulated_factor(m: ModelArrays, p: EnvParams, s: State, e: int, lane: int
         for n in range(start, end, lanes):
             b = level_body(m, n, lanes, True)
             ia = articulated[e, b]
-            for c in range(m.body_child_adr[b], m.body_child_adr[b] + m.body_child_num[b]):
-                ia = ia + articulated[e, m.body_child[c]]
+            if lanes > 1:
+                for c in range(m.body_child_adr[b], m.body_child_adr[b] + m.body_child_num[b]):
+                    ia = ia + articulated[e, m.body_child[c]]
             parent = m.body_parent[b]
             if m.body_jntnum[b] > 0:
                 first = m.jnt_dofadr[m.body_jntadr[b]]
@@ -185,7 +193,10 @@ def articulated_factor(m: ModelArrays, p: EnvParams, s: State, e: int, lane: int
                     if i > first or parent >= 0:      # a tree's first dof passes nothing on
                         ia = ia - wp.outer(u, u) * inv_d
                     i -= 1
-            articulated[e, b] = ia
+            if lanes > 1:
+                articulated[e, b] = ia
+            elif parent >= 0:
+                articulated[e, parent] = articulated[e, parent] + ia
         if lanes > 1:
             sync()
 
