@@ -89,7 +89,7 @@ def run_solve_unconstrained(rt, dm, d) -> None:
 def run_constraint_rows(rt, dm, d) -> None:
     if dm.nrow == 0:
         return
-    rt.launch(constraints.build_rows, rt.num_envs, [
+    rt.launch_lanes(constraints.build_rows, BLOCK_DIM.rows, [
         dm.m, dm.opt, dm.layout, d.env_params, d.state, d.dynamics, d.contacts, d.rows])
 
 

@@ -403,6 +403,8 @@ class Contacts:
     slid = per_env("ncontact", dtype=wp.int32, doc="1 if the friction disk cut the contact's "
                    "friction impulse in the last sweep (it slides)")
     prev_key = per_env("ncontact", dtype=wp.int32, doc="the last substep's keys (warm start)")
+    match = per_env("ncontact", dtype=wp.int32, doc="the slot of the same contact (key) in the "
+                    "last substep, -1 if it is new")
     prev_count = per_env(dtype=wp.int32, doc="the last substep's contacts in use")
 
 

@@ -38,6 +38,7 @@ class BlockDim:
     bodies: int = 4      # over a tree level's bodies: kinematics, dynamics, forces, force sensors
     dofs: int = 8        # over dofs, joints, contacts or sensors: generalized forces,
                          # integration, constraint forces, sensor readings
+    rows: int = 8        # over a family of constraint rows' items: building the rows
 
 
 BLOCK_DIM = BlockDim()

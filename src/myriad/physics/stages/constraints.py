@@ -1,11 +1,14 @@
 """Stage 4, constraint rows in joint space: contacts (normal + two friction rows), joint and
 tendon limits, tendon spring-dampers, and per-dof friction and speed caps.
 
-One thread per env, one function per family of rows (`build_rows`). Each row r has a Jacobian J_r (a 1 x nv row: the rate of the constraint's
-coordinate per generalized velocity), the response M⁻¹J_rᵀ through the same LᵀDL factor as the
+One function per family of rows (`build_rows`), a world's lanes (`lanes`) taking a family's items
+in turn: rows are independent (only the match of each contact to the last substep's is found
+by one lane, in order). Each row r has a Jacobian J_r (a 1 x nv row: the rate of the
+constraint's coordinate per generalized velocity), the response M⁻¹J_rᵀ through the same LᵀDL factor as the
 unconstrained solve (so implicit damping and drives are part of it), and 1/(J M⁻¹ Jᵀ). Rows sit
 at fixed slots: contact slot k owns rows 3k (normal), 3k+1 and 3k+2 (friction), then each
-limited joint owns two rows (lower, upper), then each limited tendon. Unused slots are marked inactive and skipped.
+limited joint owns two rows (lower, upper), then each limited tendon. Unused slots are marked
+inactive and skipped.
 
 Rows are tree-sparse: each row records in `Rows.span` the dofs it can touch, as two [lo, hi)
 ranges (the dof trees of its one or two bodies, or of its dofs; the second range empty when
@@ -26,6 +29,7 @@ import warp as wp
 
 from .. import dense
 from .dynamics import solve_span
+from ..lanes import sync, world_lane
 from ..spatial import tangents, velocity_at
 from ..structs import Contacts, Dynamics, EnvParams, ModelArrays, Options, RowLayout, Rows, State
 from ..types import (CONNECT, DOF, EQ_JOINT, EQUALITY, FRICTION, FRICTION2, HFIELD, INACTIVE,
@@ -163,32 +167,51 @@ def build_rows(m: ModelArrays, opt: Options, layout: RowLayout, p: EnvParams,
                # substep (prev_key, prev_count, prev_anchor)
                contacts: Contacts,
                # in: the last substep's impulses (lam); out: everything else
-               rows: Rows):
-    """Every row of one env for this substep, family by family (`RowLayout`)."""
-    e = wp.tid()
+               rows: Rows,
+               lanes: int):
+    """Every row of one env for this substep, family by family (`RowLayout`); a world's lanes
+    take a family's items (contacts, limits, equalities, tendons, dofs) in turn: the rows are
+    independent of each other."""
+    block, thread = wp.tid()
+    e, lane, active = world_lane(block, thread, lanes, s.nonfinite.shape[0])
+    at = wp.vec3i(lane, lanes, int(active))
     h = opt.h
-    rest_offset = opt.rest_offset
-    bounce_threshold = opt.bounce_threshold
-    limit_jnt = opt.limit_jnt
-    limit_tendon = opt.limit_tendon
-    contact_rows(m, e, h, rest_offset, bounce_threshold, p, s, d.factor, contacts, rows)
-    joint_limit_rows(m, e, layout.joint_limits, h, limit_jnt, p, s, d.factor, rows)
-    tendon_limit_rows(m, e, layout.tendon_limits, h, limit_tendon, p, s, d.factor, rows)
+    contact_rows(m, e, at, h, opt.rest_offset, opt.bounce_threshold, p, s, d.factor, contacts,
+                 rows)
+    joint_limit_rows(m, e, at, layout.joint_limits, h, opt.limit_jnt, p, s, d.factor, rows)
+    tendon_limit_rows(m, e, at, layout.tendon_limits, h, opt.limit_tendon, p, s, d.factor, rows)
     if layout.springs > layout.equalities:
-        equality_rows(m, e, layout.equalities, p, s, d.factor, rows)
-    tendon_spring_rows(m, e, layout.springs, p, s, d.factor, rows)
-    dof_rows(m, e, layout.dofs, layout.end - layout.dofs, h, p, d.factor, rows)
+        equality_rows(m, e, at, layout.equalities, p, s, d.factor, rows)
+    tendon_spring_rows(m, e, at, layout.springs, p, s, d.factor, rows)
+    dof_rows(m, e, at, layout.dofs, layout.end - layout.dofs, h, p, d.factor, rows)
 
 
 @wp.func
-def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_threshold: float,
-                 p: EnvParams, s: State,
+def contact_rows(m: ModelArrays, e: int, at: wp.vec3i, h: float, rest_offset: float,
+                 bounce_threshold: float, p: EnvParams, s: State,
                  factor: wp.array2d(dtype=float), c: Contacts, rows: Rows):
     """Contact slot k: rows 3k (normal), 3k+1, 3k+2 (friction). Slots past the contact count
-    are skipped by the solver: only the used ones are built."""
+    are skipped by the solver: only the used ones are built. `at`: (lane, lanes, active)."""
     ncontact = wp.min(c.count[e], c.force.shape[1])
-    hint = int(0)
-    for k in range(ncontact):
+    # the same contact (same pair and feature) in the last substep, whose friction anchors it
+    # inherits: found by one lane, since contacts mostly come in the same order as in the last
+    # substep and the search starts after the last match and wraps around (in the rare case
+    # of two contacts of one pair sharing a key, e.g. two box corners in one face quadrant,
+    # either one's anchors are a guess, and this order decides)
+    if at[0] == 0 and at[2] != 0:
+        hint = int(0)
+        npre = c.prev_count[e]
+        for k in range(ncontact):
+            c.match[e, k] = -1
+            for jj in range(npre):
+                j = (hint + jj) % npre
+                if c.prev_key[e, j] == c.key[e, k]:
+                    c.match[e, k] = j
+                    hint = j + 1
+                    break
+    if at[1] > 1:
+        sync()
+    for k in range(at[0], wp.where(at[2] != 0, ncontact, 0), at[1]):
         pair = c.geom[e, k]
         b1 = m.geom_body[pair[0]]
         b2 = m.geom_body[pair[1]]
@@ -234,19 +257,7 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
                     + h * dense.row_dot(rows.jac, e, r0, s.qacc, sp))
         if approach < -bounce_threshold:
             rows.bounce[e, r0] = -restitution * approach
-        # the same contact (same pair and feature) in the last substep, whose friction anchors
-        # it inherits (contacts mostly come in the same order as in the last substep, so the
-        # search starts after the last match and wraps around; in the rare case of two
-        # contacts of one pair sharing a key, e.g. two box corners in one face quadrant,
-        # either one's anchors are a guess)
-        same = int(-1)
-        npre = c.prev_count[e]
-        for jj in range(npre):
-            j = (hint + jj) % npre
-            if c.prev_key[e, j] == c.key[e, k]:
-                same = j
-                hint = j + 1
-                break
+        same = c.match[e, k]
         # static friction anchors (PhysX's): the points of the two bodies that were at the
         # contact point when the contact began to stick, kept while it holds without sliding
         # (a normal impulse, the friction impulse inside the disk); the friction rows' error
@@ -287,19 +298,22 @@ def contact_rows(m: ModelArrays, e: int, h: float, rest_offset: float, bounce_th
         drift = wp.transform_point(x2, a2) - wp.transform_point(x1, a1)
         rows.err[e, r0 + 1] = wp.dot(drift, t1)
         rows.err[e, r0 + 2] = wp.dot(drift, t2)
-    for k in range(ncontact):
+    if at[1] > 1:
+        sync()       # every lane has read the last substep's keys and anchors
+    for k in range(at[0], wp.where(at[2] != 0, ncontact, 0), at[1]):
         c.prev_key[e, k] = c.key[e, k]
         c.prev_anchor[e, k, 0] = c.anchor[e, k, 0]
         c.prev_anchor[e, k, 1] = c.anchor[e, k, 1]
-    c.prev_count[e] = ncontact
+    if at[0] == 0 and at[2] != 0:
+        c.prev_count[e] = ncontact
 
 
 @wp.func
-def joint_limit_rows(m: ModelArrays, e: int, base: int, h: float,
+def joint_limit_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, h: float,
                      limit_jnt: wp.array(dtype=wp.int32), p: EnvParams, s: State,
                      factor: wp.array2d(dtype=float), rows: Rows):
     """Two rows per limited joint (lower, upper), J = ±e_dof."""
-    for li in range(limit_jnt.shape[0]):
+    for li in range(at[0], wp.where(at[2] != 0, limit_jnt.shape[0], 0), at[1]):
         j = limit_jnt[li]
         dof = m.jnt_dofadr[j]
         x = s.q[e, m.jnt_qposadr[j]]
@@ -317,12 +331,12 @@ def joint_limit_rows(m: ModelArrays, e: int, base: int, h: float,
 
 
 @wp.func
-def tendon_limit_rows(m: ModelArrays, e: int, base: int, h: float,
+def tendon_limit_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, h: float,
                       limit_tendon: wp.array(dtype=wp.int32), p: EnvParams, s: State,
                       factor: wp.array2d(dtype=float), rows: Rows):
     """Two rows per limited tendon with hard limits (limit stiffness 0): J = ±coef on each of
     its joints."""
-    for lt in range(limit_tendon.shape[0]):
+    for lt in range(at[0], wp.where(at[2] != 0, limit_tendon.shape[0], 0), at[1]):
         t = limit_tendon[lt]
         beg = m.tendon_adr[t]
         length_speed = tendon_length(m, p, s, e, t)
@@ -413,7 +427,7 @@ def _rotation_vector(q: wp.quat):
 
 
 @wp.func
-def equality_rows(m: ModelArrays, e: int, base: int, p: EnvParams, s: State,
+def equality_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, p: EnvParams, s: State,
                   factor: wp.array2d(dtype=float), rows: Rows):
     """The rows of each active equality constraint (`ModelArrays.eq_rowadr`), hard and
     bilateral: err is the violation (J·v its rate), to be brought to 0.
@@ -424,7 +438,7 @@ def equality_rows(m: ModelArrays, e: int, base: int, p: EnvParams, s: State,
     Their responses are built now, and the Cholesky factor of the constraint's block of
     J M⁻¹ Jᵀ (`Rows.eq_chol`), which the solver uses to solve the rows of one constraint
     together."""
-    for i in range(m.neq):
+    for i in range(at[0], wp.where(at[2] != 0, m.neq, 0), at[1]):
         r = base + m.eq_rowadr[i]
         n = m.eq_rownum[i]
         for a in range(n):
@@ -540,11 +554,11 @@ def _finish_equality(m: ModelArrays, e: int, r: int, n: int, k: int,
 
 
 @wp.func
-def tendon_spring_rows(m: ModelArrays, e: int, base: int, p: EnvParams, s: State,
-                       factor: wp.array2d(dtype=float), rows: Rows):
+def tendon_spring_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, p: EnvParams,
+                       s: State, factor: wp.array2d(dtype=float), rows: Rows):
     """One soft row per tendon (PhysX semantics): measures L (J = coef) and pushes each joint
     with recip/N; the limit spring (limit stiffness > 0) joins outside [lower, upper]."""
-    for t in range(m.ntendon):
+    for t in range(at[0], wp.where(at[2] != 0, m.ntendon, 0), at[1]):
         r = base + t
         rows.type[e, r] = INACTIVE
         rows.lam_init[e, r] = 0.0
@@ -586,8 +600,8 @@ def tendon_spring_rows(m: ModelArrays, e: int, base: int, p: EnvParams, s: State
 
 
 @wp.func
-def dof_rows(m: ModelArrays, e: int, base: int, count: int, h: float, p: EnvParams,
-             factor: wp.array2d(dtype=float), rows: Rows):
+def dof_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, count: int, h: float,
+             p: EnvParams, factor: wp.array2d(dtype=float), rows: Rows):
     """One row per dof, J = e_dof: dry friction (bounded impulse) and the maximum joint speed.
 
     Its response M⁻¹e_dof (a column of M⁻¹) is what costs; a dof without dry friction needs it
@@ -596,7 +610,7 @@ def dof_rows(m: ModelArrays, e: int, base: int, count: int, h: float, p: EnvPara
     past its cap within the solve (and a row only near the cap let a humanoid under random
     torques blow up: measured).
     """
-    for dof in range(count):
+    for dof in range(at[0], wp.where(at[2] != 0, count, 0), at[1]):
         r = base + dof
         warm = rows.lam[e, r]
         bound = p.dof_frictionloss[e, dof] * h
