@@ -130,7 +130,6 @@ def test_non_finite_force_on_a_body_no_dof_moves_is_flagged(device):
     assert torch.equal(sim.q[1], ref.q[1]) and torch.equal(sim.qd[1], ref.qd[1])
 
 
-@pytest.mark.lanes
 @pytest.mark.parametrize("asset", ["ant.xml", "humanoid.xml"])
 def test_cpu_threads_give_bit_identical_results(asset, device):
     """Envs split into uneven shards, one CPU thread each, step exactly as one thread does."""

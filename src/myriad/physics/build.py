@@ -22,6 +22,7 @@ import warp as wp
 from . import pairs as pair_rules
 from .model import Model
 from .params import SimParams
+from .runtime.launch import block_threads
 from .stages.collision import CANDIDATES_PER_SLOT
 from .structs import (STRUCTS, Control, Contacts, Dynamics, EnvParams, HFields, Meshes,
                       ModelArrays, Options, RowLayout, Rows, State, field_shape)
@@ -125,7 +126,8 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
                  nsensordata=m.nsensordata, ncontact=contact_capacity,
                  ncandidate=CANDIDATES_PER_SLOT * contact_capacity, nrow=layout.end,
                  row_width=row_width(dof_span, tendon_dofs), nmass=len(mass_col),
-                 nlimit=2 * len(limited), neq=m.neq, neqrow=equality_rownum)
+                 nlimit=2 * len(limited), neq=m.neq, neqrow=equality_rownum,
+                 nlane=block_threads(dev))
     gravity = m.gravity if params.gravity is None else np.asarray(params.gravity)
     initial = {
         EnvParams: dict(

@@ -72,6 +72,45 @@ def row_apply(v: wp.array2d(dtype=float), e: int, dl: float, a: wp.array3d(dtype
     ...
 
 
+# a world's dofs are shared among its lanes by index: dof i is lane i % lanes's (the
+# cooperative solve: each lane reads and writes its own dofs of v, so only sums cross lanes)
+_LANE_RANGES = """
+    const int n1 = sp[1] - sp[0];
+    const int s1 = sp[0] + ((lane - sp[0] % lanes) % lanes + lanes) % lanes;
+    const int s2 = sp[2] + ((lane - sp[2] % lanes) % lanes + lanes) % lanes;
+"""
+
+
+@wp.func_native("""
+    const float* row = wp::address(a, e, r, 0);
+    const float* ve = wp::address(v, e, 0);
+    float s = 0.0f;
+""" + _LANE_RANGES + """
+    for (int i = s1; i < sp[1]; i += lanes) s += row[i - sp[0]] * ve[i];
+    for (int i = s2; i < sp[3]; i += lanes) s += row[n1 + i - sp[2]] * ve[i];
+    return s;
+""")
+def row_dot_lane(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
+                 sp: wp.vec4i, lane: int, lanes: int) -> float:
+    """The part of a[e, r] · v[e] over the row's span on `lane`'s dofs (i % lanes == lane)."""
+    ...
+
+
+@wp.func_native("""
+    if (dl == 0.0f) return;
+    const float* row = wp::address(a, e, r, 0);
+    float* ve = wp::address(v, e, 0);
+""" + _LANE_RANGES + """
+    for (int i = s1; i < sp[1]; i += lanes) ve[i] += dl * row[i - sp[0]];
+    for (int i = s2; i < sp[3]; i += lanes) ve[i] += dl * row[n1 + i - sp[2]];
+""")
+def row_apply_lane(v: wp.array2d(dtype=float), e: int, dl: float, a: wp.array3d(dtype=float),
+                   r: int, sp: wp.vec4i, lane: int, lanes: int):
+    """v[e] += dl · a[e, r] over the row's span, on `lane`'s dofs only (the same arithmetic
+    per entry as row_apply)."""
+    ...
+
+
 @wp.func_native("""
     return acc + dl * x;
 """)

@@ -94,8 +94,8 @@ def run_constraint_rows(rt, dm, d) -> None:
 
 
 def run_solve_constraints(rt, dm, d) -> None:
-    rt.launch(solver_tgs.solve, rt.num_envs,
-              [dm.m, dm.opt, dm.layout, d.dynamics, d.contacts, d.rows, d.state])
+    rt.launch_lanes(solver_tgs.solve, BLOCK_DIM.solve,
+                    [dm.m, dm.opt, dm.layout, d.dynamics, d.contacts, d.rows, d.state])
 
 
 def run_integrate(rt, dm, d) -> None:

@@ -5,12 +5,12 @@ them, `runtime` launches the kernels over them.
 
 Shared by all envs, built from the `Model` once (`build.device_model`):
 
-| struct       | holds                                                                 |
-|--------------|-----------------------------------------------------------------------|
-| `ModelArrays`| the structure: tree, joints, dofs, geoms, sites, actuators, tendons   |
+| struct              | holds                                                          |
+|---------------------|----------------------------------------------------------------|
+| `ModelArrays`       | the structure: tree, joints, dofs, geoms, sites, actuators     |
 | `Meshes`, `HFields` | collision shapes: convex hull corners, height fields           |
-| `Options`    | the step's settings: substep length, solver iterations, offsets, thresholds |
-| `RowLayout`  | where each family of constraint rows starts                           |
+| `Options`           | the step's settings: substep, iterations, offsets, thresholds  |
+| `RowLayout`         | where each family of constraint rows starts                    |
 
 Everything else has one entry per env, a leading dimension of `num_envs`, and is declared below
 as a field of one of six structs:
@@ -438,6 +438,10 @@ class Rows:
     block_row = per_env("nlimit", dtype=wp.int32, doc="limit block: the active set, in order")
     block_a = per_env("nlimit", "nlimit", doc="limit block: Cholesky factor of J M⁻¹ Jᵀ on the "
                       "active set")
+    lane_sum = per_env(2, "nlane", doc="the solve's sums across a world's lanes: each lane's "
+                       "part, in one of two buffers taken in turn (`solver_tgs._dot`)")
+    lane_turn = per_env("nlane", dtype=wp.int32, doc="each lane's count of those sums (which "
+                        "buffer is next)")
     eq_chol = per_env("neqrow", 6, doc="equality rows: row i of the Cholesky factor of their "
                       "constraint's J M⁻¹ Jᵀ (columns up to i; a zero diagonal for a row "
                       "dependent on those before it)")

@@ -39,6 +39,7 @@ class BlockDim:
     dofs: int = 8        # over dofs, joints, contacts or sensors: generalized forces,
                          # integration, constraint forces, sensor readings
     rows: int = 8        # over a family of constraint rows' items: building the rows
+    solve: int = 0       # the sweeps: 0, a world per block (its sums are the block's)
 
 
 BLOCK_DIM = BlockDim()
@@ -53,6 +54,11 @@ def cpu_block_dim() -> int:
     if not value.isdigit() or not 1 <= int(value) <= 1024:
         raise ValueError(f"MYRIAD_CPU_BLOCK_DIM={value!r}: must be an integer from 1 to 1024")
     return int(value)
+
+
+def block_threads(device) -> int:
+    """Threads per block of the cooperative kernels on `device`."""
+    return BLOCK_DIM.threads if wp.get_device(device).is_cuda else cpu_block_dim()
 
 
 def shard(struct, whole, lo: int, hi: int):
@@ -78,7 +84,7 @@ class Runtime:
         self._local = threading.local()     # .range: the envs of this thread's shard
         self.shards, self._pool, self._parts = [], None, {}
         self._control_words = wp.zeros(1, dtype=wp.uint32, device="cpu")   # float_mode
-        self.block_threads = BLOCK_DIM.threads if device.is_cuda else cpu_block_dim()
+        self.block_threads = block_threads(device)
         if self.block_threads > 1 and not device.is_cuda:
             wp.config.enable_cpu_blocks = True
         if device.is_cuda:
@@ -116,9 +122,9 @@ class Runtime:
 
     def launch_lanes(self, kernel, lanes: int, inputs) -> None:
         """Launch a cooperative kernel (`lanes`) with `lanes` threads per world (at most the
-        block's threads) and as many worlds per block as fit; the kernel takes the lane count
-        as its last argument."""
-        lanes = max(1, min(lanes, self.block_threads))
+        block's threads; 0: the whole block, one world per block) and as many worlds per block
+        as fit; the kernel takes the lane count as its last argument."""
+        lanes = self.block_threads if lanes == 0 else max(1, min(lanes, self.block_threads))
         per_block = self.block_threads // lanes
         shard = getattr(self._local, "range", None)
         if shard is not None:

@@ -64,10 +64,48 @@ def _row_in_use(i: int, used: int, layout: RowLayout):
     return layout.joint_limits + i - used
 
 
+@wp.func(inline=True)
+def _dot(rows: Rows, a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
+         sp: wp.vec4i, ln: wp.vec2i):
+    """a[e, r] · v[e] over the row's span, the same on every lane of the world: one lane sums
+    it 8 wide (`dense.row_dot`); lanes each sum their dofs, write the part, wait, and add the
+    parts in lane order (another order of the terms than one lane's, the same on every run).
+    The parts go to one of two buffers in turn: a lane writing the next sum's part has passed
+    the wait after which every lane read this one's."""
+    if ln[1] == 1:
+        return dense.row_dot(a, e, r, v, sp)
+    turn = rows.lane_turn[e, ln[0]] % 2
+    rows.lane_turn[e, ln[0]] = turn + 1
+    rows.lane_sum[e, turn, ln[0]] = dense.row_dot_lane(a, e, r, v, sp, ln[0], ln[1])
+    sync()
+    total = float(0.0)
+    for k in range(ln[1]):
+        total = total + rows.lane_sum[e, turn, k]
+    return total
+
+
+@wp.func(inline=True)
+def _apply(v: wp.array2d(dtype=float), e: int, dl: float, a: wp.array3d(dtype=float), r: int,
+           sp: wp.vec4i, ln: wp.vec2i):
+    """v[e] += dl · a[e, r] over the row's span, each lane on its own dofs."""
+    if ln[1] == 1:
+        dense.row_apply(v, e, dl, a, r, sp)
+    else:
+        dense.row_apply_lane(v, e, dl, a, r, sp, ln[0], ln[1])
+
+
+@wp.func(inline=True)
+def _wait(ln: wp.vec2i):
+    """Before and after work one lane does for the world (reading or writing every lane's
+    dofs, building a row)."""
+    if ln[1] > 1:
+        sync()
+
+
 @wp.func
-def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int, tendon_limits: wp.vec2i,
-           c: Contacts, limit_jnt: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int,
-           hs: float,
+def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: int,
+           tendon_limits: wp.vec2i, c: Contacts, limit_jnt: wp.array(dtype=wp.int32),
+           first: int, biased: int, tgs: int, hs: float,
            h: float, max_depenetration: float, factor: wp.array2d(dtype=float), rows: Rows,
            v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
     """One Gauss-Seidel sweep over the rows in use, updating v and the impulses rows.lam.
@@ -75,7 +113,12 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int, tendon_limi
     The contacts' normal rows, patch by patch, and the tendon limits; the contacts' friction
     rows, whose bounds then hold this sweep's normal impulses; the joint limits, solved
     together; tendon springs and dofs; the equality constraints (each one's rows together).
-    `tendon_limits`: the range of tendon-limit rows that holds the active ones (`_in_use`)."""
+    `tendon_limits`: the range of tendon-limit rows that holds the active ones (`_in_use`).
+
+    `ln` = (lane, lanes): a world's lanes sweep its rows together, each row's J·v and
+    M⁻¹Jᵀ·Δλ split over their dofs, Gauss-Seidel's order between rows kept (every lane takes
+    the same decisions from the same sums); the joint-limit block, the dof rows and the
+    equalities are one lane's work for now."""
     k = int(0)
     while k < ncontact:      # contact patches: the run of contacts of one geom pair
         end = k + 1
@@ -87,38 +130,44 @@ def _sweep(m: ModelArrays, e: int, layout: RowLayout, ncontact: int, tendon_limi
         for _ in range(passes):
             change = float(0.0)
             for j in range(k, end):
-                change = wp.max(change, _normal_row(m, e, 3 * j, biased, tgs, hs, h,
+                change = wp.max(change, _normal_row(m, e, ln, 3 * j, biased, tgs, hs, h,
                                                     max_depenetration, factor, rows, v, dq))
             if change < PATCH_SETTLED:
                 break
         k = end
     for r in range(tendon_limits[0], tendon_limits[1]):
-        _normal_row(m, e, r, biased, tgs, hs, h, max_depenetration, factor, rows, v, dq)
+        _normal_row(m, e, ln, r, biased, tgs, hs, h, max_depenetration, factor, rows, v, dq)
     for k in range(ncontact):
-        _friction_rows(e, 3 * k + 1, biased, tgs, hs, rows, c, v, dq)
-    # the joint limits last of the one-sided rows: a joint's mechanical stop has the last word
-    # over contacts (a UR5's overlapping link meshes pushed its wrist 0.26 rad past its limit
-    # when the limits came before the friction rows)
-    _joint_limit_block(m, e, layout, limit_jnt, first, biased, tgs, hs, h, max_depenetration,
-                       factor, rows, v, dq)
+        _friction_rows(e, ln, 3 * k + 1, biased, tgs, hs, rows, c, v, dq)
+    _wait(ln)
+    if ln[0] == 0:
+        # the joint limits last of the one-sided rows: a joint's mechanical stop has the last
+        # word over contacts (a UR5's overlapping link meshes pushed its wrist 0.26 rad past
+        # its limit when the limits came before the friction rows)
+        _joint_limit_block(m, e, layout, limit_jnt, first, biased, tgs, hs, h,
+                           max_depenetration, factor, rows, v, dq)
+    _wait(ln)
     if first != 0:
         for r in range(layout.springs, layout.dofs):
-            _spring_row(e, r, h, rows, v)
-    # most dof rows do nothing in a sweep (no dry friction, speed under the cap): tested on this
-    # env's 1D views, one index each, before the row is visited
-    row_type = rows.type[e]
-    row_bound = rows.mu[e]
-    row_cap = rows.k[e]
-    speed = v[e]
-    for dof in range(layout.end - layout.dofs):
-        r = layout.dofs + dof
-        if row_type[r] == DOF and (row_bound[r] > 0.0 or wp.abs(speed[dof]) > row_cap[r]):
-            _dof_row(m, e, r, dof, factor, rows, v)
-    # equalities last: the sweep ends with them holding, whatever the rows before did
-    if layout.springs > layout.equalities:
-        for i in range(m.neq):
-            _equality(m, e, layout.equalities, i, biased, tgs, hs, max_depenetration, rows, v,
-                      dq)
+            _spring_row(e, ln, r, h, rows, v)
+    _wait(ln)
+    if ln[0] == 0:
+        # most dof rows do nothing in a sweep (no dry friction, speed under the cap): tested
+        # on this env's 1D views, one index each, before the row is visited
+        row_type = rows.type[e]
+        row_bound = rows.mu[e]
+        row_cap = rows.k[e]
+        speed = v[e]
+        for dof in range(layout.end - layout.dofs):
+            r = layout.dofs + dof
+            if row_type[r] == DOF and (row_bound[r] > 0.0 or wp.abs(speed[dof]) > row_cap[r]):
+                _dof_row(m, e, r, dof, factor, rows, v)
+        # equalities last: the sweep ends with them holding, whatever the rows before did
+        if layout.springs > layout.equalities:
+            for i in range(m.neq):
+                _equality(m, e, layout.equalities, i, biased, tgs, hs, max_depenetration, rows,
+                          v, dq)
+    _wait(ln)
 
 
 @wp.func
@@ -150,32 +199,37 @@ def _normal_target(err: float, biased: int, hs: float, h: float, max_depenetrati
 
 
 @wp.func
-def _normal_row(m: ModelArrays, e: int, r: int, biased: int, tgs: int, hs: float, h: float,
-                max_depenetration: float, factor: wp.array2d(dtype=float), rows: Rows,
-                v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
+def _normal_row(m: ModelArrays, e: int, ln: wp.vec2i, r: int, biased: int, tgs: int, hs: float,
+                h: float, max_depenetration: float, factor: wp.array2d(dtype=float),
+                rows: Rows, v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
     """A non-negative impulse along row r (a contact normal or a tendon limit) that removes the
     approach, and in biased (position) sweeps the penetration; returns the change of J·v it
     made. (Joint limits are solved together: `_joint_limit_block`.)"""
     if rows.type[e, r] != NORMAL:
         return 0.0
+    # read before the sums' wait, after which lane 0 may build the row and every lane writes
+    # the new impulse: every lane takes the same branches from the same values
+    old = rows.lam[e, r]
+    built = rows.inv_mass[e, r] != 0.0
     sp = rows.span[e, r]
-    jv = dense.row_dot(rows.jac, e, r, v, sp)
+    jv = _dot(rows, rows.jac, e, r, v, sp, ln)
     err = rows.err[e, r]
     if tgs != 0:
-        err = err + dense.row_dot(rows.jac, e, r, dq, sp)
+        err = err + _dot(rows, rows.jac, e, r, dq, sp, ln)
     target = _normal_target(err, biased, hs, h, max_depenetration, rows.bounce[e, r])
-    if rows.inv_mass[e, r] == 0.0:
+    if not built:
         # response not built yet (`constraints`): the row has had no impulse, and gets none
         # while it does not push
         if target - jv <= 0.0:
             return 0.0
-        build_contact_rows(m, e, r, sp, factor, rows)
+        if ln[0] == 0:
+            build_contact_rows(m, e, r, sp, factor, rows)
+        _wait(ln)
         if rows.type[e, r] != NORMAL:
             return 0.0
-    old = rows.lam[e, r]
     new = wp.max(old + (target - jv) * rows.inv_mass[e, r], 0.0)
     rows.lam[e, r] = new
-    dense.row_apply(v, e, new - old, rows.minv_jt, r, rows.span[e, r])
+    _apply(v, e, new - old, rows.minv_jt, r, rows.span[e, r], ln)
     return wp.abs(new - old) / rows.inv_mass[e, r]
 
 
@@ -415,8 +469,8 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
 
 
 @wp.func
-def _friction_rows(e: int, r: int, biased: int, tgs: int, hs: float, rows: Rows, c: Contacts,
-                   v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
+def _friction_rows(e: int, ln: wp.vec2i, r: int, biased: int, tgs: int, hs: float, rows: Rows,
+                   c: Contacts, v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
     """A contact's two friction rows r, r + 1 together, their impulse projected onto the disk
     of radius mu · the normal row's impulse (row r - 1). Marks the contact slid when the
     projection cut the impulse (its anchors start afresh next substep)."""
@@ -434,10 +488,10 @@ def _friction_rows(e: int, r: int, biased: int, tgs: int, hs: float, rows: Rows,
     if biased != 0:
         drift = wp.vec2(rows.err[e, r], rows.err[e, r + 1])
         if tgs != 0:
-            drift = drift + _row_dot2(rows.jac, e, r, dq, sp)
+            drift = drift + _row_dot2(rows, rows.jac, e, r, dq, sp, ln)
         target_t = -1.0 * drift / hs
     # both rows from the same velocity, then projection onto the friction disk
-    jv_t = _row_dot2(rows.jac, e, r, v, sp)
+    jv_t = _row_dot2(rows, rows.jac, e, r, v, sp, ln)
     l1 = old1 + (target_t[0] - jv_t[0]) * rows.inv_mass[e, r]
     l2 = old2 + (target_t[1] - jv_t[1]) * rows.inv_mass[e, r + 1]
     norm = wp.sqrt(l1 * l1 + l2 * l2)
@@ -450,11 +504,12 @@ def _friction_rows(e: int, r: int, biased: int, tgs: int, hs: float, rows: Rows,
         l2 = l2 * scale
     rows.lam[e, r] = l1
     rows.lam[e, r + 1] = l2
-    _apply2(e, r, l1 - old1, l2 - old2, rows.minv_jt, v, sp)
+    _apply2(e, ln, r, l1 - old1, l2 - old2, rows.minv_jt, v, sp)
 
 
 @wp.func
-def _spring_row(e: int, r: int, h: float, rows: Rows, v: wp.array2d(dtype=float)):
+def _spring_row(e: int, ln: wp.vec2i, r: int, h: float, rows: Rows,
+                v: wp.array2d(dtype=float)):
     """A tendon's implicit spring-damper over the whole substep, applied once (first sweep) like
     the other forces: impulse = -(h·k·err + a·J·v) / (1 + a·w), a = h·(h·k + d). Applied per TGS
     sub-step instead, it would fight the once-per-substep external forces and leave a spurious
@@ -465,9 +520,11 @@ def _spring_row(e: int, r: int, h: float, rows: Rows, v: wp.array2d(dtype=float)
     k = rows.k[e, r]
     a = h * (h * k + rows.d[e, r])
     w = 1.0 / rows.inv_mass[e, r]
-    dl = -(h * k * rows.err[e, r] + a * dense.row_dot(rows.jac, e, r, v, sp)) / (1.0 + a * w)
-    rows.lam[e, r] = rows.lam[e, r] + dl
-    dense.row_apply(v, e, dl, rows.minv_jt, r, sp)
+    old = rows.lam[e, r]      # read before the sum's wait, after which every lane writes it
+    jv = _dot(rows, rows.jac, e, r, v, sp, ln)
+    dl = -(h * k * rows.err[e, r] + a * jv) / (1.0 + a * w)
+    rows.lam[e, r] = old + dl
+    _apply(v, e, dl, rows.minv_jt, r, sp, ln)
 
 
 @wp.func
@@ -496,20 +553,20 @@ def _dof_row(m: ModelArrays, e: int, r: int, dof: int, factor: wp.array2d(dtype=
 
 
 @wp.func
-def _row_dot2(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
-              sp: wp.vec4i):
+def _row_dot2(rows: Rows, a: wp.array3d(dtype=float), e: int, r: int,
+              v: wp.array2d(dtype=float), sp: wp.vec4i, ln: wp.vec2i):
     """(a[e, r] · v[e], a[e, r + 1] · v[e]) over the rows' span."""
-    return wp.vec2(dense.row_dot(a, e, r, v, sp), dense.row_dot(a, e, r + 1, v, sp))
+    return wp.vec2(_dot(rows, a, e, r, v, sp, ln), _dot(rows, a, e, r + 1, v, sp, ln))
 
 
 @wp.func
-def _apply2(e: int, r: int, dl1: float, dl2: float, minv_jt: wp.array3d(dtype=float),
-            v: wp.array2d(dtype=float), sp: wp.vec4i):
+def _apply2(e: int, ln: wp.vec2i, r: int, dl1: float, dl2: float,
+            minv_jt: wp.array3d(dtype=float), v: wp.array2d(dtype=float), sp: wp.vec4i):
     """v += M⁻¹J_rᵀ·dl1 + M⁻¹J_{r+1}ᵀ·dl2 over the rows' span."""
     if dl1 == 0.0 and dl2 == 0.0:
         return
-    dense.row_apply(v, e, dl1, minv_jt, r, sp)
-    dense.row_apply(v, e, dl2, minv_jt, r + 1, sp)
+    _apply(v, e, dl1, minv_jt, r, sp, ln)
+    _apply(v, e, dl2, minv_jt, r + 1, sp, ln)
 
 
 @wp.kernel
@@ -520,8 +577,15 @@ def solve(m: ModelArrays, opt: Options, layout: RowLayout,
           rows: Rows,
           # in: qd (the velocity at the start of the substep), qacc; out: qd (the new velocity),
           # qd_before (the old), dq (the displacement to integrate)
-          s: State):
-    e = wp.tid()
+          s: State,
+          lanes: int):
+    """A world's lanes (one world per block: its sums are the block's) sweep its rows
+    together, each lane holding the dofs i % lanes == lane of qd and dq (`_sweep`)."""
+    block, thread = wp.tid()
+    e, lane, active = world_lane(block, thread, lanes, s.nonfinite.shape[0])
+    if not active:
+        return      # (one world per block: a thread past the worlds is a whole block past)
+    ln = wp.vec2i(lane, lanes)
     limit_jnt = opt.limit_jnt
     h = opt.h
     position_iterations = opt.position_iterations
@@ -529,7 +593,7 @@ def solve(m: ModelArrays, opt: Options, layout: RowLayout,
     tgs = opt.tgs
     max_depenetration = opt.max_depenetration
     nv = m.nv
-    for i in range(nv):
+    for i in range(lane, nv, lanes):
         s.qd_before[e, i] = s.qd[e, i]
         s.qd[e, i] = s.qd[e, i] + h * s.qacc[e, i]
         s.dq[e, i] = 0.0
@@ -537,12 +601,13 @@ def solve(m: ModelArrays, opt: Options, layout: RowLayout,
     used = 3 * ncontact     # rows in use: the contacts' [0, used), and all from the limits on
     for i in range(used + layout.end - layout.joint_limits):
         r = _row_in_use(i, used, layout)
-        rows.lam[e, r] = 0.0
+        warm = float(0.0)
         if rows.type[e, r] >= 0:
-            rows.lam[e, r] = rows.lam_init[e, r]
+            warm = rows.lam_init[e, r]
             if rows.type[e, r] == NORMAL:
-                rows.lam[e, r] = WARM * rows.lam_init[e, r]
-            dense.row_apply(s.qd, e, rows.lam[e, r], rows.minv_jt, r, rows.span[e, r])
+                warm = WARM * rows.lam_init[e, r]
+            _apply(s.qd, e, warm, rows.minv_jt, r, rows.span[e, r], ln)
+        rows.lam[e, r] = warm
     for k in range(ncontact):
         c.slid[e, k] = 0
     # a hand has 88 tendon-limit rows, seldom one active: the sweeps visit only their span
@@ -551,22 +616,22 @@ def solve(m: ModelArrays, opt: Options, layout: RowLayout,
     if tgs != 0:
         hs = h / float(position_iterations)
     for it in range(position_iterations):
-        _sweep(m, e, layout, ncontact, tendon_limits, c, limit_jnt, int(it == 0), 1, tgs, hs, h,
-               max_depenetration, d.factor, rows, s.qd, s.dq)
+        _sweep(m, e, ln, layout, ncontact, tendon_limits, c, limit_jnt, int(it == 0), 1, tgs,
+               hs, h, max_depenetration, d.factor, rows, s.qd, s.dq)
         if tgs != 0:
-            for i in range(nv):
+            for i in range(lane, nv, lanes):
                 s.dq[e, i] = s.dq[e, i] + hs * s.qd[e, i]
     if tgs == 0:
-        for i in range(nv):
+        for i in range(lane, nv, lanes):
             s.dq[e, i] = h * s.qd[e, i]
     for it in range(velocity_iterations):
-        _sweep(m, e, layout, ncontact, tendon_limits, c, limit_jnt, 0, 0, tgs, hs, h,
+        _sweep(m, e, ln, layout, ncontact, tendon_limits, c, limit_jnt, 0, 0, tgs, hs, h,
                max_depenetration, d.factor, rows, s.qd, s.dq)
     # the speed caps hold exactly: a dof's row is swept before the contacts that follow it can
     # push the dof past its cap again, and one velocity sweep leaves that overshoot in place.
     # A G1 with hands curled up on itself under random torques (hundreds of contacts between
     # its light finger links) went from 750 to 29,000 rad/s in one step and then non-finite
-    for dof in range(layout.end - layout.dofs):
+    for dof in range(lane, layout.end - layout.dofs, lanes):
         r = layout.dofs + dof
         if rows.type[e, r] == DOF and wp.abs(s.qd[e, dof]) > rows.k[e, r]:   # (NaN stays NaN)
             s.qd[e, dof] = wp.sign(s.qd[e, dof]) * rows.k[e, r]
