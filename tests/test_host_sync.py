@@ -160,6 +160,12 @@ TASKS = {   # few envs, short episodes: resets, time-outs and re-samples in a fe
     "HumanoidAMP": (randomization("humanoid", "humanoid/pelvis"), dict(episodeLength=3)),
     "AnymalTerrain": (randomization("anymal", "anymal/base"),
                       dict(episodeLength_s=0.06, pushInterval_s=0.04)),
+    "ShadowHand": (randomization("hand", "object/object"), dict(episodeLength=3)),
+    "ShadowHandOpenAI_FF": (None, dict(episodeLength=3)),     # its own randomization
+    "AllegroHand": (randomization("hand", "object/object"), dict(episodeLength=3)),
+    "FrankaCubeStack": (randomization("cubeA", "cubeA/cubeA", dofs=False),
+                        dict(episodeLength=3)),
+    "Trifinger": (None, dict(episodeLength=3)),               # its own randomization
 }
 
 
@@ -172,7 +178,8 @@ def test_task_step_never_reads_the_device(name):
     torch.manual_seed(0)
     dr, overrides = TASKS[name]
     cfg = apply_overrides(task_config(name), {"numEnvs": 4, **overrides}, name)
-    cfg["randomization"] = dr
+    if dr is not None:
+        cfg["randomization"] = dr
     task = TASK_CLASSES[name](cfg, device="cpu")
     task.skip_idle_resets = False           # the step as a GPU runs it
     task.reset()

@@ -48,6 +48,8 @@ class Envs:
         self.actor_names = [a.name for a in self.actors]
         body_actor = np.array([self.actor_names.index(n.split("/", 1)[0]) for n in m.body_names])
         self._body_actor, self._actor_columns_cache = body_actor, {}
+        for name in self.actor_names:     # on the device now, not in a task's first step
+            self._actor_columns(name)
         self.actor_root_body = [int(np.flatnonzero(body_actor == i)[0])
                                 for i in range(len(self.actors))]
         self.actor_fixed = [bool(a.fix_base) for a in self.actors]

@@ -62,6 +62,12 @@ class Simulator:
                        for struct in STRUCTS for name, f in struct.fields.items() if f.public}
         self._jac = {}
         self._warned_overflow = False
+        # where each stored mass-matrix entry (i, j) goes in a dense [nv, nv] matrix, and its
+        # mirror (j, i) (`mass_matrix`): on the device once, so that a read copies nothing over
+        rows, cols = torch.as_tensor(self.device_model.mass_entries, dtype=torch.int64,
+                                     device=self.torch_device)
+        self._qm_dense_at = (torch.cat([rows, cols]), torch.cat([cols, rows]))
+        self._qm = wp.to_torch(self.data.dynamics.qm)
         self.forward()
 
     # ------------------------------------------------------------------ the step
@@ -127,9 +133,7 @@ class Simulator:
             dynamics.mass_matrix, self.num_envs, [dm.m, d.env_params, d.state, d.dynamics]))
         n, nv = self.num_envs, self.model.nv
         dense = torch.zeros(n, nv, nv, device=self.torch_device)
-        rows, cols = torch.as_tensor(dm.mass_entries, dtype=torch.int64, device=self.torch_device)
-        dense[:, torch.cat([rows, cols]), torch.cat([cols, rows])] = (
-            wp.to_torch(d.dynamics.qm).repeat(1, 2))
+        dense[:, self._qm_dense_at[0], self._qm_dense_at[1]] = self._qm.repeat(1, 2)
         return dense
 
     def body_jacobians(self) -> torch.Tensor:
@@ -146,13 +150,15 @@ class Simulator:
 
     def _jacobians(self, kind, kernel, count) -> torch.Tensor:
         if kind not in self._jac:  # allocated on first use: most tasks never ask
-            self._jac[kind] = wp.zeros((self.num_envs, count, 6, self.model.nv), dtype=wp.float32,
-                                       device=self.device)
-        inputs = [self.device_model.m, self.data.state, self._jac[kind]]
+            array = wp.zeros((self.num_envs, count, 6, self.model.nv), dtype=wp.float32,
+                             device=self.device)
+            self._jac[kind] = (array, wp.to_torch(array))
+        array, view = self._jac[kind]
+        inputs = [self.device_model.m, self.data.state, array]
         # the output is not a per-env struct, which CPU shards would see whole: one thread
         self.runtime.run(lambda: self.runtime.launch(kernel, (self.num_envs, count), inputs),
                          whole=True)
-        return wp.to_torch(self._jac[kind])
+        return view
 
     @property
     def nbytes(self) -> int:

@@ -137,10 +137,13 @@ class FrankaCubeStack(VecTask):
         e.sim.dof_max_velocity[:, e.dof_columns] = torch.tensor(franka_max_velocity(),
                                                                  device=dev)
         names = e.model.site_names
-        self.sites = torch.tensor([names.index(f"franka/{s}") for s in (
-            "panda_grip_site", "panda_leftfinger_tip", "panda_rightfinger_tip")], device=dev)
+        sites = [names.index(f"franka/{s}") for s in (
+            "panda_grip_site", "panda_leftfinger_tip", "panda_rightfinger_tip")]
+        self.sites = torch.tensor(sites, device=dev)
+        self.grip_site = sites[0]       # a Python int: indexing with a tensor reads it back
         self.hand = e.body_index("franka/panda_hand")
         self.hand_in_actor = e.actor_bodies("franka").index(self.hand)     # its Jacobian's row
+        e.sim.body_jacobians()      # their buffer allocated now, not inside the first step
         self.cube_a, self.cube_b = e.actor_index("cubeA"), e.actor_index("cubeB")
         self.efforts = torch.zeros(N, e.num_dofs, device=dev)
         self.finger_targets = torch.full((N, e.num_dofs), FINGER_START, device=dev)
@@ -178,7 +181,7 @@ class FrankaCubeStack(VecTask):
         """[N, 6] linear and angular velocity of the grip point."""
         hand = self.envs.rigid_body_states[:, self.hand]
         angular = hand[:, 10:13]
-        grip = self.envs.sim.site_pose[:, self.sites[0], 0:3]
+        grip = self.envs.sim.site_pose[:, self.grip_site, 0:3]
         return torch.cat((hand[:, 7:10] + torch.cross(angular, grip - hand[:, 0:3], dim=-1),
                           angular), dim=-1)
 

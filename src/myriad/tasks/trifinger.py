@@ -282,8 +282,9 @@ def logistic_kernel(x: torch.Tensor, scale: float) -> torch.Tensor:
 
 def cube_corners(pos: torch.Tensor, rot: torch.Tensor, size: float) -> torch.Tensor:
     """[N, 8, 3] the corners of cubes of edge `size` at `pos` [N, 3], turned by `rot` [N, 4]."""
-    signs = torch.tensor([[(k >> i & 1) * 2.0 - 1.0 for i in range(3)] for k in range(8)],
-                         device=pos.device)
+    # corner k's sign along axis i is bit i of k (made on the device: no host data per step)
+    bits = torch.arange(8, device=pos.device)[:, None] >> torch.arange(3, device=pos.device)
+    signs = (bits & 1).to(pos.dtype) * 2.0 - 1.0
     local = 0.5 * size * signs.expand(pos.shape[0], 8, 3)
     return pos[:, None] + quat_rotate(rot[:, None].expand(-1, 8, 4).reshape(-1, 4),
                                       local.reshape(-1, 3)).view(-1, 8, 3)
