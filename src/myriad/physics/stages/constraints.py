@@ -192,7 +192,9 @@ def contact_rows(m: ModelArrays, e: int, at: wp.vec3i, h: float, rest_offset: fl
                  factor: wp.array2d(dtype=float), c: Contacts, rows: Rows):
     """Contact slot k: rows 3k (normal), 3k+1, 3k+2 (friction). Slots past the contact count
     are skipped by the solver: only the used ones are built. `at`: (lane, lanes, active)."""
-    ncontact = wp.min(c.count[e], c.force.shape[1])
+    ncontact = int(0)
+    if at[2] != 0:      # (a thread past the last world reads nothing of it)
+        ncontact = wp.min(c.count[e], c.force.shape[1])
     # the same contact (same pair and feature) in the last substep, whose friction anchors it
     # inherits: found by one lane, since contacts mostly come in the same order as in the last
     # substep and the search starts after the last match and wraps around (in the rare case

@@ -76,7 +76,9 @@ def newton_euler(m: ModelArrays, p: EnvParams, s: State, e: int, lane: int, lane
     holds up (MuJoCo's gravcomp). (A function called once per thread, the bodies' work inline:
     a CPU build passes the structs to a function by value, a copy per call.)
     """
-    world_acc = wp.spatial_vector(wp.vec3(), -p.gravity[e])
+    world_acc = wp.spatial_vector()
+    if active:      # (a thread past the last world reads nothing of it)
+        world_acc = wp.spatial_vector(wp.vec3(), -p.gravity[e])
     for k in range(m.nlevel):
         start, end = level_range(m, k, lane, lanes, active, False)
         for i in range(start, end, lanes):
