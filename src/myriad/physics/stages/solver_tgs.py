@@ -139,13 +139,12 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
         _normal_row(m, e, ln, r, biased, tgs, hs, h, max_depenetration, factor, rows, v, dq)
     for k in range(ncontact):
         _friction_rows(e, ln, 3 * k + 1, biased, tgs, hs, rows, c, v, dq)
+    # the joint limits last of the one-sided rows: a joint's mechanical stop has the last word
+    # over contacts (a UR5's overlapping link meshes pushed its wrist 0.26 rad past its limit
+    # when the limits came before the friction rows)
     _wait(ln)
-    if ln[0] == 0:
-        # the joint limits last of the one-sided rows: a joint's mechanical stop has the last
-        # word over contacts (a UR5's overlapping link meshes pushed its wrist 0.26 rad past
-        # its limit when the limits came before the friction rows)
-        _joint_limit_block(m, e, layout, limit_jnt, first, biased, tgs, hs, h,
-                           max_depenetration, factor, rows, v, dq)
+    _limit_rows(m, e, ln, layout, limit_jnt, first, biased, tgs, hs, h, max_depenetration,
+                factor, rows, v, dq)
     _wait(ln)
     if first != 0:
         for r in range(layout.springs, layout.dofs):
@@ -279,6 +278,47 @@ def _equality(m: ModelArrays, e: int, base: int, i: int, biased: int, tgs: int, 
 
 
 @wp.func
+def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout,
+                limit_jnt: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int,
+                hs: float, h: float, max_depenetration: float, factor: wp.array2d(dtype=float),
+                rows: Rows, v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
+    """The joint limits of a sweep (`_joint_limit_block`): the candidates listed in the
+    substep's first sweep (rows within reach of their limit), their impulses taken out of v and
+    the new ones applied by every lane on its dofs, the block's pivoting by one lane."""
+    n = layout.tendon_limits - layout.joint_limits
+    base = layout.joint_limits
+    if first != 0 and ln[0] == 0:
+        k = int(0)
+        for i in range(n):
+            if rows.type[e, base + i] == NORMAL:
+                rows.block_cand[e, k] = i
+                k += 1
+        if k < n:
+            rows.block_cand[e, k] = -1
+    _wait(ln)
+    ncand = int(0)
+    while ncand < n:
+        if rows.block_cand[e, ncand] < 0:
+            break
+        ncand += 1
+    for k in range(ncand):
+        r = base + rows.block_cand[e, k]
+        old = rows.lam[e, r]
+        if old != 0.0:
+            _apply(v, e, -old, rows.minv_jt, r, rows.span[e, r], ln)
+    _wait(ln)
+    if ln[0] == 0:
+        _joint_limit_block(m, e, layout, limit_jnt, ncand, biased, tgs, hs, h,
+                           max_depenetration, factor, rows, v, dq)
+    _wait(ln)
+    for k in range(ncand):
+        r = base + rows.block_cand[e, k]
+        new = rows.lam[e, r]
+        if rows.type[e, r] == NORMAL and new != 0.0:
+            _apply(v, e, new, rows.minv_jt, r, rows.span[e, r], ln)
+
+
+@wp.func
 def _limit_coupling(e: int, dof: int, sign: float, r: int, rows: Rows):
     """J_i·M⁻¹J_rᵀ for a joint-limit row i (J_i = sign·e_dof) and a built row r: one entry of
     r's response (zero when the dof is outside r's tree)."""
@@ -301,7 +341,7 @@ def _limit_sign(i: int):
 
 @wp.func
 def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
-                       limit_jnt: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int,
+                       limit_jnt: wp.array(dtype=wp.int32), ncand: int, biased: int, tgs: int,
                        hs: float,
                        h: float, max_depenetration: float, factor: wp.array2d(dtype=float),
                        rows: Rows, v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
@@ -317,29 +357,13 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
     negative λ, add the most violated row outside S) from the rows that pushed or want to.
     J_i = ±e_dof, so A_ij is one entry of row j's response; only rows that enter the active
     set are built (responses on demand, as for single rows).
+
+    Only the pivoting is here, one lane's work: the candidates (`ncand` of them,
+    listed by `_limit_rows`) come with their impulses taken out of v, and the new impulses are
+    left in rows.lam for the caller to apply (`_limit_rows`).
     """
     n = layout.tendon_limits - layout.joint_limits
     base = layout.joint_limits
-    # the candidates (rows within reach of their limit: listed in the substep's first sweep),
-    # with their impulses taken out of v
-    if first != 0:
-        k = int(0)
-        for i in range(n):
-            if rows.type[e, base + i] == NORMAL:
-                rows.block_cand[e, k] = i
-                k += 1
-        if k < n:
-            rows.block_cand[e, k] = -1
-    ncand = int(0)
-    while ncand < n:
-        i = rows.block_cand[e, ncand]
-        if i < 0:
-            break
-        ncand += 1
-        r = base + i
-        old = rows.lam[e, r]
-        if old != 0.0:
-            dense.row_apply(v, e, -old, rows.minv_jt, r, rows.span[e, r])
     # targets; J·v without the limit impulses (w0); the starting active set: the rows that
     # pushed, and those that want to
     count = int(0)
@@ -454,7 +478,7 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
         rows.block_in[e, worst] = 1
         rows.block_row[e, count] = worst
         count += 1
-    # the new impulses, applied to the velocity
+    # the new impulses (applied to the velocity by the caller)
     for k in range(ncand):
         i = rows.block_cand[e, k]
         r = base + i
@@ -464,8 +488,6 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
         if rows.block_in[e, i] != 0:
             new = wp.max(rows.block_lam[e, i], 0.0)
         rows.lam[e, r] = new
-        if new != 0.0:
-            dense.row_apply(v, e, new, rows.minv_jt, r, rows.span[e, r])
 
 
 @wp.func
