@@ -81,7 +81,8 @@ for stage in $stages; do
       # task, seconds of training, milestones (the paper's: Ant 3000 in 20 s, Humanoid 5000 in
       # 4 min, Ingenuity 5000 in 30 s). A run is dropped when its seconds and the start-up of
       # the run before (building, kernel loads, the milestone check; 30 s before the first) do
-      # not fit what is left of TRAIN_BUDGET_S.
+      # not fit what is left of TRAIN_BUDGET_S. TRAIN_ARGS: more overrides for every run
+      # (TRAIN_ARGS=capture_step=true: the env step as one CUDA graph).
       budget=${TRAIN_BUDGET_S:-450} overhead=30 dropped=()
       echo "== train on $DEVICE: budget $budget s"
       while read -r task seconds milestones; do
@@ -94,7 +95,8 @@ for stage in $stages; do
         run_start=$SECONDS
         exp=gpu_${task}_$(date +%s)
         python3 -m myriad.cli train task="$task" device="$DEVICE" num_envs=4096 \
-          max_time_s="$seconds" experiment="$exp" train_dir="$LOGS/runs" < /dev/null 2>&1 \
+          max_time_s="$seconds" experiment="$exp" train_dir="$LOGS/runs" ${TRAIN_ARGS:-} \
+          < /dev/null 2>&1 \
           | tee "$LOGS/train_$task.log" | grep -E "^(building|built|training|done)|epoch +[0-9]*0/"
         python3 benchmarks/milestones.py "$LOGS/runs/$exp" $milestones < /dev/null || status=1
         rm -rf "$LOGS/runs/$exp/nn" "$LOGS/runs/$exp/summaries"    # keep the curve and summary

@@ -10,7 +10,8 @@ Three measurements, each printed as a Markdown table:
            substep once: the unit of MuJoCo Warp's and MJX's published figures, whose one step
            is one integrator step of one world.
   task     each task's whole `VecTask.step` (actions -> physics -> observations, rewards,
-           resets in torch) under random actions, no policy: the rollout side of training.
+           resets in torch) under random actions, no policy: the rollout side of training;
+           on CUDA also with the whole step captured as one graph (`capture_step`).
   memory   device memory a task takes at `--memory-envs` envs after a few steps (free memory
            before minus after, so the CUDA context is left out, torch's caches included), and
            that divided by the env count. CUDA only.
@@ -85,18 +86,29 @@ def make_task(name: str, n: int, device: str):
 
 
 def tasks(device: str, n: int, seconds: float) -> None:
-    print(f"\n| task | envs | task.step env-steps/s (random actions, no policy) |")
-    print("|---|---|---|")
+    cuda = device.startswith("cuda")
+    print(f"\n| task | envs | task.step env-steps/s (random actions, no policy) |"
+          + (" the step captured whole (capture_step) |" if cuda else ""))
+    print("|---|---|---|" + ("---|" if cuda else ""))
     for name in TASKS:
-        task = make_task(name, n, device)
-        if task is None:
-            continue
-        task.reset()
-        actions = torch.empty(n, task.num_actions, device=task.device)
-        elapsed, calls = timed(lambda: task.step(actions.uniform_(-1, 1)), device, seconds)
-        print(f"| {name} | {n} | {n * calls / elapsed:,.0f} |", flush=True)
-        del task
-        gc.collect()
+        rates = []
+        for capture in ((False, True) if cuda else (False,)):
+            task = make_task(name, n, device)
+            if task is None:
+                break
+            task.capture_step = capture
+            task.reset()
+            actions = torch.empty(n, task.num_actions, device=task.device)
+            try:
+                elapsed, calls = timed(lambda: task.step(actions.uniform_(-1, 1)), device,
+                                       seconds)
+                rates.append(f"{n * calls / elapsed:,.0f}")
+            except RuntimeError as err:     # a capture CUDA refused: say which, go on
+                rates.append(f"failed: {str(err).splitlines()[0][:120]}")
+            del task
+            gc.collect()
+        if rates:
+            print(f"| {name} | {n} | " + " | ".join(rates) + " |", flush=True)
 
 
 def memory(device: str, n: int) -> None:

@@ -175,7 +175,7 @@ def test_curriculum_pushes_and_friction_in_the_task(device):
     speed = task.commands[:, :2].norm(dim=-1)
     assert ((speed == 0) | (speed > 0.25)).all()
     # a push every 15 s sets every base's horizontal velocity
-    task.steps_taken = task.push_every - 1
+    task.steps_taken.fill_(task.push_every - 1)
     before = task.envs.root_states[:, 0, 7:9].clone()
     task.step(torch.zeros(4, 12, device=task.device))
     after = task.envs.root_states[:, 0, 7:9]
@@ -194,17 +194,17 @@ def test_the_penalty_curriculum_scales_the_costs_only():
     """k = start^(decay^(steps / 24)) multiplies the terms with a negative scale; the tracking
     and air-time terms keep theirs; start 1 (the task's config, the original) leaves all alone."""
     plain = make("cpu", num_envs=2)
-    assert plain.penalty_factor() == 1.0 and "penalty_factor" not in plain.metrics()
+    assert float(plain.penalty_factor()) == 1.0 and "penalty_factor" not in plain.metrics()
     assert plain.scaled_rewards() == plain.reward_scales
     task = make("cpu", num_envs=2, **{"env.penaltyCurriculum.start": 0.3})
-    assert task.penalty_factor() == pytest.approx(0.3)
-    task.steps_taken = 24 * 1000
+    assert float(task.penalty_factor()) == pytest.approx(0.3)
+    task.steps_taken.fill_(24 * 1000)
     k = 0.3 ** (0.997 ** 1000)
-    assert task.penalty_factor() == pytest.approx(k) and 0.94 < k < 0.95
+    assert float(task.penalty_factor()) == pytest.approx(k) and 0.94 < k < 0.95
     assert task.metrics()["penalty_factor"] == pytest.approx(k)
     scaled = task.scaled_rewards()
-    assert scaled["linearVelocityZRewardScale"] == pytest.approx(-4.0 * DT * k)
-    assert scaled["torqueRewardScale"] == pytest.approx(-2e-5 * DT * k)
+    assert float(scaled["linearVelocityZRewardScale"]) == pytest.approx(-4.0 * DT * k)
+    assert float(scaled["torqueRewardScale"]) == pytest.approx(-2e-5 * DT * k)
     assert scaled["linearVelocityXYRewardScale"] == pytest.approx(1.0 * DT)
     assert scaled["feetAirTimeRewardScale"] == pytest.approx(1.0 * DT)
     with pytest.raises(ValueError, match="penaltyCurriculum.start=0"):

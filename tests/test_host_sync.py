@@ -16,6 +16,7 @@ from contextlib import contextmanager
 
 import pytest
 import torch
+import warp as wp
 from torch.utils._python_dispatch import TorchDispatchMode
 
 import myriad
@@ -158,19 +159,22 @@ TASKS = {   # few envs, short episodes: resets, time-outs and re-samples in a fe
                   dict(episodeLength=4, targetInterval=2)),
     "Anymal": (randomization("anymal", "anymal/base"), dict(episodeLength_s=0.06)),
     "HumanoidAMP": (randomization("humanoid", "humanoid/pelvis"), dict(episodeLength=3)),
-    "AnymalTerrain": (randomization("anymal", "anymal/base"),
-                      dict(episodeLength_s=0.06, pushInterval_s=0.04)),
+    "AnymalTerrain": (randomization("anymal", "anymal/base"),     # pushes, cost curriculum
+                      dict(episodeLength_s=0.06, pushInterval_s=0.04,
+                           penaltyCurriculum={"start": 0.3, "decay": 0.99})),
     "ShadowHand": (randomization("hand", "object/object"), dict(episodeLength=3)),
     "ShadowHandOpenAI_FF": (None, dict(episodeLength=3)),     # its own randomization
     "AllegroHand": (randomization("hand", "object/object"), dict(episodeLength=3)),
     "FrankaCubeStack": (randomization("cubeA", "cubeA/cubeA", dofs=False),
                         dict(episodeLength=3)),
-    "Trifinger": (None, dict(episodeLength=3)),               # its own randomization
+    "Trifinger": (None, dict(episodeLength=3, reachStepsThreshold=16)),  # its own randomization;
+    # the reach term ends after the 4th step
 }
 
 
-@pytest.mark.parametrize("name", list(TASKS))
-def test_task_step_never_reads_the_device(name):
+def build(name: str, frequency: int = 1):
+    """`name` with 4 envs, its `TASKS` settings (randomization re-sampled at resets once
+    `frequency` steps passed), stepping as a GPU steps it; reset."""
     if name in ("Anymal", "AnymalTerrain"):
         pytest.importorskip("cmeel", reason="ANYmal needs example-robot-data")
     if name == "HumanoidAMP":
@@ -179,10 +183,16 @@ def test_task_step_never_reads_the_device(name):
     dr, overrides = TASKS[name]
     cfg = apply_overrides(task_config(name), {"numEnvs": 4, **overrides}, name)
     if dr is not None:
-        cfg["randomization"] = dr
+        cfg["randomization"] = {**dr, "frequency": frequency}
     task = TASK_CLASSES[name](cfg, device="cpu")
     task.skip_idle_resets = False           # the step as a GPU runs it
     task.reset()
+    return task
+
+
+@pytest.mark.parametrize("name", list(TASKS))
+def test_task_step_never_reads_the_device(name):
+    task = build(name)
     actions = torch.rand(4, task.num_actions) * 2 - 1
     actions[1, 0] = float("nan")                          # a non-finite action ...
     task.envs.sim.qd[2, 0] = float("nan")                 # ... and a blown-up state
@@ -198,10 +208,89 @@ def test_task_step_never_reads_the_device(name):
     assert int(task.nonfinite_action_count.sum()) == 1
     assert task.envs.sim.nonfinite.tolist() == [0, 0, 0, 0], "flags cleared by the reset"
     # on a CPU the step asks once whether any env finished (free there), and nothing else
+    # (AnymalTerrain also whether a push is due)
     task.skip_idle_resets = True
     with recording_syncs() as syncs:
         task.step(actions)
-    assert syncs == ["aten._local_scalar_dense.default"]
+    assert syncs == ["aten._local_scalar_dense.default"] * (2 if name == "AnymalTerrain" else 1)
+
+
+class TraceRecorder(TorchDispatchMode):
+    """Each op dispatched, with its arguments other than tensors (sizes, dims, Python numbers):
+    what a CUDA graph captured from one call of the step would replay at every later call."""
+
+    def __init__(self):
+        super().__init__()
+        self.trace = []
+
+    def __torch_dispatch__(self, func, types, args=(), kwargs=None):
+        kwargs = kwargs or {}
+        self.trace.append((str(func), _constants(args), _constants(tuple(kwargs.items()))))
+        return func(*args, **kwargs)
+
+
+def _constants(value):
+    """`value` with every tensor and array replaced by its kind (its contents may change from
+    step to step; a graph reads them where they are)."""
+    if isinstance(value, (tuple, list)):
+        return tuple(_constants(v) for v in value)
+    if isinstance(value, torch.Tensor):
+        return ("tensor", value.dtype, tuple(value.shape))
+    if isinstance(value, wp.array):
+        return ("array", value.dtype, value.shape)
+    if isinstance(value, (bool, int, float, str, type(None), torch.dtype, torch.device,
+                          torch.layout, torch.memory_format)):
+        return value
+    return type(value).__name__        # a Warp struct, a generator: its fields are arrays
+
+
+@contextmanager
+def recording_trace():
+    """The step's ops (`TraceRecorder`) and its Warp launches (kernel, dims, arguments other
+    than arrays), in order; yields the list."""
+    recorder = TraceRecorder()
+    launch = wp.launch
+
+    def recorded_launch(kernel, dim=None, inputs=(), *args, **kwargs):
+        recorder.trace.append(("launch", kernel.key, _constants(dim), _constants(inputs),
+                               kwargs.get("block_dim")))
+        return launch(kernel, dim, inputs, *args, **kwargs)
+
+    wp.launch = recorded_launch
+    try:
+        with recorder:
+            yield recorder.trace
+    finally:
+        wp.launch = launch
+
+
+@pytest.mark.parametrize("name", list(TASKS))
+def test_task_step_does_the_same_work_at_every_step(name):
+    """Captured once as a CUDA graph, the task's step (actions, physics, observations, rewards,
+    resets, randomization and its schedules, pushes, curricula) is replayed at every later step:
+    so every step, the ones that reset envs, re-sample parameters or push robots included,
+    must dispatch the same ops and launches with the same constants, its decisions taken on
+    the device (`torch.where` over envs, not Python `if`s on counters)."""
+    task = build(name, frequency=3)         # re-sampled at some steps' resets only
+    task.step(torch.rand(4, task.num_actions) * 2 - 1)     # the warm-up a capture runs first
+    traces, resets = [], []
+    for _ in range(8):
+        actions = torch.rand(4, task.num_actions) * 2 - 1
+        with recording_trace() as trace:
+            _, _, reset, _ = task.step(actions)
+        traces.append(trace)
+        resets.append(bool(reset.any()))
+    assert any(resets) and not all(resets), "the steps must include resets and steps without"
+    for k, trace in enumerate(traces[1:], 1):
+        if trace != traces[0]:
+            first = next(i for i, (a, b) in enumerate(zip(trace, traces[0])) if a != b) \
+                if any(a != b for a, b in zip(trace, traces[0])) else min(len(trace),
+                                                                         len(traces[0]))
+            raise AssertionError(
+                f"{name}: step {k + 1} does other work than step 1 ({len(trace)} against "
+                f"{len(traces[0])} ops and launches), first at #{first}: "
+                f"{trace[first] if first < len(trace) else 'ends'} against "
+                f"{traces[0][first] if first < len(traces[0]) else 'ends'}")
 
 
 def test_masked_writes_change_only_their_envs_and_read_nothing_back():

@@ -122,7 +122,7 @@ def test_reward_terms_against_hand_computed_values():
 
     def reward(tips_now, cube_now, goal_pos, goal_rot, reach=True, form="keypoints"):
         return compute_trifinger_reward(tips_now, tips, cube_now, rot, cube, goal_pos, goal_rot,
-                                        dt, reach, CUBE, form, **WEIGHTS)
+                                        dt, torch.tensor(reach), CUBE, form, **WEIGHTS)
 
     # at the goal, nothing moving: the keypoint term alone, 2000·0.02·K(0) = 10
     torch.testing.assert_close(reward(tips, cube, cube, rot), torch.tensor([10.0]))

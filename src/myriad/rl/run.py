@@ -408,6 +408,8 @@ def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
     max_time = math.inf if cfg.max_time_s is None else float(cfg.max_time_s)
     if not max_time > 0:
         raise ValueError(f"max_time_s={cfg.max_time_s}: must be > 0")
+    if not isinstance(cfg.capture_step, bool):
+        raise ValueError(f"capture_step={cfg.capture_step!r}: must be true or false")
     if distributed is not None:
         start_process_group(distributed)
     try:
@@ -438,6 +440,7 @@ def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
         t0 = time.monotonic()
         print(f"building {name}: {task_cfg['env']['numEnvs']} envs on {device}", flush=True)
         task = TASKS[name](task_cfg, device=device)
+        task.capture_step = cfg.capture_step
         print(f"built in {time.monotonic() - t0:.1f} s", flush=True)
         minibatch = train_cfg["params"]["config"]["minibatch_size"]
         run = {"train_dir": cfg.train_dir, "experiment": experiment, "max_time_s": max_time,

@@ -121,7 +121,9 @@ class AnymalTerrain(VecTask):
         self.forward_axis = torch.tensor([1.0, 0.0, 0.0], device=dev).expand(N, 3)
         self.noise_scale = self._noise_scale()
         self.push_every = max(1, round(env["pushInterval_s"] / self.dt))
-        self.steps_taken = 0          # the one push counter, on the host: no device read
+        # control steps since the task was built: the push clock and the cost curriculum's, on
+        # the device (a step captured once as a CUDA graph reads it where it is at each replay)
+        self.steps_taken = torch.zeros((), dtype=torch.int64, device=dev)
         self.move_levels = False      # the curriculum moves robots whose episodes end in step
         self.reset()
 
@@ -163,15 +165,19 @@ class AnymalTerrain(VecTask):
     def metrics(self) -> dict[str, float]:
         metrics = {"terrain_level": float(self.levels.float().mean())}
         if self.penalty_start < 1.0:
-            metrics["penalty_factor"] = self.penalty_factor()
+            metrics["penalty_factor"] = float(self.penalty_factor())
         return metrics
 
-    def penalty_factor(self) -> float:
-        """The curriculum's factor on the costs now: start^(decay^(control steps / 24))."""
-        return self.penalty_start ** (self.penalty_decay ** (self.steps_taken / 24))
+    def penalty_factor(self) -> torch.Tensor:
+        """The curriculum's factor on the costs now: start^(decay^(control steps / 24)), a
+        float64 scalar on the device."""
+        return self.penalty_start ** (self.penalty_decay ** (self.steps_taken.double() / 24))
 
-    def scaled_rewards(self) -> dict[str, float]:
-        """The reward scales (× dt) with the costs × the curriculum's factor."""
+    def scaled_rewards(self) -> dict:
+        """The reward scales (× dt), the costs × the curriculum's factor (scalars on the device;
+        the other terms' Python numbers)."""
+        if self.penalty_start == 1.0:       # no curriculum: the factor is 1 for ever
+            return self.reward_scales
         k = self.penalty_factor()
         return {name: scale * k if scale < 0 else scale
                 for name, scale in self.reward_scales.items()}
@@ -190,8 +196,9 @@ class AnymalTerrain(VecTask):
     def post_physics_step(self):
         e = self.envs
         self.steps_taken += 1
-        if self.steps_taken % self.push_every == 0:
-            self.push_robots()
+        due = self.steps_taken % self.push_every == 0
+        if self.runs(due):
+            self.push_robots(due)
         base = e.root_states[:, 0]
         forward = quat_rotate(base[:, 3:7], self.forward_axis)
         heading = torch.atan2(forward[:, 1], forward[:, 0])
@@ -210,12 +217,13 @@ class AnymalTerrain(VecTask):
         self.last_dof_vel[:] = e.dof_vel
         self.compute_observations()
 
-    def push_robots(self):
+    def push_robots(self, due: torch.Tensor):
+        """Every base's v_xy set to U(−pushVelocity, pushVelocity) where `due` (a bool scalar
+        on the device) says it is time; the velocities are drawn at every step either way."""
         states = self.envs.root_states.clone()
         states[:, 0, 7:9] = torch.empty(self.num_envs, 2, device=self.device).uniform_(
             -self.cfg["env"]["pushVelocity"], self.cfg["env"]["pushVelocity"])
-        self.envs.set_root_states(states, torch.ones(self.num_envs, dtype=torch.bool,
-                                                     device=self.device))
+        self.envs.set_root_states(states, due.expand(self.num_envs))
 
     def compute_observations(self):
         e, learn = self.envs, self.learn

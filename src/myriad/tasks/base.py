@@ -134,8 +134,18 @@ class VecTask:
         self.obs_dict: dict = {}
         # A masked reset in a step where no env finished changes nothing but still runs
         # forward() and the observations for every env. On a CPU, learning that no env finished
-        # waits for nothing, so such steps skip it; on a GPU the step never asks.
+        # waits for nothing, so such steps skip it (and a task's pushes that are not due: `runs`);
+        # on a GPU the step never asks.
         self.skip_idle_resets = self.device.type == "cpu"
+        # On CUDA, True runs `step` as one CUDA graph: actions, physics, observations, rewards,
+        # resets and the task's schedules, captured at the second call (the first runs as
+        # usual: the warm-up a capture needs) and replayed after. The returned tensors are then
+        # the same ones at every step, overwritten by the next (as Isaac Gym's buffers are).
+        # Possible because a step reads nothing back and does the same work every time
+        # (tests/test_host_sync.py), and because tasks write the buffers a step reads in place
+        # (a tensor attribute replaced after the capture would not be seen). A CPU ignores it.
+        self.capture_step = False
+        self._step_graph, self._step_actions, self._step_outputs = None, None, None
         # With same-step resets the returned observation of a finished env is already the first
         # of its next episode; a consumer that bootstraps from the last one (gymnasium's
         # info["final_obs"], `myriad.make_vec`) sets this to get it in extras["final_obs"]
@@ -179,6 +189,33 @@ class VecTask:
         if actions.shape != (self.num_envs, self.num_actions):
             raise ValueError(f"step: actions must have shape {(self.num_envs, self.num_actions)}, "
                              f"not {tuple(actions.shape)}")
+        if self.capture_step and self.device.type == "cuda":
+            return self._replay_step(actions)
+        return self._step(actions)
+
+    def _replay_step(self, actions: torch.Tensor):
+        """`step` as one CUDA graph (`capture_step`): its input copied into the graph's own
+        actions tensor, the graph replayed; the first call runs the step as usual, the second
+        captures it (which runs nothing) and replays it once."""
+        if self._step_actions is None:
+            self._step_actions = torch.zeros(self.num_envs, self.num_actions,
+                                             device=self.device)
+            return self._step(actions)
+        self._step_actions.copy_(actions)
+        if self._step_graph is None:
+            graph = torch.cuda.CUDAGraph()
+            with torch.cuda.graph(graph):
+                obs, rewards, resets, extras = self._step(self._step_actions)
+            # the graph's own output tensors (an eager reset() puts others into obs_dict)
+            self._step_outputs = dict(obs), rewards, resets, dict(extras)
+            self._step_graph = graph
+        self._step_graph.replay()
+        obs, rewards, resets, extras = self._step_outputs
+        self.obs_dict.update(obs)
+        self.extras.update(extras)
+        return self.obs_dict, rewards, resets, self.extras
+
+    def _step(self, actions: torch.Tensor):
         actions = actions.to(self.device, torch.float32)
         # an env given a NaN or infinite action is counted, steps with a zero action (clipping
         # would silently turn inf into a full-scale command), gets reward 0 and is reset
@@ -209,13 +246,20 @@ class VecTask:
         done = self.reset_buf.bool()
         if self.keep_final_obs:     # every env's observation before the reset replaces some
             self.extras["final_obs"] = dict(self._obs())
-        if not self.skip_idle_resets or bool(done.any()):
+        if self.runs(done):
             if dr is not None:
                 dr.on_reset(done)       # new physical parameters before the new episode starts
             self.reset_idx(done)
             self.envs.sim.nonfinite.masked_fill_(done, 0)
             self.compute_observations()
         return self._obs(), self.rew_buf, self.reset_buf, self.extras
+
+    def runs(self, due: torch.Tensor) -> bool:
+        """Whether masked work of the step (resets, a task's pushes) must run, `due` a bool
+        tensor of the envs it concerns or one flag: always on a GPU, where it runs masked and
+        nothing is asked; on a CPU, where asking waits for nothing, only when something is due
+        (`skip_idle_resets`)."""
+        return not self.skip_idle_resets or bool(due.any())
 
     def timed_out(self) -> torch.Tensor:
         """[N] bool: the envs whose episode reaches `episodeLength` steps in this step (read after
@@ -252,6 +296,8 @@ class VecTask:
             owner = operator.attrgetter(owner_name)(self) if owner_name else self
             current = getattr(owner, attr)
             if torch.is_tensor(current):
+                # a counter kept on the host by checkpoints of earlier versions
+                value = torch.as_tensor(value) if isinstance(value, (int, float)) else value
                 if tuple(value.shape) != tuple(current.shape):
                     raise ValueError(f"{type(self).__name__}: the checkpoint's {name} has shape "
                                      f"{tuple(value.shape)}, this task's {tuple(current.shape)} "

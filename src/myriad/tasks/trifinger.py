@@ -128,7 +128,9 @@ class Trifinger(VecTask):
         self.goal_rot = torch.zeros(N, 4, device=dev)
         self.prev_tips = torch.zeros(N, 3, 3, device=dev)
         self.prev_cube = torch.zeros(N, 3, device=dev)
-        self.steps_taken = 0                  # env steps since the task was built (reach term)
+        # env steps since the task was built (the reach term's schedule), on the device: a step
+        # captured once as a CUDA graph reads it where it is at every replay
+        self.steps_taken = torch.zeros((), dtype=torch.int64, device=dev)
         self.shares = EpisodeShares(("success_rate",), N, dev)
         self.initial_root_states = e.root_states.clone()
         self.reset()
@@ -307,10 +309,11 @@ def compute_trifinger_reward(tips, prev_tips, cube_pos, cube_rot, prev_cube_pos,
     step ago, its orientation, and the goal pose."""
     speed = (tips - prev_tips) / dt
     reward = fingerMovePenalty * speed.pow(2).sum(dim=(1, 2))
-    if reach_active:
-        now = torch.norm(tips - cube_pos[:, None], dim=-1)
-        before = torch.norm(prev_tips - prev_cube_pos[:, None], dim=-1)
-        reward = reward + fingerReachObjectRate * (now - before).sum(dim=-1)
+    # reach_active: a bool tensor (the schedule is decided on the device)
+    now = torch.norm(tips - cube_pos[:, None], dim=-1)
+    before = torch.norm(prev_tips - prev_cube_pos[:, None], dim=-1)
+    reward = reward + torch.where(reach_active, fingerReachObjectRate * (now - before).sum(dim=-1),
+                                  0.0)
     if pose_form == "keypoints":
         gap = torch.norm(cube_corners(cube_pos, cube_rot, cube_size)
                          - cube_corners(goal_pos, goal_rot, cube_size), dim=-1)

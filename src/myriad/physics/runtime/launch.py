@@ -171,7 +171,9 @@ class Runtime:
 
     def run_step(self, fn) -> None:
         """fn's launches as the step: on CUDA captured as a graph the first time (every kernel
-        module loaded before the capture) and replayed after; on a CPU, `run`."""
+        module loaded before the capture) and replayed after, or, when torch is capturing a
+        graph of its own (a task's whole step, `VecTask.capture_step`), launched into that
+        capture; on a CPU, `run`."""
         if not self.device.is_cuda:
             return self._run_sharded(fn)
 
@@ -182,12 +184,22 @@ class Runtime:
                     fn()
                 self._graph = capture.graph
             wp.capture_launch(self._graph, stream=self._stream)
+        if torch.cuda.is_current_stream_capturing():
+            wp.load_module("myriad.physics", device=self.device, recursive=True)
+            replay = fn
         self._run_on_device(replay)
 
     def _run_on_device(self, fn) -> None:
-        """Run `fn`'s launches on Warp's stream, ordered after and before torch's work."""
+        """Run `fn`'s launches on Warp's stream, ordered after and before torch's work; inside
+        a capture of torch's, on torch's capturing stream itself (the launches become nodes
+        of its graph)."""
         torch_stream = wp.stream_from_torch(torch.cuda.current_stream(
             wp.device_to_torch(self.device)))
+        if torch.cuda.is_current_stream_capturing():
+            # no wait on Warp's own stream: a capture may depend on captured work only
+            with wp.ScopedStream(torch_stream, sync_enter=False):
+                fn()
+            return
         self._stream.wait_stream(torch_stream)
         with wp.ScopedStream(self._stream):
             fn()
