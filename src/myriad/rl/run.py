@@ -412,6 +412,7 @@ def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
         raise ValueError(f"capture_step={cfg.capture_step!r}: must be true or false")
     if distributed is not None:
         start_process_group(distributed)
+    task = None
     try:
         if distributed is not None:
             def choose():
@@ -442,6 +443,9 @@ def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
         task = TASKS[name](task_cfg, device=device)
         task.capture_step = cfg.capture_step
         print(f"built in {time.monotonic() - t0:.1f} s", flush=True)
+        # the page only watches: it never pauses or resets training; rank 0 serves it
+        task.viewer = open_viewer(cfg, task, controls=False) \
+            if distributed is None or distributed["rank"] == 0 else None
         minibatch = train_cfg["params"]["config"]["minibatch_size"]
         run = {"train_dir": cfg.train_dir, "experiment": experiment, "max_time_s": max_time,
                "describe": {"task": name, "device": device,
@@ -464,6 +468,8 @@ def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
                   f"{summary['checkpoint']} or resume=auto", flush=True)
             return 128 + stop.signum
     finally:
+        if task is not None and task.viewer is not None:
+            task.viewer.close()
         if distributed is not None:
             import torch.distributed as dist
 
@@ -496,8 +502,27 @@ def latest_checkpoint(train_dir: str, task: str) -> str:
     return os.path.join(folder, "nn", "last.pth")
 
 
+def open_viewer(cfg, task, controls: bool):
+    """The live page of `viewer=web` for `task`'s envs (None without `viewer`)."""
+    if cfg.viewer is None:
+        return None
+    if cfg.viewer != "web":
+        raise ValueError(f"viewer={cfg.viewer}: the one viewer is `web` (a page in the browser)")
+    from ..viewer import require_viser, serve
+
+    try:
+        require_viser()
+    except ImportError as err:
+        raise ValueError(str(err)) from None
+    return serve(task.envs, port=int(cfg.viewer_port), host=str(cfg.viewer_host),
+                 shown=int(cfg.viewer_envs), controls=controls,
+                 markers=getattr(task, "video_markers", None))
+
+
 def play(overrides: list[str]) -> int:
-    """Run a trained policy in one env and write a video of it."""
+    """Run a trained policy in one env and write a video of it; with `viewer=web`, in a few envs
+    drawn live on a page (pause, single step, reset, speed), until Ctrl-C unless `num_steps` is
+    given, and with a video only if `video` is."""
     import torch
 
     from ..tasks import TASKS
@@ -510,28 +535,55 @@ def play(overrides: list[str]) -> int:
     checkpoint = cfg.checkpoint or latest_checkpoint(cfg.train_dir, name)
     if not os.path.isfile(checkpoint):
         raise FileNotFoundError(f"checkpoint={checkpoint}: no such file")
-    task_cfg["env"]["numEnvs"] = int(cfg.num_envs or 1)
+    given = {o.split("=", 1)[0].lstrip("+~") for o in overrides if "=" in o}
+    watching = cfg.viewer is not None
+    task_cfg["env"]["numEnvs"] = int(cfg.num_envs or (cfg.viewer_envs if watching else 1))
     task = TASKS[name](task_cfg, device=device)
     policy = load_policy(checkpoint, train_cfg, task)
     video = cfg.video or os.path.join(os.path.dirname(os.path.dirname(checkpoint)), f"{name}.mp4")
+    steps = None if watching and "num_steps" not in given else int(cfg.num_steps)
     fps = round(1.0 / task.dt)
+    viewer = open_viewer(cfg, task, controls=True)
     obs = task.reset()["obs"]
     episode_reward, finished = torch.zeros(task.num_envs, device=task.device), []
-    with VideoWriter(video, task.envs, fps=fps, size=tuple(cfg.video_size), task=task) as writer:
-        writer.add_frame()
-        done = None
-        for step in range(int(cfg.num_steps)):
-            with torch.no_grad():
-                obs, reward, done, _ = task.step(policy(obs, done))
-            obs = obs["obs"]
-            episode_reward += reward
-            if bool(done[0]):
-                finished.append(float(episode_reward[0]))
-            episode_reward[done.bool()] = 0.0
-            writer.add_frame()
-            if (step + 1) % 200 == 0:
-                print(f"  {step + 1}/{cfg.num_steps} steps", flush=True)
+    writer = VideoWriter(video, task.envs, fps=fps, size=tuple(cfg.video_size), task=task) \
+        if not watching or "video" in given else None
+    step = 0
+    try:
+        with writer if writer is not None else contextlib.nullcontext():
+            if writer is not None:
+                writer.add_frame()
+            done = None
+            while steps is None or step < steps:
+                if viewer is not None:
+                    if viewer.take_reset():
+                        shown = torch.zeros(task.num_envs, dtype=torch.bool, device=task.device)
+                        shown[viewer.first:viewer.first + viewer.count] = True
+                        obs, done = task.reset(shown)["obs"], None
+                        episode_reward[shown] = 0.0
+                    if viewer.paused and not viewer.take_step():
+                        time.sleep(0.02)
+                        continue
+                started = time.monotonic()
+                with torch.no_grad():
+                    obs, reward, done, _ = task.step(policy(obs, done))
+                obs = obs["obs"]
+                episode_reward += reward
+                if bool(done[0]):
+                    finished.append(float(episode_reward[0]))
+                episode_reward[done.bool()] = 0.0
+                if writer is not None:
+                    writer.add_frame()
+                step += 1
+                if steps is not None and step % 200 == 0:
+                    print(f"  {step}/{steps} steps", flush=True)
+                if viewer is not None:         # real time, or slower
+                    time.sleep(max(0.0, task.dt / viewer.speed - (time.monotonic() - started)))
+    finally:
+        if viewer is not None:
+            viewer.close()
     shown = f"episode rewards {[round(r, 1) for r in finished]}" if finished else \
         f"reward so far {float(episode_reward[0]):.1f} (episode not finished)"
-    print(f"wrote {video} ({cfg.num_steps} steps at {fps} fps); env 0: {shown}")
+    wrote = f"wrote {video} " if writer is not None else ""
+    print(f"{wrote}({step} steps at {fps} fps); env 0: {shown}")
     return 0

@@ -590,6 +590,14 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         shown = "".join(f"  {k} {v:.2f}" for k, v in self.metrics.items())
         print(f"epoch {self.epoch_num:5d}/{self.max_epochs}  {env_steps:>11,d} steps  "
               f"{rate:9,.0f} steps/s  {wall:7.0f} s{reward}{shown}{flags}", flush=True)
+        viewer = self.vec_env.env.viewer
+        if viewer is not None:
+            viewer.show_progress(
+                f"**training** epoch {self.epoch_num}/{self.max_epochs} · {env_steps:,} "
+                f"env-steps · {rate:,.0f} env-steps/s · {wall:.0f} s"
+                + ("" if mean is None else f" · reward {mean:.1f} (best "
+                   f"{self.best_mean_reward:.1f})")
+                + "".join(f" · {k} {v:.2f}" for k, v in self.metrics.items()))
         self.writer.add_scalar("myriad/env_steps_per_s", rate, env_steps)
         self.writer.add_scalar("myriad/nonfinite_actions", bad_now, env_steps)
         for k, v in self.metrics.items():

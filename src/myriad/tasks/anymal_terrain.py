@@ -127,11 +127,11 @@ class AnymalTerrain(VecTask):
         self.move_levels = False      # the curriculum moves robots whose episodes end in step
         self.reset()
 
-    def reset(self) -> dict:
+    def reset(self, env_ids=None) -> dict:
         """Every env to a fresh episode on the level it holds: the curriculum moves a robot only
         when its episode ends in a step, not at the trainer's first reset or a resumed run's."""
         self.move_levels = False
-        obs = super().reset()
+        obs = super().reset(env_ids)
         self.move_levels = self.curriculum
         return obs
 

@@ -35,6 +35,7 @@ import numpy as np
 import torch
 
 from ..physics import SimParams
+from ..torch_utils import env_mask
 
 
 def sim_params(sim_cfg: dict) -> SimParams:
@@ -145,6 +146,8 @@ class VecTask:
         # (tests/test_host_sync.py), and because tasks write the buffers a step reads in place
         # (a tensor attribute replaced after the capture would not be seen). A CPU ignores it.
         self.capture_step = False
+        # the live page drawing this task's envs during training (`myriad.viewer`), if any
+        self.viewer = None
         self._step_graph, self._step_actions, self._step_outputs = None, None, None
         # With same-step resets the returned observation of a finished env is already the first
         # of its next episode; a consumer that bootstraps from the last one (gymnasium's
@@ -306,9 +309,11 @@ class VecTask:
             else:
                 setattr(owner, attr, value)
 
-    def reset(self) -> dict:
-        """Reset every env; returns the observation dict."""
-        self.reset_idx(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
+    def reset(self, env_ids=None) -> dict:
+        """Reset every env, or those `env_ids` names (a bool mask [N] or indices); returns the
+        observation dict."""
+        self.reset_idx(torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
+                       if env_ids is None else env_mask(env_ids, self.num_envs))
         self.compute_observations()
         return self._obs()
 

@@ -191,11 +191,11 @@ class InHandTask(VecTask):
     video_camera = {"lookat": (-0.1, -0.38, 0.58), "distance": 0.5, "elevation": -25.0,
                     "azimuth": 90.0}
 
-    def video_markers(self) -> list[dict]:
-        """Env 0's goal orientation, as a cube beside the hand (not simulated)."""
-        pos = self.goal_pos[0].cpu() + torch.tensor(self.goal_display_offset)
+    def video_markers(self, env: int = 0) -> list[dict]:
+        """An env's goal orientation, as a cube beside the hand (not simulated)."""
+        pos = self.goal_pos[env].cpu() + torch.tensor(self.goal_display_offset)
         return [{"type": "box", "size": [self.cube_size / 2] * 3, "pos": pos.tolist(),
-                 "quat": self.goal_rot[0].tolist(), "rgba": [0.2, 0.8, 0.3, 0.6]}]
+                 "quat": self.goal_rot[env].tolist(), "rgba": [0.2, 0.8, 0.3, 0.6]}]
 
     def metrics(self) -> dict[str, float]:
         """Scalars the trainer reports with each epoch."""

@@ -257,9 +257,10 @@ class Trifinger(VecTask):
     video_camera = {"lookat": (0.0, 0.0, 0.06), "distance": 0.75, "elevation": -40.0,
                     "azimuth": 60.0}
 
-    def video_markers(self) -> list[dict]:
+    def video_markers(self, env: int = 0) -> list[dict]:
+        """An env's goal pose, as a see-through cube (not simulated)."""
         return [{"type": "box", "size": [self.cube_size / 2] * 3,
-                 "pos": self.goal_pos[0].tolist(), "quat": self.goal_rot[0].tolist(),
+                 "pos": self.goal_pos[env].tolist(), "quat": self.goal_rot[env].tolist(),
                  "rgba": [0.2, 0.8, 0.3, 0.4]}]
 
 

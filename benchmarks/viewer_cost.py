@@ -1,0 +1,124 @@
+"""What the live page costs training: PPO epochs with no viewer, with the page served but no
+browser connected, and with a page connected, interleaved in rounds.
+
+    python benchmarks/viewer_cost.py [--task Ant] [--rounds 5] [--epochs 4]
+
+The task and the rl_games agent are built as `myriad train` builds them (the CPU profile on a
+CPU); each round runs `--epochs` whole epochs (rollout and update) per variant, the variants in
+turn, each first, second and third in turn, so that the machine's drift falls on all alike. The
+connected page is a websocket client speaking viser's protocol (what a browser tab does, without
+drawing: that happens on the viewer's machine, not the trainer's). Prints the median env-steps/s
+of each variant, its ratio to no viewer, and the middle half of that variant's rounds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+
+import msgspec
+import viser
+from websockets.sync.client import connect
+
+
+def open_page(url: str):
+    """A websocket client that counts as a page (it gives viser's protocol version, then a first
+    camera), drawing nothing; the tests use it too."""
+    ws = connect(url.replace("http", "ws"), max_size=None,
+                 subprotocols=[f"viser-v{viser.__version__}"])
+    ws.send(msgspec.msgpack.encode(dict(
+        type="ViewerCameraMessage", wxyz=[1.0, 0.0, 0.0, 0.0], position=[3.0, 3.0, 3.0],
+        fov=1.0, near=0.01, far=100.0, image_height=480, image_width=640,
+        look_at=[0.0, 0.0, 0.0], up_direction=[0.0, 0.0, 1.0])))
+    return ws
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--task", default="Ant")
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--epochs", type=int, default=4, help="epochs per variant per round")
+    parser.add_argument("--fps", type=float, default=None, help="the page's frame rate "
+                        "(default: the viewer's)")
+    args = parser.parse_args()
+
+    import threading
+
+    from myriad.physics.runtime import load_kernels
+    from myriad.rl.run import compose, task_and_train_configs
+    from myriad.rl.train import build_agent
+    from myriad.tasks import TASKS
+    from myriad.viewer import Viewer
+
+    overrides = [f"task={args.task}", "device=cpu"]
+    cfg = compose(overrides)
+    task_cfg, train_cfg, device = task_and_train_configs(cfg, overrides)
+    load_kernels(device)
+    task = TASKS[task_cfg["name"]](task_cfg, device=device)
+    run = {"train_dir": tempfile.mkdtemp(prefix="viewer_cost_"), "experiment": "cost",
+           "max_time_s": float("inf"), "describe": {}}
+    agent = build_agent(task, train_cfg, run, int(cfg.seed))
+    base = type(agent).__mro__[2]                # the rl_games epoch, no files written
+    agent.init_tensors()
+    agent.obs = agent.env_reset()
+
+    def epochs() -> float:
+        start = time.perf_counter()
+        for _ in range(args.epochs):
+            agent.epoch_num = agent.update_epoch()
+            base.train_epoch(agent)
+            agent.dataset.update_values_dict(None)
+        return task.num_envs * agent.horizon_length * args.epochs / (time.perf_counter() - start)
+
+    def drain(ws, stop):                         # a page reads what it is sent
+        while not stop.is_set():
+            try:
+                ws.recv(timeout=0.1)
+            except TimeoutError:
+                pass
+            except Exception:
+                return
+
+    pages = []                                   # (frames drawn, seconds) with a page
+
+    def variant(name: str) -> float:
+        if name == "no viewer":
+            return epochs()
+        with Viewer(task.envs, port=0, **({} if args.fps is None else {"fps": args.fps})) \
+                as viewer:
+            if name == "served, no page":
+                return epochs()
+            ws, stop = open_page(viewer.url), threading.Event()
+            reader = threading.Thread(target=drain, args=(ws, stop), daemon=True)
+            reader.start()
+            started = time.perf_counter()
+            rate = epochs()
+            pages.append((viewer.frames_drawn, time.perf_counter() - started))
+            stop.set()
+            ws.close()
+            reader.join()
+            return rate
+
+    epochs()                                     # warm-up
+    names = ["no viewer", "served, no page", "a page connected"]
+    rates = {name: [] for name in names}
+    for r in range(args.rounds):                 # each variant first, second, third in turn
+        for name in names[r % 3:] + names[:r % 3]:
+            rates[name].append(variant(name))
+    assert all(frames > 0 for frames, _ in pages), "the page was drawn"
+    frames_per_s = sum(f for f, _ in pages) / sum(s for _, s in pages)
+    ref = statistics.median(rates["no viewer"])
+    print(f"{task_cfg['name']}, {task.num_envs} envs, {args.rounds} rounds of {args.epochs} "
+          f"epochs per variant (env-steps/s, median); page at {frames_per_s:.0f} frames/s:")
+    print("| variant | env-steps/s | against no viewer | middle half of the rounds |")
+    print("|---|---|---|---|")
+    for name, values in rates.items():
+        median = statistics.median(values)
+        q1, _, q3 = statistics.quantiles(values, n=4)
+        print(f"| {name} | {median:,.0f} | {median / ref:.3f} | {q1:,.0f} - {q3:,.0f} |")
+
+
+if __name__ == "__main__":
+    main()

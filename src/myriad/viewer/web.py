@@ -1,0 +1,363 @@
+"""A page in the browser that draws envs live, built on viser (the library mjlab's viewer uses).
+
+    viewer = myriad.viewer.serve(envs)            # prints the URL; returns at once
+    ...                                            # step the envs as usual
+    viewer.close()
+
+The page shows a few envs side by side (their bodies drawn from the model's own geoms and
+colours; planes as a grid, height fields as their triangles), a field to choose which envs, a
+camera that can follow a body, and toggles for contact points with their forces and for joint
+frames. A background thread draws at the page's frame rate while a page is connected: it copies
+the shown envs' joint positions (and contacts, when shown) once per frame and places the bodies
+with MuJoCo's kinematics on the host. With no page connected it does nothing at all, and it
+never touches the step itself (no per-step host read comes back with it).
+
+The small interface other front ends drive (the Isaac Gym layer's viewer calls map onto it):
+`draw()`, `look_at(target, eye)`, `events()` (key and button events since the last call),
+`closed`, `close()`; for `myriad play`, `paused`, `take_step()`, `take_reset()`, `speed`; for
+training, `show_progress(text)`.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+
+import mujoco
+import numpy as np
+import torch
+
+from .shapes import shapes
+
+INSTALL = 'pip install "myriad[viewer]"   (or: pip install viser)'
+
+
+def require_viser():
+    """The viser module, or an ImportError naming the install command."""
+    try:
+        import viser
+    except ImportError as err:
+        raise ImportError(f"viewer=web needs viser, which is not installed: {INSTALL}") from err
+    return viser
+
+
+def robot_width(m: mujoco.MjModel) -> float:
+    """The horizontal size (m) of what the model holds besides the world body, at qpos0."""
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    moving = m.geom_bodyid > 0
+    if not moving.any():
+        return 1.0
+    radius = m.geom_rbound[moving][:, None]
+    lo = (d.geom_xpos[moving] - radius).min(axis=0)
+    hi = (d.geom_xpos[moving] + radius).max(axis=0)
+    return float(max(hi[:2] - lo[:2]))
+
+
+def mat_to_wxyz(mats: np.ndarray) -> np.ndarray:
+    """[n, 9] row-major rotation matrices to [n, 4] unit quaternions (w, x, y, z)."""
+    out = np.empty((len(mats), 4))
+    for i, mat in enumerate(mats):
+        mujoco.mju_mat2Quat(out[i], mat)
+    return out
+
+
+class Viewer:
+    """The page (module docstring). `envs`: a `myriad.api.Envs`; `shown`: how many envs are drawn
+    side by side (from `first`); `spacing`: metres between them (0: drawn where they are, for
+    tasks whose envs already stand apart, such as a shared terrain); `controls`: the play
+    controls (pause, step, reset, speed); `markers`: a function returning the task's markers
+    for an env (`VecTask.video_markers`-style dicts: type "box", size, pos, quat xyzw, rgba)."""
+
+    def __init__(self, envs, port: int = 8080, host: str = "127.0.0.1", shown: int = 4,
+                 first: int = 0, spacing: float | None = None, controls: bool = False,
+                 markers=None, fps: float = 20.0):
+        viser = require_viser()
+        n = envs.num_envs
+        if not 1 <= shown:
+            raise ValueError(f"viewer: shown={shown}: must be >= 1")
+        if not 0 <= first < n:
+            raise ValueError(f"viewer: first={first}: the envs are 0..{n - 1}")
+        if not fps > 0:
+            raise ValueError(f"viewer: fps={fps}: must be > 0")
+        self.envs, self.mj = envs, envs.model.mj_model
+        self.count = min(shown, n)
+        self.first = min(first, n - self.count)
+        if spacing is None:          # envs over one shared terrain already stand apart
+            spacing = 0.0 if self.mj.nhfield else robot_width(self.mj) + 0.5
+        self.spacing, self.fps, self.markers = float(spacing), float(fps), markers
+        self._data = [mujoco.MjData(self.mj) for _ in range(self.count)]
+        self._events: queue.SimpleQueue = queue.SimpleQueue()
+        self._lock = threading.Lock()
+        self._closed = threading.Event()
+        self._connected = threading.Event()
+        self.frames_drawn = 0            # frames the page was sent (a test reads it)
+        self.paused, self.speed = False, 1.0
+        self._step_asked, self._reset_asked = False, False
+
+        self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self.url = f"http://{host}:{self.server.get_port()}"
+        self.server.scene.set_up_direction("+z")
+        self.server.on_client_connect(self._on_connect)
+        self.server.on_client_disconnect(self._on_disconnect)
+        self._build_scene()
+        self._build_gui(controls)
+        self._thread = threading.Thread(target=self._pump, name="myriad-viewer", daemon=True)
+        self._thread.start()
+
+    # ------------------------------------------------------------------ the scene
+    def _build_scene(self) -> None:
+        """One batched mesh per moving geom (an instance per shown env: one message per geom
+        and frame), world geoms drawn once where they are, planes as a grid."""
+        scene, m = self.server.scene, self.mj
+        drawn, planes = shapes(m)
+        if planes:
+            scene.add_grid("/ground", width=200.0, height=200.0, cell_size=1.0,
+                           section_size=5.0, infinite_grid=True, plane_opacity=0.15,
+                           plane_color=(210, 210, 200))
+        d = mujoco.MjData(m)
+        mujoco.mj_kinematics(m, d)
+        identity = np.tile([1.0, 0.0, 0.0, 0.0], (self.count, 1))
+        self.geoms, self.meshes = [], []
+        for s in drawn:
+            opacity = None if s.opacity >= 1 else s.opacity
+            if s.body == 0:          # the world's geoms (terrain, walls): drawn once
+                scene.add_mesh_simple(f"/world/{s.name}", s.vertices, s.faces, color=s.rgb,
+                                      opacity=opacity, position=d.geom_xpos[s.geom],
+                                      wxyz=mat_to_wxyz(d.geom_xmat[s.geom][None])[0])
+                continue
+            self.geoms.append(s.geom)
+            self.meshes.append(scene.add_batched_meshes_simple(
+                f"/bodies/{s.name}", s.vertices, s.faces, batched_wxyzs=identity,
+                batched_positions=np.zeros((self.count, 3)), batched_colors=s.rgb,
+                opacity=opacity, lod="off"))
+        self.joint_axes = scene.add_batched_axes(
+            "/joint_frames", batched_wxyzs=np.tile(identity[:1], (self.count * (m.nbody - 1), 1)),
+            batched_positions=np.zeros((self.count * (m.nbody - 1), 3)), axes_length=0.1,
+            axes_radius=0.005, visible=False)
+        # body poses of the shown envs as last drawn: [shown, nbody, 7] (position, wxyz)
+        self.body_poses = np.zeros((self.count, m.nbody, 7))
+        self.contacts = [None] * self.count
+        self._marker_handles: dict[str, object] = {}
+
+    def _build_gui(self, controls: bool) -> None:
+        gui, n = self.server.gui, self.envs.num_envs
+        self.progress = gui.add_markdown("")
+        self.first_env = gui.add_number("first env shown", self.first, min=0,
+                                        max=max(0, n - self.count), step=1)
+        names = ["(none)"] + [mujoco.mj_id2name(self.mj, mujoco.mjtObj.mjOBJ_BODY, b)
+                              or f"body{b}" for b in range(1, self.mj.nbody)]
+        self.follow = gui.add_dropdown("camera follows", names, initial_value=names[min(1, len(names) - 1)])
+        self.show_contacts = gui.add_checkbox("contact points and forces", False)
+        self.show_joints = gui.add_checkbox("joint frames", False)
+        self.show_markers = gui.add_checkbox("markers", True)
+        self.first_env.on_update(lambda _: self._event("first env", int(self.first_env.value)))
+        self.show_joints.on_update(
+            lambda _: setattr(self.joint_axes, "visible", bool(self.show_joints.value)))
+        if controls:
+            self.pause = gui.add_checkbox("pause", False)
+            self.pause.on_update(lambda _: setattr(self, "paused", bool(self.pause.value)))
+            step = gui.add_button("single step")
+            step.on_click(lambda _: self._ask("step"))
+            reset = gui.add_button("reset shown envs")
+            reset.on_click(lambda _: self._ask("reset"))
+            self.slow = gui.add_slider("speed", min=0.05, max=1.0, step=0.05, initial_value=1.0)
+            self.slow.on_update(lambda _: setattr(self, "speed", float(self.slow.value)))
+
+    # ------------------------------------------------------------------ events
+    def _event(self, kind: str, value) -> None:
+        self._events.put((kind, value))
+
+    def _ask(self, what: str) -> None:
+        with self._lock:
+            if what == "step":
+                self._step_asked = True
+            else:
+                self._reset_asked = True
+        self._event("button", what)
+
+    def _on_connect(self, client) -> None:
+        self._connected.set()
+        self._event("connect", client.client_id)
+
+    def _on_disconnect(self, client) -> None:
+        if not self.server.get_clients():
+            self._connected.clear()
+        self._event("disconnect", client.client_id)
+
+    def events(self) -> list[tuple[str, object]]:
+        """The page's events since the last call: ("button", "step" | "reset"), ("first env",
+        k), ("connect" | "disconnect", client id)."""
+        out = []
+        while True:
+            try:
+                out.append(self._events.get_nowait())
+            except queue.Empty:
+                return out
+
+    def take_step(self) -> bool:
+        """Whether the page asked for a single step (paused play), once."""
+        with self._lock:
+            asked, self._step_asked = self._step_asked, False
+        return asked
+
+    def take_reset(self) -> bool:
+        """Whether the page asked to reset the shown envs, once."""
+        with self._lock:
+            asked, self._reset_asked = self._reset_asked, False
+        return asked
+
+    @property
+    def shown_envs(self) -> list[int]:
+        return list(range(self.first, self.first + self.count))
+
+    @property
+    def closed(self) -> bool:
+        return self._closed.is_set()
+
+    @property
+    def connected(self) -> bool:
+        return self._connected.is_set()
+
+    # ------------------------------------------------------------------ drawing
+    def show_progress(self, text: str) -> None:
+        """A line of progress on the page (training: epoch, env-steps/s, reward, metrics)."""
+        self.progress.content = text
+
+    def look_at(self, target, eye=None) -> None:
+        """Every connected page's camera toward `target` (world, m), from `eye` if given."""
+        for client in self.server.get_clients().values():
+            client.camera.look_at = np.asarray(target, dtype=np.float64)
+            if eye is not None:
+                client.camera.position = np.asarray(eye, dtype=np.float64)
+
+    def draw(self) -> None:
+        """Place the shown envs' bodies at their current state (one copy of their joint
+        positions to the host, MuJoCo's kinematics there)."""
+        first = int(self.first_env.value)
+        self.first = min(max(first, 0), self.envs.num_envs - self.count)
+        rows = slice(self.first, self.first + self.count)
+        qpos = self.envs.model.qpos_to_mujoco(
+            self.envs.sim.q[rows].detach().to("cpu", torch.float64).numpy())
+        show_contacts = bool(self.show_contacts.value)
+        if show_contacts:
+            sim = self.envs.sim
+            count = sim.contact_count[rows].detach().cpu().numpy()
+            pos = sim.contact_pos[rows].detach().cpu().numpy()
+            force = sim.contact_force[rows].detach().cpu().numpy()
+        m, g = self.mj, self.geoms
+        geom_pos = np.empty((self.count, len(g), 3))
+        geom_wxyz = np.empty((self.count, len(g), 4))
+        for k in range(self.count):
+            d = self._data[k]
+            d.qpos[:] = qpos[k]
+            mujoco.mj_kinematics(m, d)
+            offset = np.array([0.0, k * self.spacing, 0.0])
+            geom_pos[k] = d.geom_xpos[g] + offset
+            geom_wxyz[k] = mat_to_wxyz(d.geom_xmat[g])
+            self.body_poses[k, :, :3] = d.xpos + offset
+            self.body_poses[k, :, 3:] = d.xquat
+        with self.server.atomic():
+            for i, mesh in enumerate(self.meshes):
+                mesh.batched_positions = geom_pos[:, i]
+                mesh.batched_wxyzs = geom_wxyz[:, i]
+            if self.joint_axes.visible:
+                self.joint_axes.batched_positions = self.body_poses[:, 1:, :3].reshape(-1, 3)
+                self.joint_axes.batched_wxyzs = self.body_poses[:, 1:, 3:].reshape(-1, 4)
+            for k in range(self.count):
+                if show_contacts:
+                    self._draw_contacts(k, np.array([0.0, k * self.spacing, 0.0]), count[k],
+                                        pos[k], force[k])
+                elif self.contacts[k] is not None:
+                    self.contacts[k].visible = False
+            if self.markers is not None:
+                self._draw_markers()
+        self.frames_drawn += 1
+
+    def _draw_contacts(self, k, offset, count, pos, force) -> None:
+        """Contact points as short segments along their force (1 cm per 10 N, at least 2 cm)."""
+        used = min(int(count), len(force))
+        if used == 0:
+            if self.contacts[k] is not None:
+                self.contacts[k].visible = False
+            return
+        start = pos[:used] + offset
+        f = force[:used]
+        length = np.linalg.norm(f, axis=-1, keepdims=True)
+        direction = np.where(length > 1e-9, f / np.maximum(length, 1e-9), [0.0, 0.0, 1.0])
+        end = start + direction * np.maximum(length * 1e-3, 0.02)
+        points = np.stack([start, end], axis=1).astype(np.float32)
+        if self.contacts[k] is not None:
+            self.contacts[k].remove()
+        self.contacts[k] = self.server.scene.add_line_segments(
+            f"/contacts{k}", points, colors=(230, 40, 40), thickness=3.0,
+            thickness_units="screen")
+
+    def _draw_markers(self) -> None:
+        visible = bool(self.show_markers.value)
+        for k, env in enumerate(self.shown_envs):
+            for i, marker in enumerate(self.markers(env) if visible else []):
+                name = f"/markers{k}/{i}"
+                x, y, z, w = marker["quat"]
+                pos = np.asarray(marker["pos"], dtype=np.float64) + [0.0, k * self.spacing, 0.0]
+                handle = self._marker_handles.get(name)
+                if handle is None:
+                    rgba = marker["rgba"]
+                    handle = self._marker_handles[name] = self.server.scene.add_box(
+                        name, color=tuple(int(255 * c) for c in rgba[:3]),
+                        dimensions=tuple(2 * np.asarray(marker["size"], dtype=np.float64)),
+                        opacity=float(rgba[3]) if rgba[3] < 1 else None)
+                handle.position, handle.wxyz = pos, (w, x, y, z)
+                handle.visible = True
+        if not visible:
+            for handle in self._marker_handles.values():
+                handle.visible = False
+
+    def _follow(self) -> None:
+        name = self.follow.value
+        if name == "(none)":
+            return
+        b = mujoco.mj_name2id(self.mj, mujoco.mjtObj.mjOBJ_BODY, name)
+        if b >= 0:
+            self.look_at(self.body_poses[0, b, :3])
+
+    def _pump(self) -> None:
+        """Draw at `fps` while a page is connected; with none, wait (no work at all)."""
+        while not self._closed.is_set():
+            if not self._connected.wait(timeout=0.2):
+                continue
+            start = time.monotonic()
+            try:
+                self.draw()
+                self._follow()
+            except Exception as err:       # the sim went away or changed: say so on the page
+                if self._closed.is_set():
+                    return
+                self.show_progress(f"**the viewer stopped drawing:** {type(err).__name__}: {err}")
+                return
+            self._closed.wait(max(0.0, 1.0 / self.fps - (time.monotonic() - start)))
+
+    def close(self) -> None:
+        """Stop drawing and serving (the page says the connection is lost)."""
+        if self._closed.is_set():
+            return
+        self._closed.set()
+        self._thread.join(timeout=2.0)
+        self.server.stop()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def serve(envs, port: int = 8080, host: str = "127.0.0.1", **kwargs) -> Viewer:
+    """Serve a page drawing `envs` live (module docstring); prints the URL and returns the
+    `Viewer` at once. Keyword arguments as `Viewer`'s."""
+    viewer = Viewer(envs, port=port, host=host, **kwargs)
+    print(f"viewer: {viewer.url}  (from another machine: ssh -L {viewer.server.get_port()}:"
+          f"localhost:{viewer.server.get_port()} <this machine>, then open "
+          f"http://localhost:{viewer.server.get_port()})", flush=True)
+    return viewer

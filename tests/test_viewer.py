@@ -1,0 +1,140 @@
+"""The live page (`myriad.viewer`): served on a port, drawing the shown envs where the simulation
+has them, with their contacts; doing nothing while no page is connected; and `viewer=web` for
+`myriad play`. A page is stood in for by a websocket client speaking viser's protocol (its
+first camera message is what makes a page count as connected)."""
+
+import sys
+import time
+import urllib.request
+
+import pytest
+import torch
+
+import myriad
+from myriad import cli
+from myriad.api import Scene
+
+viser = pytest.importorskip("viser", reason="the viewer needs the viewer extra (viser)")
+from myriad.viewer import Viewer  # noqa: E402
+from viewer_cost import open_page  # noqa: E402  (benchmarks/: a page that draws nothing)
+
+
+def ant_envs(n=5):
+    envs = Scene().add_ground().add_actor("ant", myriad.asset_path("ant.xml"),
+                                          pos=(0, 0, 0.62)).build(n)
+    torch.manual_seed(0)
+    for _ in range(15):
+        envs.set_dof_efforts(torch.rand(n, 8) * 2 - 1)
+        envs.step()
+    return envs
+
+
+def test_the_page_is_served_and_shows_each_env_where_the_simulation_has_it():
+    envs = ant_envs()
+    with Viewer(envs, port=0, shown=3, first=1) as viewer:
+        page = urllib.request.urlopen(viewer.url, timeout=10).read().decode()
+        assert "<html" in page.lower()
+        assert viewer.shown_envs == [1, 2, 3] and viewer.spacing > 1.0
+        viewer.show_contacts.value = True
+        viewer.draw()
+        root = envs.actor_root_body[0] + 1          # MuJoCo counts the world body
+        for k, env in enumerate(viewer.shown_envs):
+            # the torso where Myriad's own kinematics put it (root_states), beside the others
+            expected = envs.root_states[env, 0, :3].double() + torch.tensor(
+                [0.0, k * viewer.spacing, 0.0], dtype=torch.float64)
+            drawn = torch.as_tensor(viewer.body_poses[k, root, :3])
+            torch.testing.assert_close(drawn, expected, atol=1e-5, rtol=0)
+            quat = envs.root_states[env, 0, 3:7].double()           # x, y, z, w
+            wxyz = torch.as_tensor(viewer.body_poses[k, root, 3:])
+            # the torso's sphere, drawn at the torso's origin, in env k's instance
+            torch.testing.assert_close(torch.as_tensor(viewer.meshes[0].batched_positions[k],
+                                                       dtype=torch.float64), expected,
+                                       atol=1e-5, rtol=0)
+            assert torch.allclose(wxyz, quat[[3, 0, 1, 2]], atol=1e-5) or \
+                torch.allclose(wxyz, -quat[[3, 0, 1, 2]], atol=1e-5)
+            # a segment per contact, from where the simulation found it
+            count = int(envs.sim.contact_count[env])
+            assert count > 0, "the ant stands on its feet"
+            segments = torch.as_tensor(viewer.contacts[k].points)
+            assert segments.shape == (count, 2, 3)
+            starts = envs.sim.contact_pos[env, :count].double() + torch.tensor(
+                [0.0, k * viewer.spacing, 0.0], dtype=torch.float64)
+            torch.testing.assert_close(segments[:, 0].double(), starts, atol=1e-5, rtol=0)
+        with pytest.raises(ValueError, match="first=9: the envs are 0..4"):
+            Viewer(envs, port=0, first=9)
+
+
+def test_without_a_page_nothing_is_drawn_and_a_page_starts_and_stops_the_drawing():
+    envs = ant_envs(2)
+    with Viewer(envs, port=0, fps=50) as viewer:
+        for _ in range(20):                    # the sim steps on; nobody is watching
+            envs.step()
+        time.sleep(0.3)
+        assert viewer.frames_drawn == 0 and not viewer.connected
+        page = open_page(viewer.url)
+        deadline = time.monotonic() + 10
+        while viewer.frames_drawn < 3 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert viewer.connected and viewer.frames_drawn >= 3
+        page.close()
+        deadline = time.monotonic() + 10
+        while viewer.connected and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.2)
+        drawn = viewer.frames_drawn
+        time.sleep(0.4)
+        assert not viewer.connected and viewer.frames_drawn == drawn
+        assert {"connect", "disconnect"} <= {kind for kind, _ in viewer.events()}
+    assert viewer.closed
+
+
+def test_train_and_play_serve_the_page_and_a_missing_viser_names_the_install(tmp_path, capsys,
+                                                                         monkeypatch):
+    args = ["task=Ant", "device=cpu", "num_envs=8", f"train_dir={tmp_path}",
+            "train.params.config.minibatch_size=64"]
+    # training serves a page too (which only watches), then closes it
+    assert cli.main(["train", *args, "max_iterations=1", "viewer=web", "viewer_port=0"]) == 0
+    assert "viewer: http://127.0.0.1:" in capsys.readouterr().out
+    assert cli.main(["play", *args, "viewer=web", "viewer_port=0", "num_steps=6"]) == 0
+    out = capsys.readouterr().out
+    assert "viewer: http://127.0.0.1:" in out and "(6 steps at 60 fps)" in out
+    assert not (tmp_path / "Ant" / "Ant.mp4").exists(), "no video unless asked for"
+    monkeypatch.setitem(sys.modules, "viser", None)      # as if not installed
+    monkeypatch.delitem(sys.modules, "myriad.viewer.web", raising=False)
+    monkeypatch.delitem(sys.modules, "myriad.viewer", raising=False)
+    assert cli.main(["play", *args, "viewer=web", "num_steps=1"]) == 2
+    assert 'pip install "myriad[viewer]"' in capsys.readouterr().err
+    assert cli.main(["play", *args, "viewer=glfw", "num_steps=1"]) == 2
+    assert "viewer=glfw" in capsys.readouterr().err
+
+
+def screenshot(url: str, path, budget_ms: int = 8000):
+    """The page as headless Chromium draws it (WebGL through SwiftShader, no GPU needed)."""
+    import shutil
+    import subprocess
+
+    import imageio.v2 as imageio
+
+    browser = shutil.which("chromium") or shutil.which("chromium-browser")
+    subprocess.run([browser, "--headless=new", "--no-sandbox", "--use-angle=swiftshader",
+                    "--enable-unsafe-swiftshader", "--window-size=800,600",
+                    f"--virtual-time-budget={budget_ms}", f"--screenshot={path}", url],
+                   capture_output=True, timeout=180, check=True)
+    return imageio.imread(path)[..., :3].astype(float)
+
+
+@pytest.mark.skipif(not __import__("shutil").which("chromium"),
+                    reason="needs Chromium for the browser test: apt install chromium")
+def test_a_real_browser_shows_the_robots(tmp_path):
+    envs = ant_envs(2)
+    with Viewer(envs, port=0, shown=2, fps=20) as viewer:
+        shown = screenshot(viewer.url, tmp_path / "shown.png")
+        assert viewer.frames_drawn > 0, "the browser connected as a page"
+        for mesh in viewer.meshes:
+            mesh.visible = False
+        empty = screenshot(viewer.url, tmp_path / "empty.png")
+    # the robots cover part of the middle of the picture; without them only the ground is left
+    h, w, _ = shown.shape
+    middle = (slice(h // 4, 3 * h // 4), slice(w // 8, 5 * w // 8))   # left of the side panel
+    changed = (abs(shown[middle] - empty[middle]).max(axis=-1) > 40).mean()
+    assert changed > 0.01, f"only {changed:.2%} of the middle differs from the empty scene"
