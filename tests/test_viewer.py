@@ -3,6 +3,7 @@ has them, with their contacts; doing nothing while no page is connected; and `vi
 `myriad play`. A page is stood in for by a websocket client speaking viser's protocol (its
 first camera message is what makes a page count as connected)."""
 
+import shutil
 import sys
 import time
 import urllib.request
@@ -108,33 +109,112 @@ def test_train_and_play_serve_the_page_and_a_missing_viser_names_the_install(tmp
     assert "viewer=glfw" in capsys.readouterr().err
 
 
-def screenshot(url: str, path, budget_ms: int = 8000):
-    """The page as headless Chromium draws it (WebGL through SwiftShader, no GPU needed)."""
-    import shutil
-    import subprocess
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+needs_browser = pytest.mark.skipif(
+    CHROMIUM is None, reason="the browser tests need Chromium: apt install chromium (and pip "
+    "install playwright, in .[test])")
+
+
+@pytest.fixture
+def browser():
+    """Headless Chromium (the system's, WebGL through SwiftShader: no GPU needed), driven by
+    Playwright."""
+    playwright = pytest.importorskip("playwright.sync_api", reason="pip install playwright")
+    with playwright.sync_playwright() as p:
+        chromium = p.chromium.launch(executable_path=CHROMIUM, args=[
+            "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
+        yield chromium.new_page(viewport={"width": 1000, "height": 700})
+        chromium.close()
+
+
+def picture(page):
+    import io
 
     import imageio.v2 as imageio
 
-    browser = shutil.which("chromium") or shutil.which("chromium-browser")
-    subprocess.run([browser, "--headless=new", "--no-sandbox", "--use-angle=swiftshader",
-                    "--enable-unsafe-swiftshader", "--window-size=800,600",
-                    f"--virtual-time-budget={budget_ms}", f"--screenshot={path}", url],
-                   capture_output=True, timeout=180, check=True)
-    return imageio.imread(path)[..., :3].astype(float)
+    return imageio.imread(io.BytesIO(page.screenshot()))[..., :3].astype(float)
 
 
-@pytest.mark.skipif(not __import__("shutil").which("chromium"),
-                    reason="needs Chromium for the browser test: apt install chromium")
-def test_a_real_browser_shows_the_robots(tmp_path):
+@needs_browser
+def test_a_real_browser_shows_the_robots(browser):
     envs = ant_envs(2)
-    with Viewer(envs, port=0, shown=2, fps=20) as viewer:
-        shown = screenshot(viewer.url, tmp_path / "shown.png")
-        assert viewer.frames_drawn > 0, "the browser connected as a page"
+    with Viewer(envs, port=0, shown=2) as viewer:
+        browser.goto(viewer.url)
+        browser.get_by_text("camera follows").wait_for(timeout=60_000)
+        deadline = time.monotonic() + 30
+        while viewer.frames_drawn < 5 and time.monotonic() < deadline:
+            time.sleep(0.1)
+        time.sleep(1.0)
+        shown = picture(browser)
         for mesh in viewer.meshes:
             mesh.visible = False
-        empty = screenshot(viewer.url, tmp_path / "empty.png")
+        time.sleep(1.0)
+        empty = picture(browser)
     # the robots cover part of the middle of the picture; without them only the ground is left
     h, w, _ = shown.shape
     middle = (slice(h // 4, 3 * h // 4), slice(w // 8, 5 * w // 8))   # left of the side panel
     changed = (abs(shown[middle] - empty[middle]).max(axis=-1) > 40).mean()
     assert changed > 0.01, f"only {changed:.2%} of the middle differs from the empty scene"
+
+
+def step_shown(page, settle_s: float = 1.0) -> int:
+    """The step count `myriad play` shows on the page, once it has stopped changing for
+    `settle_s` (a software-rendered page can lag the messages by some steps)."""
+    import re
+
+    def read():
+        text = page.get_by_text(re.compile(r"play step \d+")).first.inner_text(timeout=30_000)
+        return int(re.search(r"play step (\d+)", text).group(1))
+
+    value, since, deadline = read(), time.monotonic(), time.monotonic() + 20
+    while time.monotonic() - since < settle_s and time.monotonic() < deadline:
+        time.sleep(0.2)
+        now = read()
+        if now != value:
+            value, since = now, time.monotonic()
+    return value
+
+
+@needs_browser
+def test_play_in_a_real_browser_pauses_steps_resets_and_says_when_it_ended(browser, tmp_path):
+    import socket
+    import threading
+
+    args = ["task=Ant", "device=cpu", "num_envs=8", f"train_dir={tmp_path}",
+            "train.params.config.minibatch_size=64"]
+    assert cli.main(["train", *args, "max_iterations=1"]) == 0
+    with socket.socket() as s:                 # a free port for the page
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    result = {}
+    play = threading.Thread(target=lambda: result.setdefault("rc", cli.main(
+        ["play", *args, "viewer=web", f"viewer_port={port}", "num_steps=600"])), daemon=True)
+    play.start()
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            try:
+                browser.goto(f"http://127.0.0.1:{port}")
+                break
+            except Exception:
+                time.sleep(0.5)
+        browser.get_by_text("pause").click(timeout=60_000)
+        paused_at = step_shown(browser)
+        time.sleep(1.5)                       # 90 steps' time at 60 Hz: nothing moves
+        assert step_shown(browser) == paused_at
+        browser.get_by_role("button", name="single step").click()
+        # one step, and paused again (the count shown can lag a paused page by a few steps,
+        # so it is compared with what the page showed, not with the step count itself)
+        stepped = step_shown(browser)
+        assert stepped > paused_at
+        time.sleep(1.5)
+        assert step_shown(browser) == stepped
+        browser.get_by_role("button", name="reset shown envs").click()
+        browser.get_by_text("pause").click()  # go on: the page survived the reset
+        time.sleep(1.5)
+        assert step_shown(browser, settle_s=0.0) > stepped
+        play.join(timeout=60)
+        assert result.get("rc") == 0
+        browser.get_by_text("play ended after 600 steps").wait_for(timeout=10_000)
+    finally:
+        play.join(timeout=1)     # (a daemon: a failed test leaves no play running at exit)

@@ -469,7 +469,7 @@ def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
             return 128 + stop.signum
     finally:
         if task is not None and task.viewer is not None:
-            task.viewer.close()
+            task.viewer.close("training ended: this page no longer updates")
         if distributed is not None:
             import torch.distributed as dist
 
@@ -578,10 +578,12 @@ def play(overrides: list[str]) -> int:
                 if steps is not None and step % 200 == 0:
                     print(f"  {step}/{steps} steps", flush=True)
                 if viewer is not None:         # real time, or slower
+                    viewer.show_progress(f"**play** step {step}, env 0's episode reward "
+                                         f"{float(episode_reward[0]):.1f}")
                     time.sleep(max(0.0, task.dt / viewer.speed - (time.monotonic() - started)))
     finally:
         if viewer is not None:
-            viewer.close()
+            viewer.close(f"play ended after {step} steps: this page no longer updates")
     shown = f"episode rewards {[round(r, 1) for r in finished]}" if finished else \
         f"reward so far {float(episode_reward[0]):.1f} (episode not finished)"
     wrote = f"wrote {video} " if writer is not None else ""

@@ -207,7 +207,8 @@ class VecTask:
         self._step_actions.copy_(actions)
         if self._step_graph is None:
             graph = torch.cuda.CUDAGraph()
-            with torch.cuda.graph(graph):
+            # thread-local: another thread's CUDA calls (a viewer's copies) go on meanwhile
+            with torch.cuda.graph(graph, capture_error_mode="thread_local"):
                 obs, rewards, resets, extras = self._step(self._step_actions)
             # the graph's own output tensors (an eager reset() puts others into obs_dict)
             self._step_outputs = dict(obs), rewards, resets, dict(extras)

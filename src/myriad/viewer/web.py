@@ -95,6 +95,7 @@ class Viewer:
         self.frames_drawn = 0            # frames the page was sent (a test reads it)
         self.paused, self.speed = False, 1.0
         self._step_asked, self._reset_asked = False, False
+        self._stream = None              # on a GPU, the stream of the viewer's copies
 
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.url = f"http://{host}:{self.server.get_port()}"
@@ -143,7 +144,6 @@ class Viewer:
 
     def _build_gui(self, controls: bool) -> None:
         gui, n = self.server.gui, self.envs.num_envs
-        self.progress = gui.add_markdown("")
         self.first_env = gui.add_number("first env shown", self.first, min=0,
                                         max=max(0, n - self.count), step=1)
         names = ["(none)"] + [mujoco.mj_id2name(self.mj, mujoco.mjtObj.mjOBJ_BODY, b)
@@ -164,6 +164,8 @@ class Viewer:
             reset.on_click(lambda _: self._ask("reset"))
             self.slow = gui.add_slider("speed", min=0.05, max=1.0, step=0.05, initial_value=1.0)
             self.slow.on_update(lambda _: setattr(self, "speed", float(self.slow.value)))
+        # last: its changing text never moves the controls under a pointer
+        self.progress = gui.add_markdown("")
 
     # ------------------------------------------------------------------ events
     def _event(self, kind: str, value) -> None:
@@ -224,6 +226,7 @@ class Viewer:
     def show_progress(self, text: str) -> None:
         """A line of progress on the page (training: epoch, env-steps/s, reward, metrics)."""
         self.progress.content = text
+        self.server.flush()              # else the last line can wait for the next message
 
     def look_at(self, target, eye=None) -> None:
         """Every connected page's camera toward `target` (world, m), from `eye` if given."""
@@ -238,14 +241,14 @@ class Viewer:
         first = int(self.first_env.value)
         self.first = min(max(first, 0), self.envs.num_envs - self.count)
         rows = slice(self.first, self.first + self.count)
-        qpos = self.envs.model.qpos_to_mujoco(
-            self.envs.sim.q[rows].detach().to("cpu", torch.float64).numpy())
+        sim = self.envs.sim
         show_contacts = bool(self.show_contacts.value)
+        read = [sim.q[rows]] + ([sim.contact_count[rows], sim.contact_pos[rows],
+                                 sim.contact_force[rows]] if show_contacts else [])
+        read = self._to_host(read)
+        qpos = self.envs.model.qpos_to_mujoco(read[0].astype(np.float64))
         if show_contacts:
-            sim = self.envs.sim
-            count = sim.contact_count[rows].detach().cpu().numpy()
-            pos = sim.contact_pos[rows].detach().cpu().numpy()
-            force = sim.contact_force[rows].detach().cpu().numpy()
+            count, pos, force = read[1:]
         m, g = self.mj, self.geoms
         geom_pos = np.empty((self.count, len(g), 3))
         geom_wxyz = np.empty((self.count, len(g), 4))
@@ -274,6 +277,19 @@ class Viewer:
             if self.markers is not None:
                 self._draw_markers()
         self.frames_drawn += 1
+
+    def _to_host(self, tensors: list) -> list[np.ndarray]:
+        """Copies of the shown envs' tensors on the host. On a GPU through a stream of the
+        viewer's own: the training's stream never waits for them (a copy may catch a step
+        half-done, which a drawing can bear)."""
+        if tensors[0].device.type != "cuda":
+            return [t.detach().numpy().copy() for t in tensors]
+        if self._stream is None:
+            self._stream = torch.cuda.Stream(tensors[0].device)
+        with torch.cuda.stream(self._stream):
+            host = [t.detach().to("cpu", non_blocking=True) for t in tensors]
+        self._stream.synchronize()
+        return [h.numpy() for h in host]
 
     def _draw_contacts(self, k, offset, count, pos, force) -> None:
         """Contact points as short segments along their force (1 cm per 10 N, at least 2 cm)."""
@@ -338,12 +354,15 @@ class Viewer:
                 return
             self._closed.wait(max(0.0, 1.0 / self.fps - (time.monotonic() - start)))
 
-    def close(self) -> None:
-        """Stop drawing and serving (the page says the connection is lost)."""
+    def close(self, message: str = "the run ended: this page no longer updates") -> None:
+        """Stop drawing and serving; open pages keep the last picture and say `message`."""
         if self._closed.is_set():
             return
         self._closed.set()
         self._thread.join(timeout=2.0)
+        self.show_progress(f"**{message}**")
+        self.server.flush()
+        time.sleep(0.2)                  # the message leaves before the server goes
         self.server.stop()
 
     def __enter__(self):
