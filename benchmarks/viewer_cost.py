@@ -8,12 +8,15 @@ CPU); each round runs `--epochs` whole epochs (rollout and update) per variant, 
 turn, each first, second and third in turn, so that the machine's drift falls on all alike. The
 connected page is a websocket client speaking viser's protocol (what a browser tab does, without
 drawing: that happens on the viewer's machine, not the trainer's). Prints the median env-steps/s
-of each variant, its ratio to no viewer, and the middle half of that variant's rounds.
+of each variant, its ratio to no viewer, and the middle half of that variant's rounds; and the CPU
+time the viewer's own threads used while a page was connected (from /proc: immune to the
+machine's drift, though not to what the threads cost the others by holding the GIL).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import tempfile
 import time
@@ -33,6 +36,20 @@ def open_page(url: str):
         fov=1.0, near=0.01, far=100.0, image_height=480, image_width=640,
         look_at=[0.0, 0.0, 0.0], up_direction=[0.0, 0.0, 1.0])))
     return ws
+
+
+def thread_cpu_s(tids) -> float:
+    """CPU seconds (user + system) the threads `tids` of this process have used."""
+    tick = os.sysconf("SC_CLK_TCK")
+    total = 0
+    for tid in tids:
+        try:
+            with open(f"/proc/self/task/{tid}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+            total += int(fields[11]) + int(fields[12])      # utime, stime
+        except FileNotFoundError:                           # the thread has ended
+            pass
+    return total / tick
 
 
 def main():
@@ -82,20 +99,26 @@ def main():
                 return
 
     pages = []                                   # (frames drawn, seconds) with a page
+    viewer_cpu = []                              # the viewer's threads' CPU s per wall s
 
     def variant(name: str) -> float:
         if name == "no viewer":
             return epochs()
+        before = {t.native_id for t in threading.enumerate()}
         with Viewer(task.envs, port=0, **({} if args.fps is None else {"fps": args.fps})) \
                 as viewer:
+            # the viewer's threads: its drawing thread and viser's server
+            ours = {t.native_id for t in threading.enumerate()} - before
             if name == "served, no page":
                 return epochs()
             ws, stop = open_page(viewer.url), threading.Event()
             reader = threading.Thread(target=drain, args=(ws, stop), daemon=True)
             reader.start()
-            started = time.perf_counter()
+            started, cpu = time.perf_counter(), thread_cpu_s(ours)
             rate = epochs()
-            pages.append((viewer.frames_drawn, time.perf_counter() - started))
+            wall = time.perf_counter() - started
+            pages.append((viewer.frames_drawn, wall))
+            viewer_cpu.append((thread_cpu_s(ours) - cpu) / wall)
             stop.set()
             ws.close()
             reader.join()
@@ -118,6 +141,10 @@ def main():
         median = statistics.median(values)
         q1, _, q3 = statistics.quantiles(values, n=4)
         print(f"| {name} | {median:,.0f} | {median / ref:.3f} | {q1:,.0f} - {q3:,.0f} |")
+    used = statistics.median(viewer_cpu)
+    print(f"the viewer's threads (drawing, viser's server) with a page connected: {used:.3f} CPU "
+          f"seconds per second, median: {used / os.cpu_count():.1%} of the {os.cpu_count()} "
+          "cores")
 
 
 if __name__ == "__main__":
