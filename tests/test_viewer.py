@@ -218,3 +218,46 @@ def test_play_in_a_real_browser_pauses_steps_resets_and_says_when_it_ended(brows
         browser.get_by_text("play ended after 600 steps").wait_for(timeout=10_000)
     finally:
         play.join(timeout=1)     # (a daemon: a failed test leaves no play running at exit)
+
+
+@needs_browser
+def test_training_in_a_real_browser_shows_progress_and_says_when_it_ended(tmp_path):
+    import socket
+    import threading
+
+    playwright = pytest.importorskip("playwright.sync_api", reason="pip install playwright")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    seen = {}
+
+    def watch():
+        """A browser watching the page while training runs in this test's (main) thread, where
+        its signal handlers must be installed."""
+        with playwright.sync_playwright() as p:
+            chromium = p.chromium.launch(executable_path=CHROMIUM, args=[
+                "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
+            page = chromium.new_page(viewport={"width": 1000, "height": 700})
+            deadline = time.monotonic() + 60
+            while time.monotonic() < deadline:
+                try:
+                    page.goto(f"http://127.0.0.1:{port}")
+                    break
+                except Exception:
+                    time.sleep(0.5)
+            for text in ("env-steps/s", "training ended"):     # progress, then the end
+                try:
+                    page.get_by_text(text).first.wait_for(timeout=60_000)
+                    seen[text] = True
+                except Exception as err:
+                    seen[text] = err
+            chromium.close()
+
+    browser = threading.Thread(target=watch, daemon=True)
+    browser.start()
+    assert cli.main(["train", "task=Ant", "device=cpu", "num_envs=8", f"train_dir={tmp_path}",
+                     "train.params.config.minibatch_size=64", "max_time_s=20", "viewer=web",
+                     f"viewer_port={port}"]) == 0
+    browser.join(timeout=90)
+    assert seen.get("env-steps/s") is True, f"no progress line on the page: {seen}"
+    assert seen.get("training ended") is True, f"the page froze instead: {seen}"
