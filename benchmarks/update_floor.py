@@ -62,6 +62,40 @@ def matmul_seconds(shapes, rows: int, passes: int, dtype, repeats: int = 5) -> f
     return statistics.median(times)
 
 
+def training_agent(overrides: list[str], float32: bool = False):
+    """(task, agent, train config, epoch) as `myriad train` builds them from `overrides` (its
+    CPU profile on a CPU), the agent ready for its loop; `epoch(keep=False)` runs one rl_games
+    epoch, rollout then update, writing no files, and returns its (step, play, update) seconds;
+    `keep` leaves the rollout's dataset in place for more updates. `float32`: the hidden MLPs
+    in float32 whatever the train config says."""
+    from myriad.physics.runtime import load_kernels
+    from myriad.rl.run import compose, task_and_train_configs
+    from myriad.rl.train import build_agent
+    from myriad.tasks import TASKS
+
+    cfg = compose(overrides)
+    task_cfg, train_cfg, device = task_and_train_configs(cfg, overrides)
+    if float32:
+        train_cfg["params"]["config"].pop("mlp_bfloat16", None)
+    load_kernels(device)
+    task = TASKS[task_cfg["name"]](task_cfg, device=device)
+    run = {"train_dir": tempfile.mkdtemp(prefix="myriad_bench_"), "experiment": "bench",
+           "max_time_s": float("inf"), "describe": {}}
+    agent = build_agent(task, train_cfg, run, int(cfg.seed))
+    # rl_games' train() up to its loop, then its epochs (the base class's: no files written)
+    base = type(agent).__mro__[2]                # MyriadAgent -> A2CAgent -> ContinuousA2CBase
+    agent.init_tensors()
+    agent.obs = agent.env_reset()
+
+    def epoch(keep: bool = False):
+        agent.epoch_num = agent.update_epoch()
+        times = base.train_epoch(agent)[:3]
+        if not keep:
+            agent.dataset.update_values_dict(None)
+        return times
+    return task, agent, train_cfg, epoch
+
+
 def update_seconds(agent) -> float:
     """One update of rl_games' PPO (its mini-epochs over the minibatches) on the dataset of the
     last rollout, as its train_epoch runs it."""
@@ -82,36 +116,18 @@ def main():
                         help="updates timed per variant, the variants interleaved")
     args = parser.parse_args()
 
-    from myriad.physics.runtime import load_kernels
-    from myriad.rl.run import compose, task_and_train_configs
-    from myriad.rl.train import build_agent, use_bfloat16_mlps
-    from myriad.tasks import TASKS
+    from myriad.rl.train import use_bfloat16_mlps
 
     overrides = [f"task={args.task}", "device=cpu"]
     if args.envs is not None:
         overrides.append(f"num_envs={args.envs}")
     if args.minibatch is not None:
         overrides.append(f"train.params.config.minibatch_size={args.minibatch}")
-    cfg = compose(overrides)
-    task_cfg, train_cfg, device = task_and_train_configs(cfg, overrides)
-    train_cfg["params"]["config"].pop("mlp_bfloat16", None)     # float32 first
-    load_kernels(device)
-    task = TASKS[task_cfg["name"]](task_cfg, device=device)
-    run = {"train_dir": tempfile.mkdtemp(prefix="update_floor_"), "experiment": "floor",
-           "max_time_s": float("inf"), "describe": {}}
-    agent = build_agent(task, train_cfg, run, int(cfg.seed))
-
-    # rl_games' train() up to its loop, then its epochs (the base class's: no files written)
-    base = type(agent).__mro__[2]                # MyriadAgent -> A2CAgent -> ContinuousA2CBase
-    agent.init_tensors()
-    agent.obs = agent.env_reset()
+    task, agent, train_cfg, epoch = training_agent(overrides, float32=True)    # float32 first
     split = []
-    for epoch in range(args.epochs + 1):
-        agent.epoch_num = agent.update_epoch()
-        step_time, play_time, update_time = base.train_epoch(agent)[:3]
-        if epoch < args.epochs:
-            agent.dataset.update_values_dict(None)
-        if epoch:
+    for k in range(args.epochs + 1):
+        step_time, play_time, update_time = epoch(keep=k == args.epochs)
+        if k:
             split.append((step_time, play_time - step_time, update_time))
     frames = task.num_envs * agent.horizon_length
     physics, policy, update = (statistics.median(s[k] for s in split) for k in range(3))
@@ -127,7 +143,7 @@ def main():
     native_bf16 = torch.ops.mkldnn._is_mkldnn_bf16_supported()
     wrapped = {mlp: None for mlp, _ in mlps}
     if native_bf16:
-        use_bfloat16_mlps(agent.model, device)
+        use_bfloat16_mlps(agent.model, task.device)
         wrapped = {mlp: mlp.forward for mlp, _ in mlps}
     times = {"float32": [], "bfloat16": [], "floor float32": [], "floor bfloat16": []}
     agent.set_train()
@@ -145,7 +161,7 @@ def main():
 
     us = 1e6 / frames
     med = {k: statistics.median(v) * us for k, v in times.items() if v}
-    print(f"{task_cfg['name']}: {task.num_envs} envs × horizon {agent.horizon_length} = {frames} "
+    print(f"{args.task}: {task.num_envs} envs × horizon {agent.horizon_length} = {frames} "
           f"samples per epoch; {config['mini_epochs']} mini-epochs of {frames // minibatch} "
           f"minibatches of {minibatch}; layers {shapes}; torch threads "
           f"{torch.get_num_threads()}, {os.cpu_count()} CPU cores")

@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
-import tempfile
 import time
 
 import msgspec
@@ -60,33 +59,20 @@ def main():
     parser.add_argument("--fps", type=float, default=None, help="the page's frame rate "
                         "(default: the viewer's)")
     args = parser.parse_args()
+    if args.rounds < 2:
+        parser.error(f"--rounds {args.rounds}: at least 2 (the spread between rounds is printed)")
 
     import threading
 
-    from myriad.physics.runtime import load_kernels
-    from myriad.rl.run import compose, task_and_train_configs
-    from myriad.rl.train import build_agent
-    from myriad.tasks import TASKS
     from myriad.viewer import Viewer
+    from update_floor import training_agent
 
-    overrides = [f"task={args.task}", "device=cpu"]
-    cfg = compose(overrides)
-    task_cfg, train_cfg, device = task_and_train_configs(cfg, overrides)
-    load_kernels(device)
-    task = TASKS[task_cfg["name"]](task_cfg, device=device)
-    run = {"train_dir": tempfile.mkdtemp(prefix="viewer_cost_"), "experiment": "cost",
-           "max_time_s": float("inf"), "describe": {}}
-    agent = build_agent(task, train_cfg, run, int(cfg.seed))
-    base = type(agent).__mro__[2]                # the rl_games epoch, no files written
-    agent.init_tensors()
-    agent.obs = agent.env_reset()
+    task, agent, _, epoch = training_agent([f"task={args.task}", "device=cpu"])
 
     def epochs() -> float:
         start = time.perf_counter()
         for _ in range(args.epochs):
-            agent.epoch_num = agent.update_epoch()
-            base.train_epoch(agent)
-            agent.dataset.update_values_dict(None)
+            epoch()
         return task.num_envs * agent.horizon_length * args.epochs / (time.perf_counter() - start)
 
     def drain(ws, stop):                         # a page reads what it is sent
@@ -133,7 +119,7 @@ def main():
     assert all(frames > 0 for frames, _ in pages), "the page was drawn"
     frames_per_s = sum(f for f, _ in pages) / sum(s for _, s in pages)
     ref = statistics.median(rates["no viewer"])
-    print(f"{task_cfg['name']}, {task.num_envs} envs, {args.rounds} rounds of {args.epochs} "
+    print(f"{args.task}, {task.num_envs} envs, {args.rounds} rounds of {args.epochs} "
           f"epochs per variant (env-steps/s, median); page at {frames_per_s:.0f} frames/s:")
     print("| variant | env-steps/s | against no viewer | middle half of the rounds |")
     print("|---|---|---|---|")

@@ -198,6 +198,11 @@ def resolve_device(device) -> str:
     return name
 
 
+def given_keys(overrides) -> set[str]:
+    """The keys the command line set (`key=`, `+key=`, `++key=`, `~key=`)."""
+    return {o.split("=", 1)[0].lstrip("+~") for o in overrides if "=" in o}
+
+
 def task_and_train_configs(cfg, overrides=(), processes: int = 1) -> tuple[dict, dict, str]:
     """Plain dicts of the task and train configs with the top-level options applied.
 
@@ -227,7 +232,7 @@ def task_and_train_configs(cfg, overrides=(), processes: int = 1) -> tuple[dict,
             task_cfg["env"].update(cpu_task)
             cpu_train = dict(cpu_train)
             # what the command line set wins over the profile
-            kept = tuple(o.split("=", 1)[0].lstrip("+~") for o in overrides if "=" in o)
+            kept = tuple(given_keys(overrides))
             _merge(train_cfg["params"]["network"], cpu_train.pop("network", {}),
                    "train.params.network", kept)
             _merge(train_cfg["params"]["config"], cpu_train, "train.params.config", kept)
@@ -535,7 +540,7 @@ def play(overrides: list[str]) -> int:
     checkpoint = cfg.checkpoint or latest_checkpoint(cfg.train_dir, name)
     if not os.path.isfile(checkpoint):
         raise FileNotFoundError(f"checkpoint={checkpoint}: no such file")
-    given = {o.split("=", 1)[0].lstrip("+~") for o in overrides if "=" in o}
+    given = given_keys(overrides)
     watching = cfg.viewer is not None
     task_cfg["env"]["numEnvs"] = int(cfg.num_envs or (cfg.viewer_envs if watching else 1))
     task = TASKS[name](task_cfg, device=device)
@@ -549,6 +554,12 @@ def play(overrides: list[str]) -> int:
     writer = VideoWriter(video, task.envs, fps=fps, size=tuple(cfg.video_size), task=task) \
         if not watching or "video" in given else None
     step = 0
+
+    def show(step):
+        viewer.show_progress(f"**play** step {step}, env 0's episode reward "
+                             f"{float(episode_reward[0]):.1f}")
+    if viewer is not None:
+        show(0)           # from the start: a page paused before the first step says where
     try:
         with writer if writer is not None else contextlib.nullcontext():
             if writer is not None:
@@ -556,12 +567,11 @@ def play(overrides: list[str]) -> int:
             done = None
             while steps is None or step < steps:
                 if viewer is not None:
-                    if viewer.take_reset():
-                        shown = torch.zeros(task.num_envs, dtype=torch.bool, device=task.device)
-                        shown[viewer.first:viewer.first + viewer.count] = True
+                    if viewer.take("reset"):
+                        shown = torch.as_tensor(viewer.shown_envs, device=task.device)
                         obs, done = task.reset(shown)["obs"], None
                         episode_reward[shown] = 0.0
-                    if viewer.paused and not viewer.take_step():
+                    if viewer.paused and not viewer.take("step"):
                         time.sleep(0.02)
                         continue
                 started = time.monotonic()
@@ -578,8 +588,7 @@ def play(overrides: list[str]) -> int:
                 if steps is not None and step % 200 == 0:
                     print(f"  {step}/{steps} steps", flush=True)
                 if viewer is not None:         # real time, or slower
-                    viewer.show_progress(f"**play** step {step}, env 0's episode reward "
-                                         f"{float(episode_reward[0]):.1f}")
+                    show(step)
                     time.sleep(max(0.0, task.dt / viewer.speed - (time.monotonic() - started)))
     finally:
         if viewer is not None:

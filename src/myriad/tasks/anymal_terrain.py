@@ -219,7 +219,8 @@ class AnymalTerrain(VecTask):
 
     def push_robots(self, due: torch.Tensor):
         """Every base's v_xy set to U(−pushVelocity, pushVelocity) where `due` (a bool scalar
-        on the device) says it is time; the velocities are drawn at every step either way."""
+        on the device) says it is time; the velocities are drawn whenever this runs (at every
+        step on a GPU, `runs`)."""
         states = self.envs.root_states.clone()
         states[:, 0, 7:9] = torch.empty(self.num_envs, 2, device=self.device).uniform_(
             -self.cfg["env"]["pushVelocity"], self.cfg["env"]["pushVelocity"])

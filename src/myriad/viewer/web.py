@@ -14,7 +14,7 @@ never touches the step itself (no per-step host read comes back with it).
 
 The small interface other front ends drive (the Isaac Gym layer's viewer calls map onto it):
 `draw()`, `look_at(target, eye)`, `events()` (key and button events since the last call),
-`closed`, `close()`; for `myriad play`, `paused`, `take_step()`, `take_reset()`, `speed`; for
+`closed`, `close()`; for `myriad play`, `paused`, `take("step" | "reset")`, `speed`; for
 training, `show_progress(text)`.
 """
 
@@ -87,6 +87,8 @@ class Viewer:
         if spacing is None:          # envs over one shared terrain already stand apart
             spacing = 0.0 if self.mj.nhfield else robot_width(self.mj) + 0.5
         self.spacing, self.fps, self.markers = float(spacing), float(fps), markers
+        # where each shown env is drawn: beside the one before it, along y
+        self.offsets = np.outer(np.arange(self.count), [0.0, self.spacing, 0.0])
         self._data = [mujoco.MjData(self.mj) for _ in range(self.count)]
         self._events: queue.SimpleQueue = queue.SimpleQueue()
         self._lock = threading.Lock()
@@ -94,7 +96,7 @@ class Viewer:
         self._connected = threading.Event()
         self.frames_drawn = 0            # frames the page was sent (a test reads it)
         self.paused, self.speed = False, 1.0
-        self._step_asked, self._reset_asked = False, False
+        self._asked: set[str] = set()    # the page's requests not yet taken (`take`)
         self._stream = None              # on a GPU, the stream of the viewer's copies
 
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
@@ -148,7 +150,8 @@ class Viewer:
                                         max=max(0, n - self.count), step=1)
         names = ["(none)"] + [mujoco.mj_id2name(self.mj, mujoco.mjtObj.mjOBJ_BODY, b)
                               or f"body{b}" for b in range(1, self.mj.nbody)]
-        self.follow = gui.add_dropdown("camera follows", names, initial_value=names[min(1, len(names) - 1)])
+        self.follow = gui.add_dropdown("camera follows", names,
+                                       initial_value=names[min(1, len(names) - 1)])
         self.show_contacts = gui.add_checkbox("contact points and forces", False)
         self.show_joints = gui.add_checkbox("joint frames", False)
         self.show_markers = gui.add_checkbox("markers", True)
@@ -173,10 +176,7 @@ class Viewer:
 
     def _ask(self, what: str) -> None:
         with self._lock:
-            if what == "step":
-                self._step_asked = True
-            else:
-                self._reset_asked = True
+            self._asked.add(what)
         self._event("button", what)
 
     def _on_connect(self, client) -> None:
@@ -198,16 +198,12 @@ class Viewer:
             except queue.Empty:
                 return out
 
-    def take_step(self) -> bool:
-        """Whether the page asked for a single step (paused play), once."""
+    def take(self, what: str) -> bool:
+        """Whether the page asked for `what` ("step": a single step of paused play; "reset":
+        the shown envs reset) since the last take; each request is taken once."""
         with self._lock:
-            asked, self._step_asked = self._step_asked, False
-        return asked
-
-    def take_reset(self) -> bool:
-        """Whether the page asked to reset the shown envs, once."""
-        with self._lock:
-            asked, self._reset_asked = self._reset_asked, False
+            asked = what in self._asked
+            self._asked.discard(what)
         return asked
 
     @property
@@ -256,10 +252,9 @@ class Viewer:
             d = self._data[k]
             d.qpos[:] = qpos[k]
             mujoco.mj_kinematics(m, d)
-            offset = np.array([0.0, k * self.spacing, 0.0])
-            geom_pos[k] = d.geom_xpos[g] + offset
+            geom_pos[k] = d.geom_xpos[g] + self.offsets[k]
             geom_wxyz[k] = mat_to_wxyz(d.geom_xmat[g])
-            self.body_poses[k, :, :3] = d.xpos + offset
+            self.body_poses[k, :, :3] = d.xpos + self.offsets[k]
             self.body_poses[k, :, 3:] = d.xquat
         with self.server.atomic():
             for i, mesh in enumerate(self.meshes):
@@ -270,8 +265,7 @@ class Viewer:
                 self.joint_axes.batched_wxyzs = self.body_poses[:, 1:, 3:].reshape(-1, 4)
             for k in range(self.count):
                 if show_contacts:
-                    self._draw_contacts(k, np.array([0.0, k * self.spacing, 0.0]), count[k],
-                                        pos[k], force[k])
+                    self._draw_contacts(k, count[k], pos[k], force[k])
                 elif self.contacts[k] is not None:
                     self.contacts[k].visible = False
             if self.markers is not None:
@@ -291,14 +285,14 @@ class Viewer:
         self._stream.synchronize()
         return [h.numpy() for h in host]
 
-    def _draw_contacts(self, k, offset, count, pos, force) -> None:
+    def _draw_contacts(self, k, count, pos, force) -> None:
         """Contact points as short segments along their force (1 cm per 10 N, at least 2 cm)."""
         used = min(int(count), len(force))
         if used == 0:
             if self.contacts[k] is not None:
                 self.contacts[k].visible = False
             return
-        start = pos[:used] + offset
+        start = pos[:used] + self.offsets[k]
         f = force[:used]
         length = np.linalg.norm(f, axis=-1, keepdims=True)
         direction = np.where(length > 1e-9, f / np.maximum(length, 1e-9), [0.0, 0.0, 1.0])
@@ -316,7 +310,7 @@ class Viewer:
             for i, marker in enumerate(self.markers(env) if visible else []):
                 name = f"/markers{k}/{i}"
                 x, y, z, w = marker["quat"]
-                pos = np.asarray(marker["pos"], dtype=np.float64) + [0.0, k * self.spacing, 0.0]
+                pos = np.asarray(marker["pos"], dtype=np.float64) + self.offsets[k]
                 handle = self._marker_handles.get(name)
                 if handle is None:
                     rgba = marker["rgba"]
@@ -360,8 +354,7 @@ class Viewer:
             return
         self._closed.set()
         self._thread.join(timeout=2.0)
-        self.show_progress(f"**{message}**")
-        self.server.flush()
+        self.show_progress(f"**{message}**")        # (flushed)
         time.sleep(0.2)                  # the message leaves before the server goes
         self.server.stop()
 
