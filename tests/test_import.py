@@ -42,8 +42,8 @@ def test_invalid_element_names_element(tmp_path):
         <tendon><spatial name="rope"><site site="s0"/><site site="s1"/></spatial></tendon>""",
      "tendon 'rope': spatial tendons are not supported"),
     ("""<worldbody><body name="a"><joint name="h" type="hinge"/><geom size=".1"/></body></worldbody>
-        <actuator><general name="muscle_like" joint="h" dyntype="filter" dynprm="0.1"/></actuator>""",
-     "actuator 'muscle_like': actuator dynamics"),
+        <actuator><general name="user_dyn" joint="h" dyntype="user" dynprm="0.1"/></actuator>""",
+     "actuator 'user_dyn': mjDYN_USER activation dynamics"),
     ("""<worldbody><body name="a" gravcomp="1"><joint name="h" type="hinge" actuatorgravcomp="true"/>
         <geom size=".1"/></body></worldbody>""", "joint 'h': actuatorgravcomp"),
 ])

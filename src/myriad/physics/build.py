@@ -43,6 +43,7 @@ class DeviceModel:
     sensor_site: wp.array     # [nsensor_site] int32: those sites
     sensor_site_body: wp.array   # [nsensor_site] int32: their bodies
     sensor_accelerations: bool   # a sensor reads accelerations or forces between bodies
+    activations: bool         # an actuator has activation dynamics (`forces.integrate_activations`)
     mass_entries: np.ndarray  # [2, nmass] (row, column) of each stored mass-matrix entry
     initial: dict             # per-env struct -> {field: one env's initial value}
 
@@ -122,12 +123,14 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
         SensorType.FRAMELINACC, SensorType.FRAMEANGACC]).any())
 
     sizes = dict(nq=m.nq, nv=m.nv, nbody=m.nbody, njnt=m.njnt, nu=m.nu, ntendon=m.ntendon,
+                 nmocap=m.nmocap,
                  ngeom=m.ngeom, nsite=m.nsite, nsensor_site=len(sensor_sites),
                  nsensordata=m.nsensordata, ncontact=contact_capacity,
                  ncandidate=CANDIDATES_PER_SLOT * contact_capacity, nrow=layout.end,
                  row_width=row_width(dof_span, tendon_dofs), nmass=len(mass_col),
                  nlimit=2 * len(limited), neq=m.neq, neqrow=equality_rownum,
                  nlane=block_threads(dev))
+    mocap = np.argsort(np.where(m.body_mocapid >= 0, m.body_mocapid, m.nbody))[:m.nmocap]
     gravity = m.gravity if params.gravity is None else np.asarray(params.gravity)
     initial = {
         EnvParams: dict(
@@ -144,9 +147,10 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
             tendon_range=m.tendon_range.reshape(-1, 2),
             tendon_limit_stiffness=m.tendon_limit_stiffness,
             tendon_rest_length=m.tendon_rest_length, tendon_offset=m.tendon_offset,
-            gravity=gravity, eq_active=m.eq_active & params.constraints,
+            gravity=gravity, fluid_density=m.density, fluid_viscosity=m.viscosity, wind=m.wind,
+            eq_active=m.eq_active & params.constraints,
             eq_anchor=m.eq_anchor, eq_frame=m.eq_frame, eq_polycoef=m.eq_polycoef),
-        State: dict(q=m.qpos0),
+        State: dict(q=m.qpos0, mocap_pos=m.body_pos[mocap], mocap_quat=m.body_quat[mocap]),
     }
     return DeviceModel(
         m=model_arrays(model, dev, pair_rules.pair_friction(model, pairs)), opt=opt,
@@ -157,6 +161,7 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
                                   if sensor_sites else np.zeros(0, np.int32),
                                   dtype=wp.int32, device=dev),
         sensor_accelerations=sensor_accelerations,
+        activations=bool(np.any(m.actuator_dyntype != 0)),
         mass_entries=np.stack([np.repeat(np.arange(m.nv), mnum), mass_col]), initial=initial)
 
 
@@ -213,7 +218,7 @@ def mass_matrix_layout(dof_parent: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
 
 def tree_levels(model) -> dict:
     """The bodies by depth and each body's children (`ModelArrays.level_adr` ...), the dof
-    trees, and each dof's actuators: the index lists that let a kernel's lanes share a world's
+    trees, and each dof's actuator transmission entries: the index lists that let a kernel's lanes share a world's
     bodies, trees or dofs."""
     depth = np.zeros(model.nbody, np.int32)
     for b in range(model.nbody):                   # parents come first in MuJoCo's order
@@ -228,7 +233,7 @@ def tree_levels(model) -> dict:
             children[model.body_parent[b]].append(b)
     child_num = np.asarray([len(c) for c in children], np.int32)
     dof_span = tree_spans(model)[0]
-    acts = [np.flatnonzero(model.actuator_dof == i) for i in range(model.nv)]
+    acts = [np.flatnonzero(model.trn_dof == i) for i in range(model.nv)]   # in actuator order
     act_num = np.asarray([len(a) for a in acts], np.int32)
     return dict(nlevel=nlevel, level_adr=level_adr, level_body=level_body,
                 body_child_adr=(np.cumsum(child_num) - child_num).astype(np.int32),
@@ -236,9 +241,9 @@ def tree_levels(model) -> dict:
                 body_child=np.asarray([c for cs in children for c in cs], np.int32),
                 ntree=len(np.unique(dof_span[:, 0])),
                 tree_dofs=np.unique(dof_span, axis=0).reshape(-1, 2).astype(np.int32),
-                dof_actuator_adr=(np.cumsum(act_num) - act_num).astype(np.int32),
-                dof_actuator_num=act_num,
-                dof_actuator=np.concatenate(acts + [np.zeros(0, np.int64)]).astype(np.int32))
+                dof_trn_adr=(np.cumsum(act_num) - act_num).astype(np.int32),
+                dof_trn_num=act_num,
+                dof_trn=np.concatenate(acts + [np.zeros(0, np.int64)]).astype(np.int32))
 
 
 def equality_rows(model) -> dict:
@@ -261,7 +266,6 @@ def model_arrays(model, device, pair_friction=None) -> ModelArrays:
     derived = dict(dof_tree_span=dof_span, body_tree_span=body_span,
                    dof_madr=madr, dof_mnum=mnum, mass_col=mass_col,
                    **equality_rows(model), **tree_levels(model),
-                   actuator_qposadr=model.jnt_qposadr[model.dof_jnt[model.actuator_dof]],
                    sensor_slot=np.asarray(slot, np.int32),
                    pair_friction=np.zeros(0, np.float32) if pair_friction is None
                    else pair_friction)

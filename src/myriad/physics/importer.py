@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from .model import Model, ModelError
-from .types import ActuatorKind, EqualityType, JointType, ObjType, SensorType
+from .types import ActuatorKind, DynType, EqualityType, JointType, ObjType, SensorType
 
 
 def load(path: str | os.PathLike) -> Model:
@@ -245,12 +245,11 @@ def _check_supported(m, source: str) -> None:
                  "(connect, weld, joint and tendon are)")
     if m.nflex:
         fail("flex (deformable) elements are not supported")
-    if m.nmocap:
-        fail("mocap bodies are not supported")
     if m.nplugin:
         fail("engine plugins are not supported")
-    if np.any(m.opt.wind != 0) or m.opt.density != 0 or m.opt.viscosity != 0:
-        fail("<option> wind/density/viscosity (fluid forces) are not supported")
+    for g in np.flatnonzero(m.geom_fluid[:, 0] > 0) if m.ngeom else []:
+        fail(f"{_label(m, o.mjOBJ_GEOM, g, 'geom')}: fluidshape=\"ellipsoid\" (MuJoCo's "
+             "ellipsoid fluid model) is not supported; the default inertia-box model is")
     for j in range(m.njnt):
         if m.jnt_actgravcomp[j]:
             fail(f"{_label(m, o.mjOBJ_JOINT, j, 'joint')}: actuatorgravcomp (gravity "
@@ -277,14 +276,25 @@ def _check_supported(m, source: str) -> None:
             fail(f"{label}: tendon armature and polynomial springs are not supported")
         if m.tendon_lengthspring[t, 0] != m.tendon_lengthspring[t, 1]:
             fail(f"{label}: a springlength dead band (two values) is not supported")
+    trn = mujoco.mjtTrn
     for a in range(m.nu):
         label = _label(m, o.mjOBJ_ACTUATOR, a, "actuator")
-        if m.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
-            fail(f"{label}: only joint transmissions are supported")
-        if m.jnt_type[m.actuator_trnid[a, 0]] not in (JointType.HINGE, JointType.SLIDE):
+        kind, target = int(m.actuator_trntype[a]), m.actuator_trnid[a, 0]
+        if kind not in (trn.mjTRN_JOINT, trn.mjTRN_JOINTINPARENT, trn.mjTRN_TENDON,
+                        trn.mjTRN_SITE):
+            fail(f"{label}: {trn(kind).name} transmissions are not supported (joint, "
+                 "fixed-tendon and site ones are)")
+        if kind == trn.mjTRN_SITE and m.actuator_trnid[a, 1] >= 0:
+            fail(f"{label}: a site transmission with a refsite is not supported (without one, "
+                 "it is)")
+        if kind in (trn.mjTRN_JOINT, trn.mjTRN_JOINTINPARENT) and \
+                m.jnt_type[target] not in (JointType.HINGE, JointType.SLIDE):
             fail(f"{label}: actuators may only drive hinge and slide joints")
-        if m.actuator_dyntype[a] != mujoco.mjtDyn.mjDYN_NONE:
-            fail(f"{label}: actuator dynamics (dyntype) are not supported")
+        if m.actuator_dyntype[a] not in {int(t) for t in DynType}:
+            fail(f"{label}: {mujoco.mjtDyn(m.actuator_dyntype[a]).name} activation dynamics "
+                 "are not supported (none, integrator, filter and filterexact are)")
+        if m.actuator_actnum[a] > 1:
+            fail(f"{label}: an actuator with {m.actuator_actnum[a]} activations is not supported")
         if m.actuator_delay[a] != 0 or m.actuator_damping[a] != 0 or m.actuator_armature[a] != 0:
             fail(f"{label}: actuator delay, damping and armature are not supported")
         _actuator_kind(m, a, fail)
@@ -295,21 +305,25 @@ def _check_supported(m, source: str) -> None:
 
 
 def _actuator_kind(m, a: int, fail) -> int:
-    """Classify a general actuator as motor, position or velocity (MuJoCo's shortcuts)."""
+    """Classify an actuator: MuJoCo's motor, position and velocity shortcuts (whatever their
+    activation dynamics, e.g. intvelocity is a position actuator on an integrated input), else
+    a general affine one."""
     gain, bias = m.actuator_gainprm[a], m.actuator_biasprm[a]
     label = _label(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a, "actuator")
-    if m.actuator_gaintype[a] != mujoco.mjtGain.mjGAIN_FIXED:
-        fail(f"{label}: only fixed gains are supported")
-    if m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE:
+    gaintype, biastype = int(m.actuator_gaintype[a]), int(m.actuator_biastype[a])
+    if gaintype not in (mujoco.mjtGain.mjGAIN_FIXED, mujoco.mjtGain.mjGAIN_AFFINE) or \
+            biastype not in (mujoco.mjtBias.mjBIAS_NONE, mujoco.mjtBias.mjBIAS_AFFINE):
+        fail(f"{label}: {mujoco.mjtGain(gaintype).name} gain / {mujoco.mjtBias(biastype).name} "
+             "bias is not supported (fixed and affine ones are)")
+    fixed = gaintype == mujoco.mjtGain.mjGAIN_FIXED or not np.any(gain[1:3])
+    if fixed and (biastype == mujoco.mjtBias.mjBIAS_NONE or not np.any(bias[:3])):
         return ActuatorKind.MOTOR
-    if m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE and bias[0] == 0:
+    if fixed and bias[0] == 0:
         if np.isclose(bias[1], -gain[0]) and bias[1] != 0:
-            return ActuatorKind.POSITION  # force = kp*(ctrl - length) - kv*velocity
+            return ActuatorKind.POSITION  # force = kp*(u - length) - kv*velocity
         if bias[1] == 0 and np.isclose(bias[2], -gain[0]):
-            return ActuatorKind.VELOCITY  # force = kv*(ctrl - velocity)
-    fail(f"{label}: a general actuator that is not a motor, position or velocity actuator is "
-         "not supported")
-    return -1
+            return ActuatorKind.VELOCITY  # force = kv*(u - velocity)
+    return ActuatorKind.AFFINE
 
 
 _FRAME_SENSORS = {SensorType.FRAMEPOS, SensorType.FRAMEQUAT, SensorType.FRAMEXAXIS,
@@ -425,13 +439,19 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
             jnt_springref[j] = qpos_spring[m.jnt_qposadr[j]]
 
     nu = m.nu
-    kind = np.array([_actuator_kind(m, a, None) for a in range(nu)], np.int32)
-    gear = m.actuator_gear[:, 0] if nu else np.zeros(0)
-    gain = np.where(kind == ActuatorKind.MOTOR, m.actuator_gainprm[:, 0], 0.0) if nu else np.zeros(0)
-    kp = np.where(kind == ActuatorKind.POSITION, m.actuator_gainprm[:, 0], 0.0) if nu else np.zeros(0)
-    kv = (np.where(kind == ActuatorKind.POSITION, -m.actuator_biasprm[:, 2], 0.0)
-          + np.where(kind == ActuatorKind.VELOCITY, m.actuator_gainprm[:, 0], 0.0)) if nu else np.zeros(0)
-    actuator_dof = _i32(m.jnt_dofadr[m.actuator_trnid[:, 0]]) if nu else np.zeros(0, np.int32)
+    kind = np.array([_actuator_kind(m, a, None) for a in range(nu)], np.int32).reshape(nu)
+    gainprm, biasprm = m.actuator_gainprm[:, :3], m.actuator_biasprm[:, :3]
+    affine_gain = (m.actuator_gaintype == mujoco.mjtGain.mjGAIN_AFFINE)[:, None]
+    affine_bias = (m.actuator_biastype == mujoco.mjtBias.mjBIAS_AFFINE)[:, None]
+    gainprm = np.where(affine_gain, gainprm, gainprm * [1, 0, 0])
+    biasprm = np.where(affine_bias, biasprm, 0.0)
+    is_kind = lambda *kinds: np.isin(kind, kinds)   # noqa: E731
+    gain = np.where(is_kind(ActuatorKind.MOTOR, ActuatorKind.AFFINE), gainprm[:, 0], 0.0)
+    kp = np.where(is_kind(ActuatorKind.POSITION), gainprm[:, 0],
+                  np.where(is_kind(ActuatorKind.AFFINE), -biasprm[:, 1], 0.0))
+    kv = np.where(is_kind(ActuatorKind.POSITION, ActuatorKind.AFFINE), -biasprm[:, 2],
+                  np.where(is_kind(ActuatorKind.VELOCITY), gainprm[:, 0], 0.0))
+    transmissions = _transmissions(m)
 
     hull_face, hull_faceadr, hull_facenum = _mesh_hulls(m, source)
     sensors = _sensors(m, source)
@@ -439,6 +459,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
     model = Model(
         source=source, mj_model=m,
         nq=m.nq, nv=m.nv, nbody=nbody, njnt=m.njnt, ngeom=m.ngeom, nsite=m.nsite, nu=nu,
+        nmocap=m.nmocap,
         ntendon=m.ntendon, neq=m.neq,
         body_names=[_name(m, o.mjOBJ_BODY, b) for b in range(1, m.nbody)],
         joint_names=[_name(m, o.mjOBJ_JOINT, j) for j in range(m.njnt)],
@@ -450,7 +471,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         body_pos=_f32(m.body_pos[1:]), body_quat=_xyzw(m.body_quat[1:]),
         body_ipos=_f32(m.body_ipos[1:]), body_iquat=_xyzw(m.body_iquat[1:]),
         body_mass=_f32(m.body_mass[1:]), body_inertia=_f32(m.body_inertia[1:]),
-        body_gravcomp=_f32(m.body_gravcomp[1:]),
+        body_gravcomp=_f32(m.body_gravcomp[1:]), body_mocapid=_i32(m.body_mocapid[1:]),
         body_jntadr=body_jntadr, body_jntnum=body_jntnum, body_last_dof=body_last_dof,
         jnt_type=_i32(m.jnt_type), jnt_body=_i32(m.jnt_bodyid - 1),
         jnt_qposadr=_i32(m.jnt_qposadr), jnt_dofadr=_i32(m.jnt_dofadr),
@@ -476,8 +497,18 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         hfield_riser=np.zeros(m.nhfield, np.float32),   # MuJoCo has no risers: its surface
         site_body=_i32(m.site_bodyid - 1), site_pos=_f32(m.site_pos), site_quat=_xyzw(m.site_quat),
         site_type=_i32(m.site_type), site_size=_f32(m.site_size),
-        actuator_kind=kind, actuator_dof=actuator_dof, actuator_gear=_f32(gear),
+        actuator_kind=kind, **transmissions,
+        # a site actuator's gear is its 6D wrench (actuator_site_gear): its scalar gear is 1
+        actuator_gear=_f32(np.where(transmissions["actuator_trnsite"] >= 0, 1.0,
+                                    m.actuator_gear[:, 0])),
         actuator_gain=_f32(gain), actuator_kp=_f32(kp), actuator_kv=_f32(kv),
+        actuator_bias=_f32(np.where(is_kind(ActuatorKind.AFFINE), biasprm[:, 0], 0.0)),
+        actuator_gain_lv=_f32(np.where(is_kind(ActuatorKind.AFFINE)[:, None], gainprm[:, 1:3],
+                                       0.0)),
+        actuator_dyntype=_i32(m.actuator_dyntype), actuator_tau=_f32(m.actuator_dynprm[:, 0]),
+        actuator_actlimited=m.actuator_actlimited.astype(bool),
+        actuator_actrange=_f32(m.actuator_actrange),
+        actuator_actearly=m.actuator_actearly.astype(bool),
         actuator_ctrllimited=m.actuator_ctrllimited.astype(bool),
         actuator_ctrlrange=_f32(m.actuator_ctrlrange),
         actuator_forcelimited=m.actuator_forcelimited.astype(bool),
@@ -499,8 +530,45 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         **_explicit_pairs(m),
         **_equalities(m),
         gravity=_f32(m.opt.gravity), timestep=float(m.opt.timestep),
+        density=float(m.opt.density), viscosity=float(m.opt.viscosity), wind=_f32(m.opt.wind),
     )
     return model
+
+
+def _transmissions(m) -> dict:
+    """Each actuator's transmission as entries (dof, qpos, coef), in actuator order: a joint is
+    one entry of coef 1, a fixed tendon its joints with their coefficients (MuJoCo's tendon
+    length, without an offset: Σ coef·q)."""
+    entries, site, site_gear = [], np.full(m.nu, -1), np.zeros((m.nu, 6))
+    for a in range(m.nu):
+        target, kind = m.actuator_trnid[a, 0], int(m.actuator_trntype[a])
+        if kind == mujoco.mjtTrn.mjTRN_SITE:
+            # a wrench at the site: every dof carrying the site's body, its moment arm computed
+            # each substep from the site's pose (coef unused)
+            site[a], site_gear[a] = target, m.actuator_gear[a]
+            body, dofs = m.site_bodyid[target], []
+            while body > 0 and m.body_dofnum[body] == 0:
+                body = m.body_parentid[body]
+            dof = m.body_dofadr[body] + m.body_dofnum[body] - 1 if body > 0 else -1
+            while dof >= 0:
+                dofs.append(dof)
+                dof = m.dof_parentid[dof]
+            entries.append([(a, d, 0, 0.0) for d in dofs])
+            continue
+        if kind == mujoco.mjtTrn.mjTRN_TENDON:
+            adr, num = m.tendon_adr[target], m.tendon_num[target]
+            joints, coefs = m.wrap_objid[adr:adr + num], m.wrap_prm[adr:adr + num]
+        else:
+            joints, coefs = [target], [1.0]
+        entries.append([(a, m.jnt_dofadr[j], m.jnt_qposadr[j], c) for j, c in zip(joints, coefs)])
+    num = np.asarray([len(e) for e in entries], np.int32)
+    flat = np.asarray([x for e in entries for x in e], np.float64).reshape(-1, 4)
+    first = np.cumsum(num) - num
+    return dict(actuator_dof=_i32([e[0][1] if e else -1 for e in entries]),
+                actuator_trnadr=_i32(first), actuator_trnnum=num,
+                trn_actuator=_i32(flat[:, 0]), trn_dof=_i32(flat[:, 1]),
+                trn_qposadr=_i32(flat[:, 2]), trn_coef=_f32(flat[:, 3]),
+                actuator_trnsite=_i32(site), actuator_site_gear=_f32(site_gear))
 
 
 def _equalities(m) -> dict:

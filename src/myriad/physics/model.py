@@ -34,6 +34,7 @@ class Model:
     ngeom: int
     nsite: int
     nu: int
+    nmocap: int                      # mocap bodies (MuJoCo's): kinematic, posed per env
     ntendon: int
     nsensor: int                     # sensors Myriad computes (the model's others are skipped)
     nsensordata: int                 # their values, flat: the width of sim.sensor_data
@@ -59,6 +60,8 @@ class Model:
     body_gravcomp: np.ndarray        # [nbody] share of the body's weight cancelled by an applied
                                      # force at its centre of mass (MuJoCo's gravcomp; 1: no
                                      # gravity on it, Isaac Gym's disable_gravity)
+    body_mocapid: np.ndarray         # [nbody] a mocap body's index in sim.mocap_pos, else -1:
+                                     # a child of the world without joints, posed by the user
     body_jntadr: np.ndarray          # [nbody] first joint, -1 if none
     body_jntnum: np.ndarray          # [nbody]
     body_last_dof: np.ndarray        # [nbody] last dof moving this body (own or an ancestor's), -1 if none
@@ -125,13 +128,33 @@ class Model:
     site_type: np.ndarray            # [nsite] geom type of the site's zone (touch sensors)
     site_size: np.ndarray            # [nsite, 3] MuJoCo's size semantics
 
-    # actuators (joint transmission)
+    # actuators. Each drives a transmission: a length l = gear · Σ coef·q over its entries
+    # (one entry of coef 1 for a joint, the tendon's joints for a fixed tendon), receiving
+    # gear·coef·force on each entry's dof (MuJoCo's actuator_moment); a site transmission is a
+    # wrench at the site, its moment arms from the site's pose, its length 0.
     actuator_kind: np.ndarray        # [nu] types.ActuatorKind
-    actuator_dof: np.ndarray         # [nu] the dof the actuator drives
+    actuator_dof: np.ndarray         # [nu] the dof the actuator drives (its first entry's)
+    actuator_trnadr: np.ndarray      # [nu] first entry in trn_*
+    actuator_trnnum: np.ndarray      # [nu] entries: 1 for a joint, a tendon's joint count
+    trn_actuator: np.ndarray         # [ntrn] the actuator of each entry
+    trn_dof: np.ndarray              # [ntrn] its hinge or slide dof
+    trn_qposadr: np.ndarray          # [ntrn] that joint's qpos
+    trn_coef: np.ndarray             # [ntrn] its share of the length (before the gear)
+    actuator_trnsite: np.ndarray     # [nu] site transmission: the site (its entries: the dofs
+                                     # carrying it), else -1
+    actuator_site_gear: np.ndarray   # [nu, 6] its wrench per unit force, site frame: force,
+                                     # torque (MuJoCo's 6D gear; the scalar gear is then 1)
     actuator_gear: np.ndarray        # [nu]
-    actuator_gain: np.ndarray        # [nu] motor: force per unit ctrl
-    actuator_kp: np.ndarray          # [nu] position actuators
-    actuator_kv: np.ndarray          # [nu] position (damping) and velocity actuators
+    actuator_gain: np.ndarray        # [nu] motor and affine: force per unit input
+    actuator_kp: np.ndarray          # [nu] position and affine: stiffness (−biasprm[1])
+    actuator_kv: np.ndarray          # [nu] position, velocity and affine: damping (−biasprm[2])
+    actuator_bias: np.ndarray        # [nu] affine: constant force (biasprm[0])
+    actuator_gain_lv: np.ndarray     # [nu, 2] affine: the gain's terms in l and v (gainprm[1:3])
+    actuator_dyntype: np.ndarray     # [nu] types.DynType: NONE, or the input is an activation
+    actuator_tau: np.ndarray         # [nu] filter time constant (s, dynprm[0])
+    actuator_actlimited: np.ndarray  # [nu] bool: the activation is clamped to actrange
+    actuator_actrange: np.ndarray    # [nu, 2]
+    actuator_actearly: np.ndarray    # [nu] bool: the force uses this substep's new activation
     actuator_ctrllimited: np.ndarray # [nu] bool
     actuator_ctrlrange: np.ndarray   # [nu, 2]
     actuator_forcelimited: np.ndarray  # [nu] bool
@@ -188,6 +211,11 @@ class Model:
     eq_ref: np.ndarray               # [neq, 2] x1_0, x2_0: joint qpos0 or tendon length at qpos0
 
     gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81], np.float32))
+    # the medium bodies move in (MuJoCo's <option density viscosity wind>): forces of MuJoCo's
+    # inertia-box fluid model on every body with mass (`forces.fluid_wrench`); 0: none
+    density: float = 0.0             # kg/m³ (air 1.2, water 1000)
+    viscosity: float = 0.0           # Pa·s (air 1.8e-5, water 9e-4)
+    wind: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))   # m/s, world
     timestep: float = 1.0 / 60.0
 
     @property

@@ -35,7 +35,7 @@ def forward(rt, dm, d) -> None:
     run_kinematics(rt, dm, d)
     run_dynamics(rt, dm, d)
     rt.launch_lanes(forces.body_wrenches, BLOCK_DIM.bodies,
-                    [dm.m, d.state, d.control, d.dynamics])
+                    [dm.m, d.env_params, d.state, d.control, d.dynamics])
 
 
 # ---------------------------------------------------------------------------------- the stages
@@ -75,7 +75,7 @@ def run_dynamics(rt, dm, d) -> None:
 
 def run_applied_forces(rt, dm, d) -> None:
     rt.launch_lanes(forces.body_wrenches, BLOCK_DIM.bodies,
-                    [dm.m, d.state, d.control, d.dynamics])
+                    [dm.m, d.env_params, d.state, d.control, d.dynamics])
     rt.launch_lanes(forces.generalized_forces, BLOCK_DIM.dofs,
                     [dm.m, d.env_params, dm.opt, d.state, d.control, d.dynamics])
 
@@ -100,6 +100,9 @@ def run_solve_constraints(rt, dm, d) -> None:
 
 def run_integrate(rt, dm, d) -> None:
     rt.launch_lanes(integrate.integrate, BLOCK_DIM.dofs, [dm.m, d.state])
+    if dm.activations:
+        rt.launch(forces.integrate_activations, (rt.num_envs, dm.sizes["nu"]),
+                  [dm.m, dm.opt, d.state, d.control])
 
 
 def run_constraint_outputs(rt, dm, d) -> None:

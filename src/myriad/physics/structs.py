@@ -93,6 +93,7 @@ class ModelArrays:
     body_jntnum: wp.array(dtype=wp.int32)
     body_last_dof: wp.array(dtype=wp.int32)
     body_gravcomp: wp.array(dtype=float)
+    body_mocapid: wp.array(dtype=wp.int32)     # a mocap body's row of State.mocap_pos, else -1
     # the tree by levels (`build.tree_levels`), for kernels whose lanes take one level's bodies
     # at a time: level k holds the bodies with k ancestors, level_body[level_adr[k]:
     # level_adr[k + 1]] in ascending order; a body's children are body_child[body_child_adr[b]:
@@ -118,11 +119,11 @@ class ModelArrays:
     dof_body: wp.array(dtype=wp.int32)
     dof_parent: wp.array(dtype=wp.int32)
     dof_jnt: wp.array(dtype=wp.int32)
-    # the actuators driving each dof, in actuator order: dof_actuator[dof_actuator_adr[i]:
-    # dof_actuator_adr[i] + dof_actuator_num[i]]
-    dof_actuator_adr: wp.array(dtype=wp.int32)   # [nv]
-    dof_actuator_num: wp.array(dtype=wp.int32)   # [nv]
-    dof_actuator: wp.array(dtype=wp.int32)       # [nu]
+    # the actuator transmission entries on each dof (`trn_*`), in actuator order:
+    # dof_trn[dof_trn_adr[i]: dof_trn_adr[i] + dof_trn_num[i]]
+    dof_trn_adr: wp.array(dtype=wp.int32)   # [nv]
+    dof_trn_num: wp.array(dtype=wp.int32)   # [nv]
+    dof_trn: wp.array(dtype=wp.int32)       # [ntrn]
     ntree: int
     tree_dofs: wp.array(dtype=wp.vec2i)   # [ntree] [lo, hi) of each dof tree, in dof order
     # [lo, hi) of the dofs in the same dof tree (a dof, its ancestors and descendants): the
@@ -150,9 +151,23 @@ class ModelArrays:
     site_type: wp.array(dtype=wp.int32)     # the zone of a touch sensor: sphere ... box
     site_size: wp.array(dtype=wp.vec3)
 
-    actuator_kind: wp.array(dtype=wp.int32)
-    actuator_dof: wp.array(dtype=wp.int32)
-    actuator_qposadr: wp.array(dtype=wp.int32)
+    # actuators (`Model`): kinds, transmissions as entries (dof, qpos, coef), activations
+    actuator_kind: wp.array(dtype=wp.int32)       # types.ActuatorKind
+    actuator_trnadr: wp.array(dtype=wp.int32)     # first entry
+    actuator_trnnum: wp.array(dtype=wp.int32)     # 1: a joint (implicit drive), more: a tendon
+    trn_actuator: wp.array(dtype=wp.int32)
+    trn_dof: wp.array(dtype=wp.int32)
+    trn_qposadr: wp.array(dtype=wp.int32)
+    trn_coef: wp.array(dtype=float)
+    actuator_trnsite: wp.array(dtype=wp.int32)        # site transmission: the site, else -1
+    actuator_site_gear: wp.array(dtype=wp.spatial_vector)   # its wrench: force, torque (site)
+    actuator_bias: wp.array(dtype=float)          # affine: constant force
+    actuator_gain_lv: wp.array(dtype=wp.vec2)     # affine: the gain's terms in length, velocity
+    actuator_dyntype: wp.array(dtype=wp.int32)    # types.DynType
+    actuator_tau: wp.array(dtype=float)           # filter time constant (s)
+    actuator_actlimited: wp.array(dtype=wp.int32)
+    actuator_actrange: wp.array(dtype=wp.vec2)
+    actuator_actearly: wp.array(dtype=wp.int32)
     actuator_ctrllimited: wp.array(dtype=wp.int32)
     actuator_ctrlrange: wp.array(dtype=wp.vec2)
     actuator_forcelimited: wp.array(dtype=wp.int32)
@@ -270,11 +285,11 @@ class EnvParams:
     dof_max_velocity = per_env("nv", doc="maximum joint speed (rad/s or m/s)",
                                public=True, writable=True)
     actuator_gear = per_env("nu", doc="transmission ratio", public=True, writable=True)
-    actuator_gain = per_env("nu", doc="motors: force per unit ctrl", public=True,
-                            writable=True)
-    actuator_kp = per_env("nu", doc="position actuators: stiffness", public=True,
+    actuator_gain = per_env("nu", doc="motors and general (affine) actuators: force per unit "
+                            "input", public=True, writable=True)
+    actuator_kp = per_env("nu", doc="position and affine actuators: stiffness", public=True,
                           writable=True)
-    actuator_kv = per_env("nu", doc="position and velocity actuators: damping",
+    actuator_kv = per_env("nu", doc="position, velocity and affine actuators: damping",
                           public=True, writable=True)
     tendon_stiffness = per_env("ntendon", doc="spring stiffness along the tendon length",
                                public=True, writable=True)
@@ -290,6 +305,12 @@ class EnvParams:
                             writable=True)
     gravity = per_env(dtype=wp.vec3, doc="gravitational acceleration, world (m/s²)",
                       public=True, writable=True)
+    fluid_density = per_env(doc="density of the medium (kg/m³): quadratic drag of MuJoCo's "
+                            "inertia-box fluid model; 0: none", public=True, writable=True)
+    fluid_viscosity = per_env(doc="viscosity of the medium (Pa·s): linear drag; 0: none",
+                              public=True, writable=True)
+    wind = per_env(dtype=wp.vec3, doc="velocity of the medium, world (m/s)", public=True,
+                   writable=True)
     eq_active = per_env("neq", dtype=wp.int32, doc="1: the equality constraint holds, 0: it is "
                         "off (MuJoCo's eq_active)", public=True, writable=True)
     eq_anchor = per_env("neq", 2, dtype=wp.vec3, doc="connect/weld: the point on body 1 (its "
@@ -335,6 +356,13 @@ class State:
     sensor_data = per_env("nsensordata", doc="every sensor's values after the last step, in "
                           "MuJoCo's sensordata order (Model.sensor_adr, sensor_dim; "
                           "quaternions w, x, y, z)", public=True)
+    mocap_pos = per_env("nmocap", dtype=wp.vec3, doc="position of each mocap body, world (m): "
+                        "kinematic bodies the user moves (MuJoCo's mocap_pos)", public=True,
+                        writable=True)
+    mocap_quat = per_env("nmocap", dtype=wp.quat, doc="orientation of each mocap body, "
+                         "quaternion xyzw (normalized when used)", public=True, writable=True)
+    act = per_env("nu", doc="activation of each actuator with activation dynamics (its input "
+                  "instead of ctrl; 0 for the others)", public=True, writable=True)
     nonfinite = per_env(dtype=wp.int32, doc="1 once the env's state or input went non-finite "
                         "(its state is then NaN); the task resets it", public=True,
                         writable=True)
@@ -358,7 +386,8 @@ class Dynamics:
                      "below the diagonal, D⁻¹ on it")
     bias = per_env("nv", doc="C(q, qd)·qd + g(q)", public="bias_force")
     qfrc = per_env("nv", doc="explicit generalized force minus bias")
-    qfrc_applied = per_env("nv", doc="generalized force of joint_force and body_force")
+    qfrc_applied = per_env("nv", doc="generalized force of joint_force, body_force and the "
+                           "fluid forces")
     qfrc_actuator = per_env("nv", doc="generalized actuator force", public="dof_actuator_force")
     actuator_force = per_env("nu", doc="each actuator's force before the gear at the start of "
                              "the last substep, clamped to its force range (MuJoCo's "

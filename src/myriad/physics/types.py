@@ -21,10 +21,24 @@ JOINT_DOF_SIZE = {JointType.FREE: 6, JointType.BALL: 3, JointType.SLIDE: 1, Join
 
 
 class ActuatorKind(IntEnum):
-    """MuJoCo's motor / position / velocity shortcuts, the kinds Myriad supports."""
-    MOTOR = 0      # force = gear · gain · ctrl
-    POSITION = 1   # force = kp·(ctrl − q) − kv·qd, implicit in the step
-    VELOCITY = 2   # force = kv·(ctrl − qd), implicit in the step
+    """How an actuator's force follows from its input u (ctrl, or its activation) and its
+    transmission's length l and velocity v (both already times the gear). MuJoCo's motor,
+    position and velocity shortcuts have kinds of their own, so that their per-env gains keep
+    one meaning; every other fixed or affine gain with an affine bias is `AFFINE`."""
+    MOTOR = 0      # force = gain·u
+    POSITION = 1   # force = kp·(u − l) − kv·v, implicit in the step
+    VELOCITY = 2   # force = kv·(u − v), implicit in the step
+    AFFINE = 3     # force = (gain + gain_l·l + gain_v·v)·u + bias − kp·l − kv·v (MuJoCo's
+                   # general actuator: gainprm[0:3], biasprm = bias, −kp, −kv)
+
+
+class DynType(IntEnum):
+    """MuJoCo's actuator activation dynamics (`mjtDyn`): the actuator's input is its activation
+    `act`, integrated each substep from ctrl, instead of ctrl itself."""
+    NONE = 0          # no activation: u = ctrl
+    INTEGRATOR = 1    # act' = ctrl
+    FILTER = 2        # act' = (ctrl − act) / tau, Euler
+    FILTEREXACT = 3   # the same, integrated exactly over the substep
 
 
 class GeomType(IntEnum):
@@ -108,6 +122,11 @@ HINGE = wp.constant(int(JointType.HINGE))
 MOTOR = wp.constant(int(ActuatorKind.MOTOR))
 POSITION = wp.constant(int(ActuatorKind.POSITION))
 VELOCITY = wp.constant(int(ActuatorKind.VELOCITY))
+AFFINE = wp.constant(int(ActuatorKind.AFFINE))
+DYN_NONE = wp.constant(int(DynType.NONE))
+DYN_INTEGRATOR = wp.constant(int(DynType.INTEGRATOR))
+DYN_FILTER = wp.constant(int(DynType.FILTER))
+DYN_FILTEREXACT = wp.constant(int(DynType.FILTEREXACT))
 
 PLANE = wp.constant(int(GeomType.PLANE))
 HFIELD = wp.constant(int(GeomType.HFIELD))

@@ -1,4 +1,5 @@
-"""Generalized forces of one substep: user forces, actuators, joint springs and dampers.
+"""Generalized forces of one substep: user forces, fluid forces, actuators, joint springs and
+dampers; and the actuators' activations (`integrate_activations`).
 
 Writes the explicit force `qfrc` (already minus the bias forces) and `implicit_diag`, the diagonal
 joint-space terms h·d + h²·k that the solve adds to the mass matrix. Implicit terms are exact for
@@ -7,8 +8,10 @@ the linearized update qd' = qd + h·qacc, q' = q + h·qd':
   position actuator:      f = g·(kp·(u - g·q') - kv·g·qd') -> rhs g·(kp·(u - g·q - h·g·qd) - kv·g·qd),
                                                              diag g²·(h·kv + h²·kp)
   velocity actuator:      f = g·kv·(u - g·qd')            -> rhs g·kv·(u - g·qd),  diag g²·h·kv
-An actuator whose predicted force (qacc = 0) exceeds its force range applies the clamped force
-explicitly instead; so does a joint whose summed actuator force exceeds its effort limit. Joint
+A general affine actuator on a joint is implicit like a position actuator in its stabilizing
+bias terms; an actuator on a fixed tendon is explicit, as in MuJoCo's Euler step (docs/physics.md,
+"Implicit terms"). An actuator whose predicted force (qacc = 0) exceeds its force range applies
+the clamped force explicitly instead; so does a joint whose summed actuator force exceeds its effort limit. Joint
 springs are explicit, as in MuJoCo. Fixed-tendon springs are soft constraint rows of the solver
 (implicit along the tendon only, see `constraints`).
 
@@ -21,11 +24,78 @@ other envs are untouched (every kernel is per env).
 import warp as wp
 
 from ..lanes import stop, sync, world_lane
-from ..types import HINGE, MOTOR, POSITION, SLIDE
+from ..types import (AFFINE, DYN_FILTER, DYN_FILTEREXACT, DYN_INTEGRATOR, DYN_NONE, HINGE, MOTOR,
+                     POSITION, SLIDE, VELOCITY)
 from ..spatial import row_finite
+from ..spatial import velocity_at
 from .dynamics import subtree_sums
 from ..structs import Control, Dynamics, EnvParams, ModelArrays, Options, State
 
+
+
+@wp.func
+def site_wrench(m: ModelArrays, s: State, e: int, site: int, a: int):
+    """Actuator a's wrench per unit force at its site, as the power pairing with a motion
+    subspace at the tree's reference point wants it: (torque about that point, force)."""
+    x = s.site_x[e, site]
+    rot = wp.transform_get_rotation(x)
+    gear = m.actuator_site_gear[a]
+    force = wp.quat_rotate(rot, wp.spatial_top(gear))
+    torque = wp.quat_rotate(rot, wp.spatial_bottom(gear))
+    ref = wp.transform_get_translation(s.body_x[e, m.body_root[m.site_body[site]]])
+    return wp.spatial_vector(torque + wp.cross(wp.transform_get_translation(x) - ref, force),
+                             force)
+
+
+@wp.func
+def clamped_ctrl(m: ModelArrays, c: Control, e: int, a: int):
+    u = c.ctrl[e, a]
+    if m.actuator_ctrllimited[a] != 0:
+        r = m.actuator_ctrlrange[a]
+        u = wp.clamp(u, r[0], r[1])
+    return u
+
+
+@wp.func
+def next_activation(m: ModelArrays, s: State, c: Control, e: int, a: int, h: float):
+    """Actuator a's activation after a substep of h (MuJoCo's act_dot, integrated), from the
+    clamped ctrl; clamped to its activation range if limited."""
+    u = clamped_ctrl(m, c, e, a)
+    act = s.act[e, a]
+    kind = m.actuator_dyntype[a]
+    tau = wp.max(m.actuator_tau[a], 1.0e-10)
+    if kind == DYN_INTEGRATOR:
+        act = act + h * u
+    elif kind == DYN_FILTER:
+        act = act + h * (u - act) / tau
+    elif kind == DYN_FILTEREXACT:
+        act = act + (u - act) * (1.0 - wp.exp(-h / tau))
+    if m.actuator_actlimited[a] != 0:
+        r = m.actuator_actrange[a]
+        act = wp.clamp(act, r[0], r[1])
+    return act
+
+
+@wp.func
+def actuator_input(m: ModelArrays, s: State, c: Control, e: int, a: int, h: float):
+    """What actuator a's gain multiplies: its clamped ctrl, or its activation (the one this
+    substep ends with, for actearly)."""
+    if m.actuator_dyntype[a] != DYN_NONE:
+        if m.actuator_actearly[a] != 0:
+            return next_activation(m, s, c, e, a, h)
+        return s.act[e, a]
+    return clamped_ctrl(m, c, e, a)
+
+
+@wp.kernel
+def integrate_activations(m: ModelArrays, opt: Options,
+                          s: State,     # in and out: act
+                          c: Control):  # in: ctrl
+    """Each actuator with activation dynamics: its activation one substep on (a thread per
+    env and actuator; run after the substep's forces used the old one)."""
+    e, a = wp.tid()
+    if m.actuator_dyntype[a] != DYN_NONE:
+        s.act[e, a] = next_activation(m, s, c, e, a, opt.h)
 
 
 @wp.kernel
@@ -54,36 +124,70 @@ def generalized_forces(m: ModelArrays, p: EnvParams, opt: Options,
         qfrc = d.qfrc_applied[e, i] - d.bias[e, i] - damping * s.qd[e, i]
         implicit = h * damping
         actuated = float(0.0)
-        for k in range(m.dof_actuator_adr[i], m.dof_actuator_adr[i] + m.dof_actuator_num[i]):
-            a = m.dof_actuator[k]
+        # each actuator on this dof: a tendon's is computed by each of its dofs' lanes (a few
+        # redundant flops rather than a sync), and reported by its first entry's
+        for n in range(m.dof_trn_adr[i], m.dof_trn_adr[i] + m.dof_trn_num[i]):
+            k = m.dof_trn[n]     # the transmission entry
+            a = m.trn_actuator[k]
             g = p.actuator_gear[e, a]
-            u = c.ctrl[e, a]
-            if m.actuator_ctrllimited[a] != 0:
-                r = m.actuator_ctrlrange[a]
-                u = wp.clamp(u, r[0], r[1])
+            u = actuator_input(m, s, c, e, a, h)
+            # the transmission's length and velocity before the gear: Σ coef·q, Σ coef·qd; a
+            # site's: 0 and the speed along its wrench, Σ (cdof · wrench)·qd
+            adr = m.actuator_trnadr[a]
+            site = m.actuator_trnsite[a]
+            wrench = wp.spatial_vector()
+            if site >= 0:
+                wrench = site_wrench(m, s, e, site, a)
+            q_trn = float(0.0)
+            qd_trn = float(0.0)
+            for t in range(adr, adr + m.actuator_trnnum[a]):
+                if site >= 0:
+                    qd_trn += wp.dot(s.cdof[e, m.trn_dof[t]], wrench) * s.qd[e, m.trn_dof[t]]
+                else:
+                    q_trn += m.trn_coef[t] * s.q[e, m.trn_qposadr[t]]
+                    qd_trn += m.trn_coef[t] * s.qd[e, m.trn_dof[t]]
+            # a joint's drive is implicit in the step (its terms on the mass matrix diagonal);
+            # a tendon's or a site's couples several dofs and is explicit, as in MuJoCo's Euler
+            implicit_drive = m.actuator_trnnum[a] == 1 and site < 0
             kind = m.actuator_kind[a]
+            # `reported`: the force at this state (MuJoCo's actuator_force); `force`: what the
+            # step applies, with an implicit drive's prediction of the position (-kp·h·v)
+            reported = float(0.0)
             force = float(0.0)
             stiff = float(0.0)
             damp = float(0.0)
             if kind == MOTOR:
                 force = p.actuator_gain[e, a] * u
-            else:
+                reported = force
+            elif kind == VELOCITY:
+                force = p.actuator_kv[e, a] * (u - g * qd_trn)
+                reported = force
+                damp = p.actuator_kv[e, a]
+            elif kind == POSITION:
+                kp = p.actuator_kp[e, a]
                 kv = p.actuator_kv[e, a]
-                if kind == POSITION:
-                    kp = p.actuator_kp[e, a]
-                    length = g * s.q[e, m.actuator_qposadr[a]]
-                    force = kp * (u - length - h * g * s.qd[e, i]) - kv * g * s.qd[e, i]
+                length = g * q_trn
+                reported = kp * (u - length) - kv * g * qd_trn
+                force = reported
+                if implicit_drive:
+                    force = kp * (u - length - h * g * qd_trn) - kv * g * qd_trn
                     stiff = kp
-                else:
-                    force = kv * (u - g * s.qd[e, i])
                 damp = kv
-            # what MuJoCo reports as actuator_force: the force at this state, without the
-            # implicit step's prediction of the position (-kp·h·g·qd above), clamped to the
-            # force range
-            reported = force
-            if kind == POSITION:
-                reported = (p.actuator_kp[e, a] * (u - g * s.q[e, m.actuator_qposadr[a]])
-                            - p.actuator_kv[e, a] * g * s.qd[e, i])
+            else:   # AFFINE
+                kp = p.actuator_kp[e, a]
+                kv = p.actuator_kv[e, a]
+                lv = m.actuator_gain_lv[a]
+                gain = p.actuator_gain[e, a] + lv[0] * g * q_trn + lv[1] * g * qd_trn
+                reported = gain * u + m.actuator_bias[a] - kp * g * q_trn - kv * g * qd_trn
+                force = reported
+                if kp >= 0.0 and kv >= 0.0:   # a stabilizing bias only
+                    force = reported - kp * h * g * qd_trn
+                    stiff = kp
+                    damp = kv
+            if not implicit_drive:
+                force = reported
+                stiff = 0.0
+                damp = 0.0
             if m.actuator_forcelimited[a] != 0:
                 r = m.actuator_forcerange[a]
                 reported = wp.clamp(reported, r[0], r[1])
@@ -91,11 +195,15 @@ def generalized_forces(m: ModelArrays, p: EnvParams, opt: Options,
                     force = wp.clamp(force, r[0], r[1])
                     stiff = 0.0
                     damp = 0.0
-            d.actuator_force[e, a] = reported
-            if bad:
-                d.actuator_force[e, a] = wp.nan
-            actuated = actuated + g * force
-            implicit = implicit + g * g * (h * damp + h * h * stiff)
+            if k == adr:
+                d.actuator_force[e, a] = reported
+                if bad:
+                    d.actuator_force[e, a] = wp.nan
+            moment = g * m.trn_coef[k]
+            if site >= 0:
+                moment = g * wp.dot(s.cdof[e, i], wrench)
+            actuated = actuated + moment * force
+            implicit = implicit + moment * moment * (h * damp + h * h * stiff)
         j = m.dof_jnt[i]
         t = m.jnt_type[j]
         if t == HINGE or t == SLIDE:
@@ -116,14 +224,52 @@ def generalized_forces(m: ModelArrays, p: EnvParams, opt: Options,
             d.qfrc[e, i] = wp.nan
 
 
+@wp.func
+def fluid_wrench(p: EnvParams, s: State, e: int, b: int, ref: wp.vec3):
+    """MuJoCo's inertia-box fluid model: the force and torque (world, at the center of mass) of
+    env e's medium on body b, from the box of the body's mass and inertia moving through it.
+    Viscous drag is linear in the velocity (Stokes, on the sphere of the box's mean side),
+    density's drag quadratic on each face of the box; `ref`: the body tree's reference point."""
+    density = p.fluid_density[e]
+    viscosity = p.fluid_viscosity[e]
+    mass = p.body_mass[e, b]
+    if (density <= 0.0 and viscosity <= 0.0) or mass < 1.0e-15:
+        return wp.spatial_vector()
+    inertia = p.body_inertia[e, b]
+    box = wp.vec3(wp.sqrt(wp.max(1.0e-15, inertia[1] + inertia[2] - inertia[0]) / mass * 6.0),
+                  wp.sqrt(wp.max(1.0e-15, inertia[0] + inertia[2] - inertia[1]) / mass * 6.0),
+                  wp.sqrt(wp.max(1.0e-15, inertia[0] + inertia[1] - inertia[2]) / mass * 6.0))
+    frame = s.body_iframe[e, b]
+    cvel = s.cvel[e, b]
+    # velocities relative to the medium, in the frame of the principal axes
+    w = wp.quat_rotate_inv(frame, wp.spatial_top(cvel))
+    v = wp.quat_rotate_inv(frame, velocity_at(cvel, s.body_com[e, b] - ref) - p.wind[e])
+    torque = wp.vec3()
+    force = wp.vec3()
+    if viscosity > 0.0:
+        diameter = (box[0] + box[1] + box[2]) / 3.0
+        torque = -wp.pi * diameter * diameter * diameter * viscosity * w
+        force = -3.0 * wp.pi * diameter * viscosity * v
+    if density > 0.0:
+        b4 = wp.cw_mul(wp.cw_mul(box, box), wp.cw_mul(box, box))
+        force -= 0.5 * density * wp.vec3(box[1] * box[2] * wp.abs(v[0]) * v[0],
+                                          box[0] * box[2] * wp.abs(v[1]) * v[1],
+                                          box[0] * box[1] * wp.abs(v[2]) * v[2])
+        torque -= density / 64.0 * wp.vec3(box[0] * (b4[1] + b4[2]) * wp.abs(w[0]) * w[0],
+                                            box[1] * (b4[0] + b4[2]) * wp.abs(w[1]) * w[1],
+                                            box[2] * (b4[0] + b4[1]) * wp.abs(w[2]) * w[2])
+    return wp.spatial_vector(wp.quat_rotate(frame, force), wp.quat_rotate(frame, torque))
+
+
 @wp.kernel
-def body_wrenches(m: ModelArrays,
+def body_wrenches(m: ModelArrays, p: EnvParams,
                   s: State,      # in: body_x, body_com, cdof; out: nonfinite
                   c: Control,    # in: joint_force, body_force
                   # out: qfrc_applied; scratch: wrench (each body's, then its subtree's)
                   d: Dynamics,
                   lanes: int):
-    """qfrc_applied = joint_force + Jᵀ·(force at the center of mass, torque) of every body.
+    """qfrc_applied = joint_force + Jᵀ·(force at the center of mass, torque) of every body:
+    its body_force plus its env's fluid forces (`fluid_wrench`).
 
     `body_force[e, b]` is (force, torque) in world axes, the force acting at the body's center of
     mass. A dof feels the wrenches of all bodies it carries: Σ over its subtree, projected on the
@@ -140,7 +286,12 @@ def body_wrenches(m: ModelArrays,
     for b in range(lane, stop(m.nbody, 0, active), lanes):
         f = wp.spatial_top(c.body_force[e, b])
         torque = wp.spatial_bottom(c.body_force[e, b])
-        arm = s.body_com[e, b] - wp.transform_get_translation(s.body_x[e, m.body_root[b]])
+        ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
+        fluid = fluid_wrench(p, s, e, b, ref)
+        if p.fluid_density[e] > 0.0 or p.fluid_viscosity[e] > 0.0:
+            f = f + wp.spatial_top(fluid)
+            torque = torque + wp.spatial_bottom(fluid)
+        arm = s.body_com[e, b] - ref
         d.wrench[e, b] = wp.spatial_vector(torque + wp.cross(arm, f), f)
     if lanes > 1:
         sync()

@@ -24,7 +24,7 @@ def _quat_at(q: wp.array2d(dtype=float), e: int, a: int):
 
 @wp.kernel
 def kinematics(m: ModelArrays,
-               # in: q, qd; out: body_x, body_com, body_iframe, body_vel, jnt_anchor, jnt_xaxis,
+               # in: q, qd, mocap_pos, mocap_quat; out: body_x, body_com, body_iframe, body_vel, jnt_anchor, jnt_xaxis,
                # cvel, cdof, cdof_dot
                s: State,
                lanes: int):
@@ -43,6 +43,9 @@ def kinematics(m: ModelArrays,
                 pos = wp.transform_point(px, pos)
                 rot = wp.transform_get_rotation(px) * rot
                 v = s.cvel[e, parent]
+            elif m.body_mocapid[b] >= 0:   # posed by the user, at rest as far as dynamics knows
+                pos = s.mocap_pos[e, m.body_mocapid[b]]
+                rot = s.mocap_quat[e, m.body_mocapid[b]]
 
             jbeg = m.body_jntadr[b]
             jend = jbeg + m.body_jntnum[b]

@@ -301,9 +301,10 @@ def joint_actuator_force(m: ModelArrays, p: EnvParams, d: Dynamics, e: int, j: i
     prediction of the step)."""
     dof = m.jnt_dofadr[j]
     f = float(0.0)
-    for a in range(m.nu):
-        if m.actuator_dof[a] == dof:
-            f += p.actuator_gear[e, a] * d.actuator_force[e, a]
+    for n in range(m.dof_trn_adr[dof], m.dof_trn_adr[dof] + m.dof_trn_num[dof]):
+        k = m.dof_trn[n]
+        a = m.trn_actuator[k]
+        f += p.actuator_gear[e, a] * m.trn_coef[k] * d.actuator_force[e, a]
     if m.jnt_actfrclimited[j] != 0:
         r = m.jnt_actfrcrange[j]
         f = wp.clamp(f, r[0], r[1])
