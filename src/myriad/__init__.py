@@ -14,7 +14,8 @@ if _sys.platform.startswith("linux") and not _os.environ.get("DISPLAY") \
     _os.environ["MUJOCO_GL"] = ("egl" if _find_library("EGL") else
                                 "osmesa" if _find_library("OSMesa") else "disable")
 
-from .physics import Model, ModelError, SimParams, Simulator, from_mujoco, load, load_xml
+from .physics import (Model, ModelError, SimParams, Simulator, from_mujoco, load, load_asset,
+                      load_xml)
 from .rl.vector import make_vec
 
 __version__ = "0.1.0"
@@ -37,4 +38,4 @@ def asset_path(name: str) -> str:
 
 
 __all__ = ["Model", "ModelError", "SimParams", "Simulator", "asset_path", "from_mujoco", "load",
-           "load_xml", "make", "make_vec"]
+           "load_asset", "load_xml", "make", "make_vec"]

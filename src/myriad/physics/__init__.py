@@ -5,7 +5,9 @@ from .importer import from_mujoco, load, load_xml
 from .model import Model, ModelError
 from .params import SimParams
 from .simulator import Simulator
+from .tolerant import load_asset
 
-__all__ = ["Model", "ModelError", "SimParams", "Simulator", "from_mujoco", "load", "load_xml"]
+__all__ = ["Model", "ModelError", "SimParams", "Simulator", "from_mujoco", "load", "load_asset",
+           "load_xml"]
 
 configure_modules()
