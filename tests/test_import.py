@@ -38,9 +38,12 @@ def test_invalid_element_names_element(tmp_path):
 
 
 @pytest.mark.parametrize("snippet, message", [
-    ("""<worldbody><site name="s0"/><body name="a"><freejoint/><geom size=".1"/><site name="s1"/></body></worldbody>
-        <tendon><spatial name="rope"><site site="s0"/><site site="s1"/></spatial></tendon>""",
-     "tendon 'rope': spatial tendons are not supported"),
+    ("""<worldbody><site name="s0" pos="-1 0 0"/><site name="in" pos="0.01 0 0"/>
+        <geom name="pin" type="sphere" size="0.1"/>
+        <body name="a" pos="1 0 0"><freejoint/><geom size=".1"/><site name="s1"/></body></worldbody>
+        <tendon><spatial name="rope"><site site="s0"/><geom geom="pin" sidesite="in"/><site site="s1"/>
+        </spatial></tendon>""",
+     "tendon 'rope': its side site 'in' lies inside the geom it wraps"),
     ("""<worldbody><body name="a"><joint name="h" type="hinge"/><geom size=".1"/></body></worldbody>
         <actuator><general name="user_dyn" joint="h" dyntype="user" dynprm="0.1"/></actuator>""",
      "actuator 'user_dyn': mjDYN_USER activation dynamics"),

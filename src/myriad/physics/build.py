@@ -95,7 +95,9 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
     layout = row_layout(contact_capacity, len(limited), len(limited_tendons), equality_rownum,
                         m.ntendon, m.nv if params.constraints else 0)
     dof_span = tree_spans(model)[0]
-    tendon_dofs = [m.jnt_dofadr[m.wrap_jnt[a:a + k]] for a, k in zip(m.tendon_adr, m.tendon_num)]
+    tendon_dofs = [np.arange(*m.tendon_dofspan[t]) if m.tendon_spatial[t] >= 0
+                   else m.jnt_dofadr[m.wrap_jnt[a:a + k]]
+                   for t, (a, k) in enumerate(zip(m.tendon_adr, m.tendon_num))]
     # a tendon equality's row spans both tendons' dofs
     tendon_dofs += [np.concatenate([tendon_dofs[t] for t in (t1, t2) if t >= 0])
                     for kind, t1, t2 in zip(m.eq_type, m.eq_obj1, m.eq_obj2)
@@ -123,7 +125,7 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
         SensorType.FRAMELINACC, SensorType.FRAMEANGACC]).any())
 
     sizes = dict(nq=m.nq, nv=m.nv, nbody=m.nbody, njnt=m.njnt, nu=m.nu, ntendon=m.ntendon,
-                 nmocap=m.nmocap,
+                 nmocap=m.nmocap, nspatial=int((m.tendon_spatial >= 0).sum()),
                  ngeom=m.ngeom, nsite=m.nsite, nsensor_site=len(sensor_sites),
                  nsensordata=m.nsensordata, ncontact=contact_capacity,
                  ncandidate=CANDIDATES_PER_SLOT * contact_capacity, nrow=layout.end,
@@ -267,6 +269,7 @@ def model_arrays(model, device, pair_friction=None) -> ModelArrays:
                    dof_madr=madr, dof_mnum=mnum, mass_col=mass_col,
                    **equality_rows(model), **tree_levels(model),
                    sensor_slot=np.asarray(slot, np.int32),
+                   spatial_tendon=np.flatnonzero(model.tendon_spatial >= 0).astype(np.int32),
                    pair_friction=np.zeros(0, np.float32) if pair_friction is None
                    else pair_friction)
     out = ModelArrays()

@@ -266,11 +266,12 @@ def _check_supported(m, source: str) -> None:
     for t in range(m.ntendon):
         label = _label(m, o.mjOBJ_TENDON, t, "tendon")
         adr, num = m.tendon_adr[t], m.tendon_num[t]
-        if np.any(m.wrap_type[adr:adr + num] != mujoco.mjtWrap.mjWRAP_JOINT):
-            fail(f"{label}: spatial tendons are not supported (fixed tendons only)")
-        for w in range(adr, adr + num):
-            if m.jnt_type[m.wrap_objid[w]] not in (JointType.HINGE, JointType.SLIDE):
-                fail(f"{label}: a fixed tendon may only span hinge and slide joints")
+        if m.wrap_type[adr] == mujoco.mjtWrap.mjWRAP_JOINT:
+            for w in range(adr, adr + num):
+                if m.jnt_type[m.wrap_objid[w]] not in (JointType.HINGE, JointType.SLIDE):
+                    fail(f"{label}: a fixed tendon may only span hinge and slide joints")
+        else:
+            _check_side_sites(m, t, fail)
         if m.tendon_armature[t] != 0 or np.any(m.tendon_stiffnesspoly[t] != 0) \
                 or np.any(m.tendon_dampingpoly[t] != 0):
             fail(f"{label}: tendon armature and polynomial springs are not supported")
@@ -302,6 +303,57 @@ def _check_supported(m, source: str) -> None:
         if m.geom_type[g] not in range(8):
             fail(f"{_label(m, o.mjOBJ_GEOM, g, 'geom')}: geom type {mujoco.mjtGeom(m.geom_type[g]).name} "
                  "is not supported")
+
+
+def _check_side_sites(m, t: int, fail) -> None:
+    """A side site inside its wrapping geom asks for MuJoCo's inside wrap, which Myriad does not
+    do: refused, judged at the model's initial pose."""
+    data = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, data)
+    for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
+        side = int(round(m.wrap_prm[w]))
+        if int(m.wrap_type[w]) not in (mujoco.mjtWrap.mjWRAP_SPHERE,
+                                       mujoco.mjtWrap.mjWRAP_CYLINDER) or side < 0:
+            continue
+        g = m.wrap_objid[w]
+        local = data.geom_xmat[g].reshape(3, 3).T @ (data.site_xpos[side] - data.geom_xpos[g])
+        if np.linalg.norm(local) < m.geom_size[g, 0]:
+            fail(f"{_label(m, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')}: its side site "
+                 f"{_name(m, mujoco.mjtObj.mjOBJ_SITE, side)!r} lies inside the geom it wraps "
+                 "(MuJoCo's inside wrapping) is not supported")
+
+
+def _tendon_paths(m) -> dict:
+    """tendon_spatial (row of each spatial tendon, -1 for fixed ones) and tendon_dofspan: the
+    dofs a spatial tendon's path moves with, as one range over their dof trees."""
+    spatial = np.full(m.ntendon, -1)
+    span = np.zeros((m.ntendon, 2))
+    tree_of = {}
+    for i in range(m.nv):        # top dof of each dof's tree, and the tree's last dof
+        top = i
+        while m.dof_parentid[top] >= 0:
+            top = m.dof_parentid[top]
+        tree_of[i] = top
+    tree_end = {top: max(i for i in range(m.nv) if tree_of[i] == top) + 1
+                for top in set(tree_of.values())}
+    for t in range(m.ntendon):
+        adr, num = m.tendon_adr[t], m.tendon_num[t]
+        if m.wrap_type[adr] == mujoco.mjtWrap.mjWRAP_JOINT:
+            continue
+        spatial[t] = spatial.max() + 1
+        bodies = [m.site_bodyid[o] if k == mujoco.mjtWrap.mjWRAP_SITE else m.geom_bodyid[o]
+                  for k, o in zip(m.wrap_type[adr:adr + num], m.wrap_objid[adr:adr + num])
+                  if k != mujoco.mjtWrap.mjWRAP_PULLEY]
+        dofs = [m.body_dofadr[b] for b in set(bodies) if m.body_dofnum[b] > 0]
+        for b in set(bodies):    # a body without dofs of its own moves with an ancestor's
+            while b > 0 and m.body_dofnum[b] == 0:
+                b = m.body_parentid[b]
+            if b > 0:
+                dofs.append(m.body_dofadr[b])
+        if dofs:
+            span[t] = (min(tree_of[d] for d in dofs), max(tree_end[tree_of[d]] for d in dofs))
+    return dict(tendon_spatial=_i32(spatial), tendon_dofspan=_i32(span),
+                wrap_type=_i32(m.wrap_type))
 
 
 def _actuator_kind(m, a: int, fail) -> int:
@@ -451,7 +503,8 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
                   np.where(is_kind(ActuatorKind.AFFINE), -biasprm[:, 1], 0.0))
     kv = np.where(is_kind(ActuatorKind.POSITION, ActuatorKind.AFFINE), -biasprm[:, 2],
                   np.where(is_kind(ActuatorKind.VELOCITY), gainprm[:, 0], 0.0))
-    transmissions = _transmissions(m)
+    tendon_paths = _tendon_paths(m)
+    transmissions = _transmissions(m, tendon_paths)
 
     hull_face, hull_faceadr, hull_facenum = _mesh_hulls(m, source)
     sensors = _sensors(m, source)
@@ -513,7 +566,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         actuator_ctrlrange=_f32(m.actuator_ctrlrange),
         actuator_forcelimited=m.actuator_forcelimited.astype(bool),
         actuator_forcerange=_f32(m.actuator_forcerange),
-        tendon_adr=_i32(m.tendon_adr), tendon_num=_i32(m.tendon_num),
+        tendon_adr=_i32(m.tendon_adr), tendon_num=_i32(m.tendon_num), **tendon_paths,
         # MJCF fixed tendon -> PhysX-style tendon: every joint is a non-root tendon joint and
         # recip_coef = N·coef, so each joint gets coef·(-k·(L - L0) - d·dL/dt), as in MuJoCo;
         # a `limited` tendon gets a hard limit (limit stiffness 0)
@@ -535,11 +588,12 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
     return model
 
 
-def _transmissions(m) -> dict:
+def _transmissions(m, tendon_paths: dict) -> dict:
     """Each actuator's transmission as entries (dof, qpos, coef), in actuator order: a joint is
     one entry of coef 1, a fixed tendon its joints with their coefficients (MuJoCo's tendon
     length, without an offset: Σ coef·q)."""
     entries, site, site_gear = [], np.full(m.nu, -1), np.zeros((m.nu, 6))
+    spatial = np.full(m.nu, -1)
     for a in range(m.nu):
         target, kind = m.actuator_trnid[a, 0], int(m.actuator_trntype[a])
         if kind == mujoco.mjtTrn.mjTRN_SITE:
@@ -555,6 +609,12 @@ def _transmissions(m) -> dict:
                 dof = m.dof_parentid[dof]
             entries.append([(a, d, 0, 0.0) for d in dofs])
             continue
+        if kind == mujoco.mjtTrn.mjTRN_TENDON and tendon_paths["tendon_spatial"][target] >= 0:
+            # a spatial tendon: every dof of its span, the moment arms its Jacobian's
+            spatial[a] = tendon_paths["tendon_spatial"][target]
+            lo, hi = tendon_paths["tendon_dofspan"][target]
+            entries.append([(a, d, 0, 0.0) for d in range(lo, hi)])
+            continue
         if kind == mujoco.mjtTrn.mjTRN_TENDON:
             adr, num = m.tendon_adr[target], m.tendon_num[target]
             joints, coefs = m.wrap_objid[adr:adr + num], m.wrap_prm[adr:adr + num]
@@ -568,7 +628,8 @@ def _transmissions(m) -> dict:
                 actuator_trnadr=_i32(first), actuator_trnnum=num,
                 trn_actuator=_i32(flat[:, 0]), trn_dof=_i32(flat[:, 1]),
                 trn_qposadr=_i32(flat[:, 2]), trn_coef=_f32(flat[:, 3]),
-                actuator_trnsite=_i32(site), actuator_site_gear=_f32(site_gear))
+                actuator_trnsite=_i32(site), actuator_site_gear=_f32(site_gear),
+                actuator_trnspatial=_i32(spatial))
 
 
 def _equalities(m) -> dict:

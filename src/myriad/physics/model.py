@@ -142,6 +142,8 @@ class Model:
     trn_coef: np.ndarray             # [ntrn] its share of the length (before the gear)
     actuator_trnsite: np.ndarray     # [nu] site transmission: the site (its entries: the dofs
                                      # carrying it), else -1
+    actuator_trnspatial: np.ndarray  # [nu] spatial-tendon transmission: the tendon's row
+                                     # (`tendon_spatial`), its entries the tendon's dofs; else -1
     actuator_site_gear: np.ndarray   # [nu, 6] its wrench per unit force, site frame: force,
                                      # torque (MuJoCo's 6D gear; the scalar gear is then 1)
     actuator_gear: np.ndarray        # [nu]
@@ -160,12 +162,20 @@ class Model:
     actuator_forcelimited: np.ndarray  # [nu] bool
     actuator_forcerange: np.ndarray  # [nu, 2]
 
-    # fixed tendons, PhysX semantics (docs/physics.md): length L = offset + sum coef·q over the
-    # tendon's joints; each joint receives recip_coef · (spring/damper/limit force) / N
+    # tendons. Fixed ones, PhysX semantics (docs/physics.md): length L = offset + sum coef·q over
+    # the tendon's joints; each joint receives recip_coef · (spring/damper/limit force) / N.
+    # Spatial ones (MuJoCo's): L = offset + the length of a path through sites, wrapping round
+    # spheres and cylinders; the force acts along dL/dq (`stages.tendons`)
     tendon_adr: np.ndarray           # [ntendon] first entry in wrap_*
-    tendon_num: np.ndarray           # [ntendon] N, the number of tendon joints
-    wrap_jnt: np.ndarray             # [nwrap] hinge or slide joint
-    wrap_coef: np.ndarray            # [nwrap] contribution of the joint to the length
+    tendon_num: np.ndarray           # [ntendon] N, the number of tendon joints (path elements)
+    tendon_spatial: np.ndarray       # [ntendon] a spatial tendon's row of the simulator's path
+                                     # lengths and Jacobians; -1: a fixed tendon
+    tendon_dofspan: np.ndarray       # [ntendon, 2] spatial: [lo, hi) of the dofs moving its path
+                                     # (the dof trees between included); fixed: (0, 0)
+    wrap_type: np.ndarray            # [nwrap] types.WrapType
+    wrap_jnt: np.ndarray             # [nwrap] hinge or slide joint; spatial: the site or geom
+    wrap_coef: np.ndarray            # [nwrap] contribution of the joint to the length; spatial:
+                                     # a geom's side site (-1: none), a pulley's divisor
     wrap_recip: np.ndarray           # [nwrap] weight of the force the joint receives
     tendon_stiffness: np.ndarray     # [ntendon]
     tendon_damping: np.ndarray       # [ntendon]

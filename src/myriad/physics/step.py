@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from .runtime.launch import BLOCK_DIM
 from .stages import (collision, constraints, dynamics, forces, integrate, kinematics, sensors,
-                     solver_tgs)
+                     solver_tgs, tendons)
 
 # the stages of one substep, in order, then those that run once after the last substep
 SUBSTEP_STAGES = ("kinematics", "collision", "dynamics", "applied_forces", "solve_unconstrained",
@@ -43,6 +43,9 @@ def run_kinematics(rt, dm, d) -> None:
     rt.launch_lanes(kinematics.kinematics, BLOCK_DIM.bodies, [dm.m, d.state])
     if dm.sizes["nsite"]:
         rt.launch(kinematics.site_frames, (rt.num_envs, dm.sizes["nsite"]),
+                  [dm.m, d.env_params, d.state])
+    if dm.sizes["nspatial"]:
+        rt.launch(tendons.spatial_tendons, (rt.num_envs, dm.sizes["nspatial"]),
                   [dm.m, d.env_params, d.state])
 
 

@@ -160,6 +160,7 @@ class ModelArrays:
     trn_qposadr: wp.array(dtype=wp.int32)
     trn_coef: wp.array(dtype=float)
     actuator_trnsite: wp.array(dtype=wp.int32)        # site transmission: the site, else -1
+    actuator_trnspatial: wp.array(dtype=wp.int32)     # spatial tendon: its row, else -1
     actuator_site_gear: wp.array(dtype=wp.spatial_vector)   # its wrench: force, torque (site)
     actuator_bias: wp.array(dtype=float)          # affine: constant force
     actuator_gain_lv: wp.array(dtype=wp.vec2)     # affine: the gain's terms in length, velocity
@@ -175,6 +176,10 @@ class ModelArrays:
 
     tendon_adr: wp.array(dtype=wp.int32)
     tendon_num: wp.array(dtype=wp.int32)
+    tendon_spatial: wp.array(dtype=wp.int32)    # its row of State.ten_length / ten_J; -1: fixed
+    tendon_dofspan: wp.array(dtype=wp.vec2i)    # spatial: [lo, hi) of the dofs its path moves
+    spatial_tendon: wp.array(dtype=wp.int32)    # [nspatial] the tendon of each row
+    wrap_type: wp.array(dtype=wp.int32)         # types.WrapType
     wrap_jnt: wp.array(dtype=wp.int32)
     wrap_coef: wp.array(dtype=float)
     wrap_recip: wp.array(dtype=float)
@@ -356,6 +361,9 @@ class State:
     sensor_data = per_env("nsensordata", doc="every sensor's values after the last step, in "
                           "MuJoCo's sensordata order (Model.sensor_adr, sensor_dim; "
                           "quaternions w, x, y, z)", public=True)
+    ten_length = per_env("nspatial", doc="length of each spatial tendon's path (m), without the "
+                         "offset (`tendons`)")
+    ten_J = per_env("nspatial", "nv", doc="its derivative by each dof: the moment arms")
     mocap_pos = per_env("nmocap", dtype=wp.vec3, doc="position of each mocap body, world (m): "
                         "kinematic bodies the user moves (MuJoCo's mocap_pos)", public=True,
                         writable=True)

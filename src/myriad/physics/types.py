@@ -32,6 +32,15 @@ class ActuatorKind(IntEnum):
                    # general actuator: gainprm[0:3], biasprm = bias, −kp, −kv)
 
 
+class WrapType(IntEnum):
+    """The elements of a tendon's path (MuJoCo's `mjtWrap`)."""
+    JOINT = 1      # fixed tendon: a joint and its coefficient
+    PULLEY = 2     # spatial: the branches after it count 1/divisor
+    SITE = 3       # spatial: a point the path passes through
+    SPHERE = 4     # spatial: a sphere the path between two sites wraps around
+    CYLINDER = 5   # spatial: a cylinder, likewise (a helix along its axis)
+
+
 class DynType(IntEnum):
     """MuJoCo's actuator activation dynamics (`mjtDyn`): the actuator's input is its activation
     `act`, integrated each substep from ctrl, instead of ctrl itself."""
@@ -123,6 +132,10 @@ MOTOR = wp.constant(int(ActuatorKind.MOTOR))
 POSITION = wp.constant(int(ActuatorKind.POSITION))
 VELOCITY = wp.constant(int(ActuatorKind.VELOCITY))
 AFFINE = wp.constant(int(ActuatorKind.AFFINE))
+WRAP_PULLEY = wp.constant(int(WrapType.PULLEY))
+WRAP_SITE = wp.constant(int(WrapType.SITE))
+WRAP_SPHERE = wp.constant(int(WrapType.SPHERE))
+WRAP_CYLINDER = wp.constant(int(WrapType.CYLINDER))
 DYN_NONE = wp.constant(int(DynType.NONE))
 DYN_INTEGRATOR = wp.constant(int(DynType.INTEGRATOR))
 DYN_FILTER = wp.constant(int(DynType.FILTER))

@@ -137,7 +137,11 @@ def _finish_row(m: ModelArrays, e: int, r: int, sp: wp.vec4i, factor: wp.array2d
 
 @wp.func
 def _tendon_span(m: ModelArrays, t: int):
-    """The dof trees of a fixed tendon's joints, as one range (the trees between them included)."""
+    """The dof trees of a fixed tendon's joints, as one range (the trees between them included);
+    a spatial tendon's, fixed at import."""
+    if m.tendon_spatial[t] >= 0:
+        span = m.tendon_dofspan[t]
+        return wp.vec4i(span[0], span[1], 0, 0)
     lo = m.nv
     hi = int(0)
     for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
@@ -149,9 +153,16 @@ def _tendon_span(m: ModelArrays, t: int):
 
 @wp.func
 def tendon_length(m: ModelArrays, p: EnvParams, s: State, e: int, t: int):
-    """(length, rate of change) of fixed tendon t: offset + Σ coef · q over its joints."""
+    """(length, rate of change) of tendon t: offset + Σ coef · q over a fixed tendon's joints,
+    offset + its path's length for a spatial one (`tendons`)."""
     length = p.tendon_offset[e, t]
     speed = float(0.0)
+    row = m.tendon_spatial[t]
+    if row >= 0:
+        span = m.tendon_dofspan[t]
+        for i in range(span[0], span[1]):
+            speed = speed + s.ten_J[e, row, i] * s.qd[e, i]
+        return wp.vec2(length + s.ten_length[e, row], speed)
     for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
         j = m.wrap_jnt[w]
         length = length + m.wrap_coef[w] * s.q[e, m.jnt_qposadr[j]]
@@ -346,8 +357,13 @@ def tendon_limit_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, h: float,
         # each (coefficients of 0.01 made 0.1 of length 10 rad, and the Shadow Hand's 40
         # limits that its joints' own limits never let it reach were built every substep)
         per_joint = float(0.0)
-        for w in range(beg, beg + m.tendon_num[t]):
-            per_joint = per_joint + wp.abs(m.wrap_coef[w])
+        if m.tendon_spatial[t] >= 0:     # a spatial tendon's moment arms instead
+            span = m.tendon_dofspan[t]
+            for i in range(span[0], span[1]):
+                per_joint = per_joint + wp.abs(s.ten_J[e, m.tendon_spatial[t], i])
+        else:
+            for w in range(beg, beg + m.tendon_num[t]):
+                per_joint = per_joint + wp.abs(m.wrap_coef[w])
         reach = LIMIT_MARGIN * per_joint + 2.0 * h * wp.abs(length_speed[1])
         for side in range(2):
             r = base + 2 * lt + side
@@ -359,10 +375,7 @@ def tendon_limit_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, h: float,
                 sp = _tendon_span(m, t)
                 rows.span[e, r] = sp
                 dense.row_fill(rows.jac, e, r, 0.0, _width(sp))
-                for w in range(beg, beg + m.tendon_num[t]):
-                    col = m.jnt_dofadr[m.wrap_jnt[w]] - sp[0]
-                    rows.jac[e, r, col] = (rows.jac[e, r, col]
-                                           + (1.0 - 2.0 * float(side)) * m.wrap_coef[w])
+                _tendon_add(m, s, e, t, 1.0 - 2.0 * float(side), False, rows.jac, r, sp)
                 warm = rows.lam[e, r]
                 _finish_row(m, e, r, sp, factor, rows, NORMAL)
                 if rows.type[e, r] != INACTIVE:
@@ -397,12 +410,23 @@ def _add_angular_jacobian(m: ModelArrays, e: int, body: int, sign: float,
 
 
 @wp.func
-def _tendon_add(m: ModelArrays, e: int, t: int, scale: float, jac: wp.array3d(dtype=float), r: int,
-                sp: wp.vec4i):
-    """J[r] += scale · (rate of fixed tendon t's length, per dof)."""
+def _tendon_add(m: ModelArrays, s: State, e: int, t: int, scale: float, recip: bool,
+                jac: wp.array3d(dtype=float), r: int, sp: wp.vec4i):
+    """J[r] += scale · (rate of tendon t's length, per dof); `recip`: a fixed tendon's force
+    weights (recip_coef) instead. A spatial tendon's force acts along its rate: the same."""
+    row = m.tendon_spatial[t]
+    if row >= 0:
+        span = m.tendon_dofspan[t]
+        for i in range(span[0], span[1]):
+            c = _col(sp, i)
+            jac[e, r, c] = jac[e, r, c] + scale * s.ten_J[e, row, i]
+        return
     for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
         c = _col(sp, m.jnt_dofadr[m.wrap_jnt[w]])
-        jac[e, r, c] = jac[e, r, c] + scale * m.wrap_coef[w]
+        weight = m.wrap_coef[w]
+        if recip:
+            weight = m.wrap_recip[w]
+        jac[e, r, c] = jac[e, r, c] + scale * weight
 
 
 @wp.func
@@ -511,9 +535,9 @@ def equality_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, p: EnvParams,
                     c2 = _col(sp, m.jnt_dofadr[o2])
                     rows.jac[e, r, c2] = rows.jac[e, r, c2] - err_slope[1]
             else:
-                _tendon_add(m, e, o1, 1.0, rows.jac, r, sp)
+                _tendon_add(m, s, e, o1, 1.0, False, rows.jac, r, sp)
                 if o2 >= 0:
-                    _tendon_add(m, e, o2, -err_slope[1], rows.jac, r, sp)
+                    _tendon_add(m, s, e, o2, -err_slope[1], False, rows.jac, r, sp)
         _finish_equality(m, e, r, n, r - base, factor, rows)
 
 
@@ -564,8 +588,9 @@ def tendon_spring_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, p: EnvPa
         r = base + t
         rows.type[e, r] = INACTIVE
         rows.lam_init[e, r] = 0.0
-        beg = m.tendon_adr[t]
         count = float(m.tendon_num[t])
+        if m.tendon_spatial[t] >= 0:     # MuJoCo's semantics: the force along the path's rate
+            count = 1.0
         length = tendon_length(m, p, s, e, t)[0]
         stiff = p.tendon_stiffness[e, t] / count
         force = -stiff * (length - p.tendon_rest_length[e, t])
@@ -584,10 +609,8 @@ def tendon_spring_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, p: EnvPa
             rows.span[e, r] = sp
             dense.row_fill(rows.jac, e, r, 0.0, _width(sp))
             dense.row_fill(rows.minv_jt, e, r, 0.0, _width(sp))
-            for wi in range(beg, beg + m.tendon_num[t]):
-                col = m.jnt_dofadr[m.wrap_jnt[wi]] - sp[0]
-                rows.jac[e, r, col] = rows.jac[e, r, col] + m.wrap_coef[wi]
-                rows.minv_jt[e, r, col] = rows.minv_jt[e, r, col] + m.wrap_recip[wi]
+            _tendon_add(m, s, e, t, 1.0, False, rows.jac, r, sp)
+            _tendon_add(m, s, e, t, 1.0, True, rows.minv_jt, r, sp)
             _solve_rows(m, e, factor, rows.minv_jt, r, 1, sp)
             w_eff = dense.rows_dot(rows.jac, r, rows.minv_jt, r, e, _width(sp))
             if w_eff > 1.0e-12:

@@ -135,20 +135,25 @@ def generalized_forces(m: ModelArrays, p: EnvParams, opt: Options,
             # site's: 0 and the speed along its wrench, Σ (cdof · wrench)·qd
             adr = m.actuator_trnadr[a]
             site = m.actuator_trnsite[a]
+            spatial = m.actuator_trnspatial[a]     # a spatial tendon's moment arms: ten_J
             wrench = wp.spatial_vector()
             if site >= 0:
                 wrench = site_wrench(m, s, e, site, a)
             q_trn = float(0.0)
             qd_trn = float(0.0)
+            if spatial >= 0:
+                q_trn = s.ten_length[e, spatial]
             for t in range(adr, adr + m.actuator_trnnum[a]):
                 if site >= 0:
                     qd_trn += wp.dot(s.cdof[e, m.trn_dof[t]], wrench) * s.qd[e, m.trn_dof[t]]
+                elif spatial >= 0:
+                    qd_trn += s.ten_J[e, spatial, m.trn_dof[t]] * s.qd[e, m.trn_dof[t]]
                 else:
                     q_trn += m.trn_coef[t] * s.q[e, m.trn_qposadr[t]]
                     qd_trn += m.trn_coef[t] * s.qd[e, m.trn_dof[t]]
             # a joint's drive is implicit in the step (its terms on the mass matrix diagonal);
             # a tendon's or a site's couples several dofs and is explicit, as in MuJoCo's Euler
-            implicit_drive = m.actuator_trnnum[a] == 1 and site < 0
+            implicit_drive = m.actuator_trnnum[a] == 1 and site < 0 and spatial < 0
             kind = m.actuator_kind[a]
             # `reported`: the force at this state (MuJoCo's actuator_force); `force`: what the
             # step applies, with an implicit drive's prediction of the position (-kp·h·v)
@@ -202,6 +207,8 @@ def generalized_forces(m: ModelArrays, p: EnvParams, opt: Options,
             moment = g * m.trn_coef[k]
             if site >= 0:
                 moment = g * wp.dot(s.cdof[e, i], wrench)
+            elif spatial >= 0:
+                moment = g * s.ten_J[e, spatial, i]
             actuated = actuated + moment * force
             implicit = implicit + moment * moment * (h * damp + h * h * stiff)
         j = m.dof_jnt[i]
