@@ -270,6 +270,9 @@ def model_arrays(model, device, pair_friction=None) -> ModelArrays:
                    **equality_rows(model), **tree_levels(model),
                    sensor_slot=np.asarray(slot, np.int32),
                    spatial_tendon=np.flatnonzero(model.tendon_spatial >= 0).astype(np.int32),
+                   body_fluid_ellipsoid=np.asarray(
+                       [bool((model.geom_fluid[a:a + n, 0] > 0).any())
+                        for a, n in zip(model.body_geomadr, model.body_geomnum)], np.int32),
                    pair_friction=np.zeros(0, np.float32) if pair_friction is None
                    else pair_friction)
     out = ModelArrays()

@@ -247,9 +247,6 @@ def _check_supported(m, source: str) -> None:
         fail("flex (deformable) elements are not supported")
     if m.nplugin:
         fail("engine plugins are not supported")
-    for g in np.flatnonzero(m.geom_fluid[:, 0] > 0) if m.ngeom else []:
-        fail(f"{_label(m, o.mjOBJ_GEOM, g, 'geom')}: fluidshape=\"ellipsoid\" (MuJoCo's "
-             "ellipsoid fluid model) is not supported; the default inertia-box model is")
     for j in range(m.njnt):
         if m.jnt_actgravcomp[j]:
             fail(f"{_label(m, o.mjOBJ_JOINT, j, 'joint')}: actuatorgravcomp (gravity "
@@ -525,6 +522,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         body_ipos=_f32(m.body_ipos[1:]), body_iquat=_xyzw(m.body_iquat[1:]),
         body_mass=_f32(m.body_mass[1:]), body_inertia=_f32(m.body_inertia[1:]),
         body_gravcomp=_f32(m.body_gravcomp[1:]), body_mocapid=_i32(m.body_mocapid[1:]),
+        body_geomadr=_i32(m.body_geomadr[1:]), body_geomnum=_i32(m.body_geomnum[1:]),
         body_jntadr=body_jntadr, body_jntnum=body_jntnum, body_last_dof=body_last_dof,
         jnt_type=_i32(m.jnt_type), jnt_body=_i32(m.jnt_bodyid - 1),
         jnt_qposadr=_i32(m.jnt_qposadr), jnt_dofadr=_i32(m.jnt_dofadr),
@@ -540,7 +538,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         geom_pos=_f32(m.geom_pos), geom_quat=_xyzw(m.geom_quat), geom_size=_f32(m.geom_size),
         geom_friction=_f32(m.geom_friction), geom_contype=_i32(m.geom_contype),
         geom_conaffinity=_i32(m.geom_conaffinity), geom_condim=_i32(m.geom_condim),
-        geom_dataid=_i32(m.geom_dataid),
+        geom_dataid=_i32(m.geom_dataid), geom_fluid=_f32(m.geom_fluid.reshape(m.ngeom, -1)),
         mesh_vert=_f32(m.mesh_vert), mesh_vertadr=_i32(m.mesh_vertadr),
         mesh_vertnum=_i32(m.mesh_vertnum), mesh_hull_face=hull_face,
         mesh_hull_faceadr=hull_faceadr, mesh_hull_facenum=hull_facenum,

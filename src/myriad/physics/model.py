@@ -62,6 +62,8 @@ class Model:
                                      # gravity on it, Isaac Gym's disable_gravity)
     body_mocapid: np.ndarray         # [nbody] a mocap body's index in sim.mocap_pos, else -1:
                                      # a child of the world without joints, posed by the user
+    body_geomadr: np.ndarray         # [nbody] first geom (a body's geoms are contiguous)
+    body_geomnum: np.ndarray         # [nbody]
     body_jntadr: np.ndarray          # [nbody] first joint, -1 if none
     body_jntnum: np.ndarray          # [nbody]
     body_last_dof: np.ndarray        # [nbody] last dof moving this body (own or an ancestor's), -1 if none
@@ -100,6 +102,8 @@ class Model:
     geom_conaffinity: np.ndarray     # [ngeom]
     geom_condim: np.ndarray          # [ngeom]
     geom_dataid: np.ndarray          # [ngeom] mesh or hfield id, -1 if none
+    geom_fluid: np.ndarray           # [ngeom, 12] MuJoCo's ellipsoid fluid model (fluidshape,
+                                     # fluidcoef, virtual mass and inertia); [:, 0] = 0: not used
 
     # meshes, kept as convex hulls for collision
     mesh_vert: np.ndarray            # [nvert, 3] all mesh vertices, in the mesh frame

@@ -74,6 +74,9 @@ def field_shape(f: Field, num_envs: int, sizes: dict) -> tuple:
 VIEWED_AS = {"ncandidate": "ncontact"}
 
 
+fluid_coefs = wp.types.vector(length=12, dtype=wp.float32)
+
+
 @wp.struct
 class ModelArrays:
     nbody: int
@@ -94,6 +97,10 @@ class ModelArrays:
     body_last_dof: wp.array(dtype=wp.int32)
     body_gravcomp: wp.array(dtype=float)
     body_mocapid: wp.array(dtype=wp.int32)     # a mocap body's row of State.mocap_pos, else -1
+    body_geomadr: wp.array(dtype=wp.int32)     # its geoms: geom_adr .. + geomnum (MuJoCo's)
+    body_geomnum: wp.array(dtype=wp.int32)
+    body_fluid_ellipsoid: wp.array(dtype=wp.int32)   # 1: MuJoCo's ellipsoid fluid model (a geom
+                                                     # with fluidshape="ellipsoid"), else the box
     # the tree by levels (`build.tree_levels`), for kernels whose lanes take one level's bodies
     # at a time: level k holds the bodies with k ancestors, level_body[level_adr[k]:
     # level_adr[k + 1]] in ascending order; a body's children are body_child[body_child_adr[b]:
@@ -141,6 +148,9 @@ class ModelArrays:
     geom_body: wp.array(dtype=wp.int32)     # -1: the world (static geometry)
     geom_quat: wp.array(dtype=wp.quat)      # orientation in the body frame
     geom_dataid: wp.array(dtype=wp.int32)   # mesh or height field, -1 if none
+    geom_fluid: wp.array(dtype=fluid_coefs)  # the ellipsoid fluid model's coefficients: on (0/1),
+                                             # blunt, slender, angular drag, Kutta, Magnus lift,
+                                             # virtual mass [3], virtual inertia [3] (MuJoCo's)
     # [ncandidate pairs] friction of candidate pair k's contacts (k = contact key // 32) set by
     # an explicit <pair>; -1: the average of its geoms' geom_friction (`collision.pair_friction`)
     pair_friction: wp.array(dtype=float)

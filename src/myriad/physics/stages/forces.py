@@ -24,8 +24,8 @@ other envs are untouched (every kernel is per env).
 import warp as wp
 
 from ..lanes import stop, sync, world_lane
-from ..types import (AFFINE, DYN_FILTER, DYN_FILTEREXACT, DYN_INTEGRATOR, DYN_NONE, HINGE, MOTOR,
-                     POSITION, SLIDE, VELOCITY)
+from ..types import (AFFINE, CAPSULE, CYLINDER, DYN_FILTER, DYN_FILTEREXACT, DYN_INTEGRATOR,
+                     DYN_NONE, HINGE, MOTOR, POSITION, SLIDE, SPHERE, VELOCITY)
 from ..spatial import row_finite
 from ..spatial import velocity_at
 from .dynamics import subtree_sums
@@ -268,6 +268,107 @@ def fluid_wrench(p: EnvParams, s: State, e: int, b: int, ref: wp.vec3):
     return wp.spatial_vector(wp.quat_rotate(frame, force), wp.quat_rotate(frame, torque))
 
 
+@wp.func
+def _semi_axes(kind: int, size: wp.vec3):
+    """A geom's ellipsoid for the fluid model: its three semi-axes (MuJoCo's)."""
+    if kind == SPHERE:
+        return wp.vec3(size[0], size[0], size[0])
+    if kind == CAPSULE:
+        return wp.vec3(size[0], size[0], size[1] + size[0])
+    if kind == CYLINDER:
+        return wp.vec3(size[0], size[0], size[1])
+    return size
+
+
+@wp.func
+def _pow4(x: float):
+    return (x * x) * (x * x)
+
+
+@wp.func
+def _largest_moment(size: wp.vec3, axis: int):
+    """8/15·π·d·(largest other semi-axis)⁴: the moment of the ellipsoid about `axis` were it
+    round in its widest section."""
+    d0 = size[axis]
+    d1 = size[(axis + 1) % 3]
+    d2 = size[(axis + 2) % 3]
+    return 8.0 / 15.0 * wp.pi * d0 * _pow4(wp.max(d1, d2))
+
+
+@wp.func
+def ellipsoid_fluid_wrench(m: ModelArrays, p: EnvParams, s: State, e: int, b: int,
+                           ref: wp.vec3):
+    """MuJoCo's ellipsoid fluid model (geoms with fluidshape="ellipsoid"): for each such geom of
+    body b, the forces of the medium on its ellipsoid moving through it (added mass, Magnus and
+    Kutta lift, Stokes drag, blunt and slender quadratic drag, angular drag, each with the
+    geom's fluidcoef), as (force, torque) at the body's center of mass, world."""
+    density = p.fluid_density[e]
+    viscosity = p.fluid_viscosity[e]
+    total_force = wp.vec3()
+    total_torque = wp.vec3()
+    com = s.body_com[e, b]
+    cvel = s.cvel[e, b]
+    if p.body_mass[e, b] < 1.0e-15:
+        return wp.spatial_vector()
+    for g in range(m.body_geomadr[b], m.body_geomadr[b] + m.body_geomnum[b]):
+        coef = m.geom_fluid[g]
+        if coef[0] == 0.0:
+            continue
+        size = _semi_axes(m.geom_type[g], p.geom_size[e, g])
+        frame = s.body_x[e, b] * wp.transform(p.geom_pos[e, g], m.geom_quat[g])
+        rot = wp.transform_get_rotation(frame)
+        pos = wp.transform_get_translation(frame)
+        w = wp.quat_rotate_inv(rot, wp.spatial_top(cvel))
+        v = wp.quat_rotate_inv(rot, velocity_at(cvel, pos - ref) - p.wind[e])
+        blunt = coef[1]
+        slender = coef[2]
+        angular = coef[3]
+        kutta = coef[4]
+        magnus = coef[5]
+        virtual_mass = wp.vec3(coef[6], coef[7], coef[8])
+        virtual_inertia = wp.vec3(coef[9], coef[10], coef[11])
+        # added mass: the medium carried along, its momentum turned by the body's rotation
+        momentum = density * wp.cw_mul(virtual_mass, v)
+        angular_momentum = density * wp.cw_mul(virtual_inertia, w)
+        force = wp.cross(momentum, w)
+        torque = wp.cross(momentum, v) + wp.cross(angular_momentum, w)
+        # lift and drag
+        volume = 4.0 / 3.0 * wp.pi * size[0] * size[1] * size[2]
+        d_max = wp.max(wp.max(size[0], size[1]), size[2])
+        d_min = wp.min(wp.min(size[0], size[1]), size[2])
+        d_mid = size[0] + size[1] + size[2] - d_max - d_min
+        area_max = wp.pi * d_max * d_mid
+        magnus_force = magnus * density * volume * wp.cross(w, v)
+        yz = size[1] * size[2]
+        zx = size[2] * size[0]
+        xy = size[0] * size[1]
+        proj_den = _pow4(yz) * v[0] * v[0] + _pow4(zx) * v[1] * v[1] + _pow4(xy) * v[2] * v[2]
+        proj_num = yz * yz * v[0] * v[0] + zx * zx * v[1] * v[1] + xy * xy * v[2] * v[2]
+        area = wp.pi * wp.sqrt(proj_den / wp.max(1.0e-15, proj_num))   # seen along v
+        normal = wp.vec3(yz * yz * v[0], zx * zx * v[1], xy * xy * v[2])
+        speed = wp.length(v)
+        cos_alpha = proj_num / wp.max(1.0e-15, speed * proj_den)
+        circulation = kutta * density * cos_alpha * area * wp.cross(normal, v)
+        kutta_force = wp.cross(circulation, v)
+        sphere_d = 2.0 / 3.0 * (size[0] + size[1] + size[2])
+        i_max = 8.0 / 15.0 * wp.pi * d_mid * _pow4(d_max)
+        moments = wp.vec3(_largest_moment(size, 0), _largest_moment(size, 1),
+                          _largest_moment(size, 2))
+        spin_drag = wp.cw_mul(w, angular * moments + slender * (wp.vec3(i_max, i_max, i_max)
+                                                                 - moments))
+        linear_drag = (viscosity * 3.0 * wp.pi * sphere_d
+                       + density * speed * (area * blunt + slender * (area_max - area)))
+        angular_drag = (viscosity * wp.pi * sphere_d * sphere_d * sphere_d
+                        + density * wp.length(spin_drag))
+        torque = torque - angular_drag * w
+        force = force + magnus_force + kutta_force - linear_drag * v
+        force = coef[0] * wp.quat_rotate(rot, force)
+        torque = coef[0] * wp.quat_rotate(rot, torque)
+        total_force += force
+        total_torque += torque + wp.cross(pos - com, force)
+    return wp.spatial_vector(total_force, total_torque)
+
+
 @wp.kernel
 def body_wrenches(m: ModelArrays, p: EnvParams,
                   s: State,      # in: body_x, body_com, cdof; out: nonfinite
@@ -294,8 +395,12 @@ def body_wrenches(m: ModelArrays, p: EnvParams,
         f = wp.spatial_top(c.body_force[e, b])
         torque = wp.spatial_bottom(c.body_force[e, b])
         ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
-        fluid = fluid_wrench(p, s, e, b, ref)
         if p.fluid_density[e] > 0.0 or p.fluid_viscosity[e] > 0.0:
+            fluid = wp.spatial_vector()
+            if m.body_fluid_ellipsoid[b] != 0:
+                fluid = ellipsoid_fluid_wrench(m, p, s, e, b, ref)
+            else:
+                fluid = fluid_wrench(p, s, e, b, ref)
             f = f + wp.spatial_top(fluid)
             torque = torque + wp.spatial_bottom(fluid)
         arm = s.body_com[e, b] - ref
