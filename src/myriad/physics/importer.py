@@ -538,7 +538,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         geom_pos=_f32(m.geom_pos), geom_quat=_xyzw(m.geom_quat), geom_size=_f32(m.geom_size),
         geom_friction=_f32(m.geom_friction), geom_contype=_i32(m.geom_contype),
         geom_conaffinity=_i32(m.geom_conaffinity), geom_condim=_i32(m.geom_condim),
-        geom_dataid=_i32(m.geom_dataid), geom_fluid=_f32(m.geom_fluid.reshape(m.ngeom, -1)),
+        geom_dataid=_i32(m.geom_dataid), geom_fluid=_f32(m.geom_fluid.reshape(-1, 12)),
         mesh_vert=_f32(m.mesh_vert), mesh_vertadr=_i32(m.mesh_vertadr),
         mesh_vertnum=_i32(m.mesh_vertnum), mesh_hull_face=hull_face,
         mesh_hull_faceadr=hull_faceadr, mesh_hull_facenum=hull_facenum,

@@ -330,6 +330,8 @@ def joint_limit_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, h: float,
         j = limit_jnt[li]
         dof = m.jnt_dofadr[j]
         x = s.q[e, m.jnt_qposadr[j]]
+        # the rows out of reach stay inactive; the solver takes one in when the joint turns
+        # toward its limit fast enough to reach it (`solver_tgs._limit_rows`)
         reach = LIMIT_MARGIN + 2.0 * h * wp.abs(s.qd[e, dof])
         for side in range(2):
             r = base + 2 * li + side
@@ -697,14 +699,15 @@ def build_dof_row(m: ModelArrays, e: int, r: int, dof: int, sign: float, kind: i
 
 @wp.func
 def _limit_row(e: int, r: int, side: int, x: float, lim: wp.vec2, reach: float, rows: Rows):
-    """Mark a lower (side 0) or upper (side 1) limit row active when within reach of its limit."""
+    """Mark a lower (side 0) or upper (side 1) limit row active when within reach of its limit;
+    its distance to the limit is kept either way (the solver may take it in later)."""
     err = x - lim[0]
     if side == 1:
         err = lim[1] - x
     rows.type[e, r] = INACTIVE
     rows.lam_init[e, r] = 0.0
+    rows.err[e, r] = err
     if err < reach:
         rows.type[e, r] = NORMAL
-        rows.err[e, r] = err
         rows.mu[e, r] = 0.0
         rows.bounce[e, r] = 0.0

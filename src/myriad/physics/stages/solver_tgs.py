@@ -28,7 +28,7 @@ import warp as wp
 
 from .. import dense
 from .constraints import _col, build_contact_rows, build_dof_row
-from ..types import DOF, EQUALITY, FRICTION, NORMAL, SOFT
+from ..types import DOF, EQUALITY, FRICTION, INACTIVE, NORMAL, SOFT
 from ..lanes import stop, sync, world_lane
 from ..structs import Contacts, Dynamics, ModelArrays, Options, RowLayout, Rows, State
 
@@ -139,9 +139,24 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
         _normal_row(m, e, ln, r, biased, tgs, hs, h, max_depenetration, factor, rows, v, dq)
     for k in range(ncontact):
         _friction_rows(e, ln, 3 * k + 1, biased, tgs, hs, rows, c, v, dq)
+    _wait(ln)
+    if ln[0] == 0:
+        # the dof rows (dry friction, speed cap) before the limits: their impulses M⁻¹e_dof move
+        # the other dofs of the tree too, and after the limit block they undid it in every
+        # sweep (a G1's thumb 0.17 rad past its limit with qd 0 before and after the solve).
+        # Most do nothing in a sweep (no dry friction, speed under the cap): tested on this
+        # env's 1D views, one index each, before the row is visited
+        row_type = rows.type[e]
+        row_bound = rows.mu[e]
+        row_cap = rows.k[e]
+        speed = v[e]
+        for dof in range(layout.end - layout.dofs):
+            r = layout.dofs + dof
+            if row_type[r] == DOF and (row_bound[r] > 0.0 or wp.abs(speed[dof]) > row_cap[r]):
+                _dof_row(m, e, r, dof, factor, rows, v)
     # the joint limits last of the one-sided rows: a joint's mechanical stop has the last word
     # over contacts (a UR5's overlapping link meshes pushed its wrist 0.26 rad past its limit
-    # when the limits came before the friction rows)
+    # when the limits came before the friction rows) and over the dof rows
     _wait(ln)
     _limit_rows(m, e, ln, layout, limit_jnt, first, biased, tgs, hs, h, max_depenetration,
                 factor, rows, v, dq)
@@ -151,16 +166,6 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
             _spring_row(e, ln, r, h, rows, v)
     _wait(ln)
     if ln[0] == 0:
-        # most dof rows do nothing in a sweep (no dry friction, speed under the cap): tested
-        # on this env's 1D views, one index each, before the row is visited
-        row_type = rows.type[e]
-        row_bound = rows.mu[e]
-        row_cap = rows.k[e]
-        speed = v[e]
-        for dof in range(layout.end - layout.dofs):
-            r = layout.dofs + dof
-            if row_type[r] == DOF and (row_bound[r] > 0.0 or wp.abs(speed[dof]) > row_cap[r]):
-                _dof_row(m, e, r, dof, factor, rows, v)
         # equalities last: the sweep ends with them holding, whatever the rows before did
         if layout.springs > layout.equalities:
             for i in range(m.neq):
@@ -284,15 +289,50 @@ def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout,
                 rows: Rows, v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
     """The joint limits of a sweep (`_joint_limit_block`): the candidates listed in the
     substep's first sweep (rows within reach of their limit), their impulses taken out of v and
-    the new ones applied by every lane on its dofs, the block's pivoting by one lane."""
+    the new ones applied by every lane on its dofs, the block's pivoting by one lane.
+
+    A limit out of reach at the substep's start joins the candidates in the sweep where its
+    joint heads for it fast enough to get there: contacts can take a dof from rest to its speed
+    cap within a substep (a G1's shoulder from -6 to +229 rad/s, 1.66 rad past its limit in one
+    substep when its row was left out)."""
     n = layout.tendon_limits - layout.joint_limits
     base = layout.joint_limits
-    if first != 0 and ln[0] == 0:
+    if ln[0] == 0:
         k = int(0)
-        for i in range(n):
-            if rows.type[e, base + i] == NORMAL:
-                rows.block_cand[e, k] = i
+        if first != 0:
+            for i in range(n):
+                if rows.type[e, base + i] == NORMAL:
+                    rows.block_cand[e, k] = i
+                    k += 1
+        else:
+            while k < n:
+                if rows.block_cand[e, k] < 0:
+                    break
                 k += 1
+        # a row out of reach pushes once the joint would pass its limit within this position
+        # sweep's step (`_normal_target`: err + hs·J·v < 0); the velocity sweeps move nothing,
+        # and the next substep's rows see their speed
+        for i in range(wp.where(biased != 0, n, 0)):
+            r = base + i
+            if rows.type[e, r] == INACTIVE:
+                dof = _limit_dof(m, limit_jnt, i)
+                sign = _limit_sign(i)
+                travel = hs * v[e, dof]
+                if tgs != 0:
+                    travel = travel + dq[e, dof]
+                if rows.err[e, r] + sign * travel < 0.0:
+                    listed = int(0)
+                    for j in range(k):
+                        if rows.block_cand[e, j] == i:
+                            listed = 1   # a candidate that could not be built
+                    if listed == 0:
+                        rows.type[e, r] = NORMAL
+                        rows.mu[e, r] = 0.0
+                        rows.bounce[e, r] = 0.0
+                        rows.inv_mass[e, r] = 0.0
+                        rows.lam[e, r] = 0.0
+                        rows.block_cand[e, k] = i
+                        k += 1
         if k < n:
             rows.block_cand[e, k] = -1
     _wait(ln)

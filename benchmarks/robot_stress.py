@@ -1,0 +1,113 @@
+"""One corpus robot under the corpus's random inputs, per env: how far past its limits, how deep
+into contacts, whether its energy runs away (issue 40, item 2's measuring instrument).
+
+    python benchmarks/robot_stress.py g1/g1_29dof_with_hand_rev_1_0 --envs 40
+    python benchmarks/robot_stress.py talos_data/talos_full_v2 --envs 40 --seconds 2 substeps=4
+
+`benchmarks/corpus.py` gives one line per model over all envs; this splits it per env, since
+the runs are chaotic and one env's blow-up decides the maximum: the envs more than 0.05 rad (or
+m) past a limit, the median env, the envs whose energy (kinetic + potential) grew above 1.5× its
+start, the longest run of steps a dof spent at its speed cap, the contact-slot overflow, and the
+joints that went furthest past their limits. Inputs are corpus.py's (`random_inputs`, the same
+seed); trailing key=value pairs override `myriad.SimParams`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+import warnings
+
+import torch
+
+import corpus
+import myriad
+
+
+def load(name: str):
+    for model_name, _source, loader in corpus.corpus_models():
+        if model_name == name:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                return loader()[0]
+    raise SystemExit(f"no corpus model named {name!r}; `python benchmarks/corpus.py --list`")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("model", help="a corpus name, e.g. g1/g1_29dof_with_hand_rev_1_0")
+    ap.add_argument("--envs", type=int, default=40)
+    ap.add_argument("--seconds", type=float, default=2.0)
+    ap.add_argument("params", nargs="*", help="SimParams overrides, key=value")
+    args = ap.parse_args()
+    overrides = {}
+    for item in args.params:
+        key, value = item.split("=", 1)
+        overrides[key] = value if value in ("tgs", "pgs") else float(value) if "." in value \
+            else int(value)
+    params = myriad.SimParams(**overrides)
+    model = load(args.model)
+    sim = myriad.Simulator(model, num_envs=args.envs, params=params)
+    steps = round(args.seconds / params.dt)
+    hold = max(1, round(corpus.CONTROL_PERIOD / params.dt))
+    joints, qadr = corpus.limited_joints(model)
+    kind, inputs = corpus.random_inputs(model, -(-steps // hold), args.envs,
+                                        torch.Generator().manual_seed(0))
+    sim.collide()
+    lo, hi = sim.joint_range[:, joints].unbind(-1)
+    q0 = sim.q[:, qadr]
+    start_over = torch.maximum(q0 - hi, lo - q0).clamp(min=0)   # a model's own start outside
+    cap = sim.dof_max_velocity.clone()
+    mass = sim.body_mass.clone()
+
+    def energy():
+        qd = sim.qd
+        kinetic = 0.5 * torch.einsum("ei,eij,ej->e", qd, sim.mass_matrix, qd)
+        return kinetic - (mass[..., None] * sim.body_com * sim.gravity[:, None, :]).sum((1, 2))
+
+    e0 = energy()
+    e_max = e0.clone()
+    excess = torch.zeros(args.envs, len(joints))
+    streak = torch.zeros(args.envs, model.nv, dtype=torch.int64)
+    longest = torch.zeros_like(streak)
+    deepest = torch.full((args.envs,), math.inf)
+    overflow = 0
+    start = time.perf_counter()
+    for step in range(steps):
+        if step % hold == 0:
+            setattr(sim, kind, inputs[step // hold])
+        sim.step()
+        q = sim.q[:, qadr]
+        over = (torch.maximum(q - hi, lo - q) - start_over).nan_to_num(math.inf).clamp(min=0)
+        excess = torch.maximum(excess, over)
+        at_cap = sim.qd.abs() >= cap * 0.999
+        streak = torch.where(at_cap, streak + 1, 0)
+        longest = torch.maximum(longest, streak)
+        count = sim.contact_count
+        overflow += int((count > sim.contact_capacity).sum())
+        used = torch.arange(sim.contact_capacity) < count[:, None]
+        deepest = torch.minimum(deepest, torch.where(used, sim.contact_dist, math.inf).amin(1))
+        e_max = torch.maximum(e_max, energy().nan_to_num(math.inf))
+    wall = time.perf_counter() - start
+    per_env = excess.amax(1)
+    runaway = e_max > 1.5 * e0.abs().clamp(min=1.0)
+    print(f"{args.model}, {args.envs} envs, {args.seconds} s, {params}: {wall:.1f} s wall")
+    print(f"  limit excess: worst {float(per_env.max()):.3f}, median env {float(per_env.median()):.3f}, "
+          f"envs over 0.05: {int((per_env > 0.05).sum())}/{args.envs}")
+    print(f"  deepest contact: worst {float(deepest.min()) * 1e3:.1f} mm, median env "
+          f"{float(deepest.median()) * 1e3:.1f} mm")
+    print(f"  energy runaway (> 1.5x start): {int(runaway.sum())}/{args.envs} envs, "
+          f"worst {float((e_max / e0.abs().clamp(min=1.0)).max()):.0f}x")
+    print(f"  longest run at a speed cap: {int(longest.max())} steps; contact-slot overflow in "
+          f"{overflow} of {steps * args.envs} env-steps (capacity {sim.contact_capacity})")
+    worst = torch.argsort(excess.amax(0), descending=True)
+    for i in worst[:6].tolist():
+        if float(excess[:, i].max()) < 0.05:
+            break
+        print(f"    {model.joint_names[joints[i]]}: {float(excess[:, i].max()):.3f} past its limit "
+              f"(env {int(excess[:, i].argmax())})")
+
+
+if __name__ == "__main__":
+    main()
