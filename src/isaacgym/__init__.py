@@ -1,0 +1,16 @@
+"""`isaacgym` on Myriad: run Isaac Gym Preview 4 Python code unchanged, on Myriad's engine.
+
+    from isaacgym import gymapi, gymtorch, gymutil
+    from isaacgym.torch_utils import *
+
+`gymapi` (the Gym object, parameters, math types, enums), `gymtorch` (wrap_tensor /
+unwrap_tensor), `gymutil` (command-line flags) and `torch_utils` (batched quaternion helpers in
+Isaac Gym's conventions) are provided. What is supported, what raises `NotImplementedError` and
+how the semantics map: docs/isaacgym.md.
+
+Importing `isaacgym` before or after `torch` both work (the original required it first).
+"""
+
+from . import gymapi, gymtorch, gymutil, torch_utils  # noqa: F401
+
+__all__ = ["gymapi", "gymtorch", "gymutil", "torch_utils"]

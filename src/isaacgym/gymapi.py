@@ -1,0 +1,1788 @@
+"""`isaacgym.gymapi` on Myriad: the Gym object, its parameter structs, math types and enums.
+
+The classic Isaac Gym flow runs unchanged:
+
+    gym = gymapi.acquire_gym()
+    sim = gym.create_sim(0, 0, gymapi.SIM_PHYSX, sim_params)
+    gym.add_ground(sim, gymapi.PlaneParams())
+    asset = gym.load_asset(sim, root, "urdf/cartpole.urdf", options)
+    for i in range(num_envs):
+        env = gym.create_env(sim, lower, upper, num_per_row)
+        actor = gym.create_actor(env, asset, pose, "cartpole", i, 1, 0)
+        gym.set_actor_dof_properties(env, actor, props)
+    gym.prepare_sim(sim)                      # builds one Myriad Scene, num_envs copies
+    dof_state = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim))
+    gym.set_dof_actuation_force_tensor(sim, gymtorch.unwrap_tensor(efforts))
+    gym.simulate(sim); gym.fetch_results(sim, True); gym.refresh_dof_state_tensor(sim)
+
+Until `prepare_sim` the calls only record what each env holds; `prepare_sim` checks that every
+env holds the same actors (same assets, same order), composes them into one `myriad.api.Scene`,
+builds the batched `myriad.api.Envs` and writes each env's recorded properties (DOF drive gains,
+limits, friction, masses...) into Myriad's per-env parameters. A call this module does not
+provide raises `NotImplementedError` naming it; so does an option that would change the physics
+and that Myriad does not honour yet. docs/isaacgym.md lists both.
+
+Coordinates: each env has its own frame, the frame the actor poses of `create_actor` and the
+tensor API's positions are given in (Isaac Gym's env-local frame); Myriad's envs never collide
+with each other, so every env sits at the origin of its own world. `create_env`'s grid origins
+are kept for `get_env_origin` only. Y-up sims work: gravity is the vector in `SimParams.gravity`
+and the ground plane's normal is that of `PlaneParams.normal`; nothing assumes z is up.
+"""
+
+from __future__ import annotations
+
+import copy
+import enum
+import math
+import os
+import warnings
+
+import mujoco
+import numpy as np
+import torch
+
+_FLT_MAX = float(np.finfo(np.float32).max)
+_DOCS = "see docs/isaacgym.md in the Myriad repository"
+
+
+class NotProvidedError(NotImplementedError, AttributeError):
+    """A call or name of Isaac Gym that Myriad does not provide (yet). It is also an
+    AttributeError, so that `hasattr` and `getattr(obj, name, default)` keep working."""
+
+
+def _not_provided(what: str) -> NotProvidedError:
+    return NotProvidedError(f"{what} is not provided by Myriad yet; {_DOCS}")
+
+
+def _unsupported(what: str, why: str = "") -> NotImplementedError:
+    return NotImplementedError(f"{what} is not supported by Myriad yet" + (f": {why}" if why
+                                                                             else "") + f"; {_DOCS}")
+
+
+# ---------------------------------------------------------------------------------- enums
+class SimType(enum.IntEnum):
+    SIM_PHYSX = 0
+    SIM_FLEX = 1
+
+
+class UpAxis(enum.IntEnum):
+    UP_AXIS_Y = 0
+    UP_AXIS_Z = 1
+
+
+class DofDriveMode(enum.IntEnum):
+    DOF_MODE_NONE = 0
+    DOF_MODE_POS = 1
+    DOF_MODE_VEL = 2
+    DOF_MODE_EFFORT = 3
+
+
+class DofType(enum.IntEnum):
+    DOF_INVALID = -1
+    DOF_ROTATION = 0
+    DOF_TRANSLATION = 1
+
+
+class JointType(enum.IntEnum):
+    JOINT_INVALID = -1
+    JOINT_FIXED = 0
+    JOINT_REVOLUTE = 1
+    JOINT_PRISMATIC = 2
+    JOINT_BALL = 3
+    JOINT_PLANAR = 4
+    JOINT_FLOATING = 5
+
+
+class IndexDomain(enum.IntEnum):
+    DOMAIN_ACTOR = 0
+    DOMAIN_ENV = 1
+    DOMAIN_SIM = 2
+
+
+class CoordinateSpace(enum.IntEnum):
+    ENV_SPACE = 0
+    LOCAL_SPACE = 1
+    GLOBAL_SPACE = 2
+
+
+class ContactCollection(enum.IntEnum):
+    CC_NEVER = 0
+    CC_LAST_SUBSTEP = 1
+    CC_ALL_SUBSTEPS = 2
+
+
+class MeshType(enum.IntEnum):
+    MESH_NONE = 0
+    MESH_COLLISION = 1
+    MESH_VISUAL = 2
+    MESH_VISUAL_AND_COLLISION = 3
+
+
+class MeshNormalMode(enum.IntEnum):
+    FROM_ASSET = 0
+    COMPUTE_PER_VERTEX = 1
+    COMPUTE_PER_FACE = 2
+
+
+class ImageType(enum.IntEnum):
+    IMAGE_COLOR = 0
+    IMAGE_DEPTH = 1
+    IMAGE_SEGMENTATION = 2
+    IMAGE_OPTICAL_FLOW = 3
+
+
+class TendonType(enum.IntEnum):
+    TENDON_FIXED = 0
+    TENDON_SPATIAL = 1
+
+
+class CameraFollowMode(enum.IntEnum):
+    FOLLOW_POSITION = 0
+    FOLLOW_TRANSFORM = 1
+
+
+_KEYS = ("SPACE APOSTROPHE COMMA MINUS PERIOD SLASH 0 1 2 3 4 5 6 7 8 9 SEMICOLON EQUAL A B C D E "
+         "F G H I J K L M N O P Q R S T U V W X Y Z LEFT_BRACKET BACKSLASH RIGHT_BRACKET "
+         "GRAVE_ACCENT ESCAPE ENTER TAB BACKSPACE INSERT DEL RIGHT LEFT DOWN UP PAGE_UP PAGE_DOWN "
+         "HOME END CAPS_LOCK SCROLL_LOCK NUM_LOCK PRINT_SCREEN PAUSE F1 F2 F3 F4 F5 F6 F7 F8 F9 "
+         "F10 F11 F12 NUMPAD_0 NUMPAD_1 NUMPAD_2 NUMPAD_3 NUMPAD_4 NUMPAD_5 NUMPAD_6 NUMPAD_7 "
+         "NUMPAD_8 NUMPAD_9 NUMPAD_DEL NUMPAD_DIVIDE NUMPAD_MULTIPLY NUMPAD_SUBTRACT NUMPAD_ADD "
+         "NUMPAD_ENTER NUMPAD_EQUAL LEFT_SHIFT LEFT_CONTROL LEFT_ALT LEFT_SUPER RIGHT_SHIFT "
+         "RIGHT_CONTROL RIGHT_ALT RIGHT_SUPER MENU").split()
+KeyboardInput = enum.IntEnum("KeyboardInput", [f"KEY_{k}" for k in _KEYS], start=0)
+MouseInput = enum.IntEnum("MouseInput", [f"MOUSE_{k}" for k in (
+    "LEFT_BUTTON", "RIGHT_BUTTON", "MIDDLE_BUTTON", "FORWARD_BUTTON", "BACK_BUTTON",
+    "SCROLL_RIGHT", "SCROLL_LEFT", "SCROLL_UP", "SCROLL_DOWN", "MOVE_RIGHT", "MOVE_LEFT",
+    "MOVE_UP", "MOVE_DOWN")], start=0)
+
+for _enum in (SimType, UpAxis, DofDriveMode, DofType, JointType, IndexDomain, CoordinateSpace,
+              ContactCollection, MeshType, MeshNormalMode, ImageType, TendonType,
+              CameraFollowMode, KeyboardInput, MouseInput):
+    globals().update(_enum.__members__)
+
+STATE_NONE, STATE_POS, STATE_VEL, STATE_ALL = 0, 1, 2, 3
+RIGID_BODY_NONE, RIGID_BODY_DISABLE_GRAVITY, RIGID_BODY_DISABLE_SIMULATION = 0, 1, 2
+RIGID_BODY_ENABLE_GYROSCOPIC_FORCES = 4
+AXIS_NONE, AXIS_X, AXIS_Y, AXIS_Z, AXIS_TWIST = 0, 1, 2, 4, 8
+AXIS_TRANSLATION, AXIS_ROTATION, AXIS_ALL = 7, 56, 63
+INVALID_HANDLE = -1
+DEFAULT_VIEWER_WIDTH, DEFAULT_VIEWER_HEIGHT = 1600, 900
+
+
+# ---------------------------------------------------------------------------------- math
+class Vec3:
+    """A 3-vector (x, y, z)."""
+    dtype = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4")])
+
+    __slots__ = ("x", "y", "z")
+
+    def __init__(self, x: float = 0.0, y: float = 0.0, z: float = 0.0):
+        self.x, self.y, self.z = float(x), float(y), float(z)
+
+    def _t(self):
+        return np.array([self.x, self.y, self.z])
+
+    @classmethod
+    def _of(cls, a) -> "Vec3":
+        return cls(*(float(v) for v in a))
+
+    def __add__(self, o): return Vec3._of(self._t() + o._t())
+    def __sub__(self, o): return Vec3._of(self._t() - o._t())
+    def __neg__(self): return Vec3._of(-self._t())
+    def __mul__(self, s): return Vec3._of(self._t() * float(s))
+    __rmul__ = __mul__
+    def __truediv__(self, s): return Vec3._of(self._t() / float(s))
+    def __eq__(self, o): return isinstance(o, Vec3) and np.allclose(self._t(), o._t(), 0, 0)
+    def __hash__(self): return hash((self.x, self.y, self.z))
+    def dot(self, o) -> float: return float(self._t() @ o._t())
+    def cross(self, o) -> "Vec3": return Vec3._of(np.cross(self._t(), o._t()))
+    def length(self) -> float: return float(np.linalg.norm(self._t()))
+    def length_sq(self) -> float: return float(self._t() @ self._t())
+
+    def normalize(self) -> "Vec3":
+        n = self.length()
+        return Vec3._of(self._t() / n) if n > 0 else Vec3(self.x, self.y, self.z)
+
+    def __getstate__(self): return (self.x, self.y, self.z)
+    def __setstate__(self, s): self.x, self.y, self.z = s
+    def __repr__(self): return f"Vec3({self.x:g}, {self.y:g}, {self.z:g})"
+
+
+class Vec2:
+    __slots__ = ("x", "y")
+
+    def __init__(self, x: float = 0.0, y: float = 0.0):
+        self.x, self.y = float(x), float(y)
+
+    def __repr__(self): return f"Vec2({self.x:g}, {self.y:g})"
+
+
+class Quat:
+    """A rotation quaternion (x, y, z, w); the default is the identity."""
+    dtype = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("w", "<f4")])
+
+    __slots__ = ("x", "y", "z", "w")
+
+    def __init__(self, x: float = 0.0, y: float = 0.0, z: float = 0.0, w: float = 1.0):
+        self.x, self.y, self.z, self.w = float(x), float(y), float(z), float(w)
+
+    def _t(self):
+        return np.array([self.x, self.y, self.z, self.w])
+
+    @staticmethod
+    def from_axis_angle(axis: Vec3, angle: float) -> "Quat":
+        a = axis._t()
+        n = np.linalg.norm(a)
+        a = a / n if n > 0 else a
+        s = math.sin(0.5 * float(angle))
+        return Quat(*(a * s), math.cos(0.5 * float(angle)))
+
+    @staticmethod
+    def from_euler_zyx(roll: float, pitch: float, yaw: float) -> "Quat":
+        """The rotation Rz(yaw)·Ry(pitch)·Rx(roll)."""
+        cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+        cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+        cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+        return Quat(sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+                    cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
+
+    def to_euler_zyx(self) -> tuple:
+        """(roll, pitch, yaw) with self = Rz(yaw)·Ry(pitch)·Rx(roll)."""
+        x, y, z, w = self._t()
+        roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+        pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+        yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        return roll, pitch, yaw
+
+    def __mul__(self, o: "Quat") -> "Quat":
+        ax, ay, az, aw = self._t()
+        bx, by, bz, bw = o._t()
+        return Quat(aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+                    aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
+
+    def rotate(self, v: Vec3) -> Vec3:
+        u, w, v = self._t()[:3], self.w, v._t()
+        t = 2.0 * np.cross(u, v)
+        return Vec3._of(v + w * t + np.cross(u, t))
+
+    def inverse(self) -> "Quat":
+        n = float(self._t() @ self._t())
+        return Quat(-self.x / n, -self.y / n, -self.z / n, self.w / n)
+
+    def normalize(self) -> "Quat":
+        n = float(np.linalg.norm(self._t()))
+        return Quat(*(self._t() / n)) if n > 0 else Quat()
+
+    def __eq__(self, o): return isinstance(o, Quat) and np.allclose(self._t(), o._t(), 0, 0)
+    def __hash__(self): return hash((self.x, self.y, self.z, self.w))
+    def __getstate__(self): return (self.x, self.y, self.z, self.w)
+    def __setstate__(self, s): self.x, self.y, self.z, self.w = s
+    def __repr__(self): return f"Quat({self.x:g}, {self.y:g}, {self.z:g}, {self.w:g})"
+
+
+class Transform:
+    """A pose: position `p` (Vec3) and rotation `r` (Quat)."""
+    dtype = np.dtype([("p", Vec3.dtype), ("r", Quat.dtype)])
+
+    def __init__(self, p: Vec3 | None = None, r: Quat | None = None):
+        self.p = Vec3() if p is None else Vec3(p.x, p.y, p.z)
+        self.r = Quat() if r is None else Quat(r.x, r.y, r.z, r.w)
+
+    def transform_point(self, v: Vec3) -> Vec3:
+        return self.r.rotate(v) + self.p
+
+    def transform_vector(self, v: Vec3) -> Vec3:
+        return self.r.rotate(v)
+
+    def transform_points(self, points):
+        return [self.transform_point(v) for v in points]
+
+    def transform_vectors(self, vectors):
+        return [self.transform_vector(v) for v in vectors]
+
+    def inverse(self) -> "Transform":
+        r = self.r.inverse()
+        return Transform(-r.rotate(self.p), r)
+
+    def __mul__(self, o: "Transform") -> "Transform":
+        return Transform(self.transform_point(o.p), self.r * o.r)
+
+    @staticmethod
+    def from_buffer(buf) -> "Transform":
+        b = np.asarray(buf).reshape(-1)
+        return Transform(Vec3(*b[:3]), Quat(*b[3:7]))
+
+    def __getstate__(self): return (self.p.__getstate__(), self.r.__getstate__())
+
+    def __setstate__(self, s):
+        self.p, self.r = Vec3(*s[0]), Quat(*s[1])
+
+    def __repr__(self): return f"Transform(p={self.p}, r={self.r})"
+
+
+class Mat33:
+    """A 3×3 matrix with rows x, y, z (Vec3)."""
+
+    def __init__(self, x: Vec3 | None = None, y: Vec3 | None = None, z: Vec3 | None = None):
+        self.x = x or Vec3(1, 0, 0)
+        self.y = y or Vec3(0, 1, 0)
+        self.z = z or Vec3(0, 0, 1)
+
+    def _t(self):
+        return np.array([self.x._t(), self.y._t(), self.z._t()])
+
+    @classmethod
+    def _of(cls, m) -> "Mat33":
+        return cls(Vec3._of(m[0]), Vec3._of(m[1]), Vec3._of(m[2]))
+
+    def __repr__(self): return f"Mat33({self.x}, {self.y}, {self.z})"
+
+
+class Velocity:
+    def __init__(self, linear: Vec3 | None = None, angular: Vec3 | None = None):
+        self.linear, self.angular = linear or Vec3(), angular or Vec3()
+
+
+DofState = np.dtype([("pos", "<f4"), ("vel", "<f4")])
+RigidBodyState = np.dtype([("pose", Transform.dtype),
+                           ("vel", [("linear", Vec3.dtype), ("angular", Vec3.dtype)])])
+DofProperties = np.dtype([("hasLimits", "?"), ("lower", "<f4"), ("upper", "<f4"),
+                          ("driveMode", "<i4"), ("velocity", "<f4"), ("effort", "<f4"),
+                          ("stiffness", "<f4"), ("damping", "<f4"), ("friction", "<f4"),
+                          ("armature", "<f4")])
+
+
+# ---------------------------------------------------------------------------------- params
+class _Struct:
+    """Plain attributes with Isaac Gym's defaults; unknown attributes are refused (a typo in
+    a setattr loop over a config should not pass silently)."""
+    _fields: dict = {}
+
+    def __init__(self, **kwargs):
+        for k, v in self._fields.items():
+            object.__setattr__(self, k, copy.copy(v))
+        for k, v in kwargs.items():
+            setattr(self, k, v)
+
+    def __setattr__(self, name, value):
+        if name not in self._fields:
+            raise AttributeError(f"{type(self).__name__} has no attribute {name!r}; its "
+                                 f"attributes are {sorted(self._fields)}")
+        object.__setattr__(self, name, value)
+
+    def __getstate__(self):
+        return {k: getattr(self, k) for k in self._fields}
+
+    def __setstate__(self, state):
+        for k, v in state.items():
+            object.__setattr__(self, k, v)
+
+    def __repr__(self):
+        return f"{type(self).__name__}(" + ", ".join(f"{k}={getattr(self, k)!r}"
+                                                      for k in self._fields) + ")"
+
+
+class PhysXParams(_Struct):
+    _fields = dict(solver_type=1, num_position_iterations=4, num_velocity_iterations=1,
+                   contact_offset=0.02, rest_offset=0.001, bounce_threshold_velocity=0.2,
+                   max_depenetration_velocity=100.0, friction_offset_threshold=0.04,
+                   friction_correlation_distance=0.025, num_threads=0, num_subscenes=0,
+                   use_gpu=False, max_gpu_contact_pairs=1024 * 1024,
+                   default_buffer_size_multiplier=2.0,
+                   contact_collection=ContactCollection.CC_ALL_SUBSTEPS,
+                   always_use_articulations=False)
+
+
+class FlexParams(_Struct):
+    _fields = dict(solver_type=5, num_outer_iterations=4, num_inner_iterations=15,
+                   relaxation=0.75, warm_start=0.4, contact_regularization=1e-7,
+                   deterministic_mode=False, dynamic_friction=0.0, static_friction=0.0,
+                   particle_friction=0.0, friction_mode=2, geometric_stiffness=1.0,
+                   max_rigid_contacts=1024 * 1024, max_soft_contacts=1024 * 1024,
+                   return_contacts=False, shape_collision_distance=0.0,
+                   shape_collision_margin=0.0)
+
+
+class SimParams(_Struct):
+    _fields = dict(dt=1.0 / 60.0, substeps=2, up_axis=UpAxis.UP_AXIS_Y,
+                   gravity=Vec3(0.0, -9.8, 0.0), use_gpu_pipeline=False, num_client_threads=0,
+                   enable_actor_creation_warning=True, stress_visualization=False,
+                   stress_visualization_min=0.0, stress_visualization_max=1e5,
+                   physx=PhysXParams(), flex=FlexParams())
+
+
+class PlaneParams(_Struct):
+    _fields = dict(normal=Vec3(0.0, 1.0, 0.0), distance=0.0, static_friction=1.0,
+                   dynamic_friction=1.0, restitution=0.0, segmentation_id=0)
+
+
+class VhacdParams(_Struct):
+    _fields = dict(resolution=100000, max_convex_hulls=10, max_num_vertices_per_ch=64,
+                   concavity=0.0, plane_downsampling=4, convex_hull_downsampling=4,
+                   alpha=0.05, beta=0.05, mode=0, pca=0, ocl_acceleration=True,
+                   min_volume_per_ch=0.0001, convex_hull_approximation=True)
+
+
+class AssetOptions(_Struct):
+    _fields = dict(fix_base_link=False, default_dof_drive_mode=DofDriveMode.DOF_MODE_POS,
+                   disable_gravity=False, armature=0.0, use_physx_armature=False,
+                   density=1000.0, angular_damping=0.5, linear_damping=0.0,
+                   max_angular_velocity=64.0, max_linear_velocity=1000.0,
+                   flip_visual_attachments=False, collapse_fixed_joints=False,
+                   replace_cylinder_with_capsule=False, thickness=0.02,
+                   use_mesh_materials=False, mesh_normal_mode=MeshNormalMode.FROM_ASSET,
+                   override_com=False, override_inertia=False, vhacd_enabled=False,
+                   vhacd_params=VhacdParams(), convex_decomposition_from_submeshes=False,
+                   enable_gyroscopic_forces=True, slices_per_cylinder=20,
+                   min_particle_mass=1e-9, tendon_limit_stiffness=1.0)
+
+
+class CameraProperties(_Struct):
+    _fields = dict(width=DEFAULT_VIEWER_WIDTH, height=DEFAULT_VIEWER_HEIGHT,
+                   horizontal_fov=90.0, near_plane=0.1, far_plane=1000.0, supersampling_horizontal=1,
+                   supersampling_vertical=1, use_collision_geometry=False,
+                   enable_tensors=False)
+
+
+class RigidShapeProperties(_Struct):
+    _fields = dict(friction=1.0, restitution=0.0, rolling_friction=0.0, torsion_friction=0.0,
+                   compliance=0.0, contact_offset=0.02, rest_offset=0.001, thickness=0.0,
+                   filter=0)
+
+
+class RigidBodyProperties(_Struct):
+    _fields = dict(mass=1.0, invMass=1.0, com=Vec3(), inertia=Mat33(), invInertia=Mat33(),
+                   flags=RIGID_BODY_NONE)
+
+
+class ActuatorProperties(_Struct):
+    _fields = dict(type=0, motor_effort=0.0, kp=0.0, kv=0.0, control_limited=False,
+                   lower_control_limit=0.0, upper_control_limit=0.0, force_limited=False,
+                   lower_force_limit=0.0, upper_force_limit=0.0)
+
+
+class IndexRange:
+    def __init__(self, start: int = 0, count: int = 0):
+        self.start, self.count = int(start), int(count)
+
+    def __repr__(self): return f"IndexRange(start={self.start}, count={self.count})"
+
+
+class Version:
+    major, minor = 1, 0
+
+    def __repr__(self): return "Version(1.0, preview 4 API on Myriad)"
+
+
+# ---------------------------------------------------------------------------------- handles
+class Tensor:
+    """A tensor descriptor: what `acquire_*_tensor` returns and `gymtorch.unwrap_tensor`
+    makes. `gymtorch.wrap_tensor` gives back the torch tensor it holds."""
+
+    def __init__(self, t: torch.Tensor):
+        self.torch = t
+
+    @property
+    def device(self):
+        return self.torch.device
+
+    @property
+    def shape(self):
+        return tuple(self.torch.shape)
+
+    @property
+    def dtype(self):
+        return self.torch.dtype
+
+    @property
+    def own_data(self):
+        return False
+
+    def __repr__(self):
+        return f"gymapi.Tensor(shape={self.shape}, dtype={self.dtype}, device={self.device})"
+
+
+class Asset:
+    """What `load_asset` and `create_box` etc. return: a model spec with Isaac Gym's options
+    applied, and its structure (bodies, DOFs, shapes) and default properties."""
+
+    def __init__(self, spec: mujoco.MjSpec, options: AssetOptions, source: str,
+                 actuators: list | None = None):
+        self.spec, self.options, self.source = spec, copy.deepcopy(options), source
+        self.actuators = actuators or []
+        self.fix_base = bool(options.fix_base_link)
+        probe = spec.copy()
+        probe.compiler.fusestatic = False       # Isaac Gym keeps fixed-joint links apart
+        try:
+            m = probe.compile()
+        except Exception as err:
+            raise _model_error(f"{source}: MuJoCo rejected the model: {err}") from err
+        self.mj = m
+        self.body_names = [m.body(b).name for b in range(1, m.nbody)]
+        self.body_ids = list(range(1, m.nbody))
+        self.dof_joints = [j for j in range(m.njnt) if int(m.jnt_type[j]) in (
+            int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))]
+        self.dof_names = [m.joint(j).name for j in self.dof_joints]
+        self.joint_names = [m.joint(j).name for j in range(m.njnt)]
+        # collision shapes, in Myriad's geom order (bodies' geoms; the world's are left out)
+        self.shape_geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] != 0
+                            and (m.geom_contype[g] or m.geom_conaffinity[g])]
+        self.body_geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] != 0]
+        self.dof_props = self._default_dof_props(m)
+        self.shape_props = [RigidShapeProperties(friction=float(m.geom_friction[g, 0]))
+                            for g in self.shape_geoms]
+        self.body_props = []
+        for b in self.body_ids:
+            mass = float(m.body_mass[b])
+            rot = _quat_matrix(_wxyz_to_xyzw(m.body_iquat[b]))
+            inertia = rot @ np.diag(m.body_inertia[b]) @ rot.T
+            self.body_props.append(RigidBodyProperties(
+                mass=mass, invMass=1.0 / mass if mass > 0 else 0.0,
+                com=Vec3._of(m.body_ipos[b]), inertia=Mat33._of(inertia),
+                invInertia=Mat33._of(np.linalg.pinv(inertia)),
+                flags=RIGID_BODY_DISABLE_GRAVITY if options.disable_gravity else RIGID_BODY_NONE))
+
+    def _default_dof_props(self, m) -> np.ndarray:
+        props = np.zeros(len(self.dof_joints), dtype=DofProperties)
+        for i, j in enumerate(self.dof_joints):
+            d = m.jnt_dofadr[j]
+            limited = bool(m.jnt_limited[j])
+            props[i]["hasLimits"] = limited
+            props[i]["lower"] = m.jnt_range[j, 0] if limited else -_FLT_MAX
+            props[i]["upper"] = m.jnt_range[j, 1] if limited else _FLT_MAX
+            props[i]["driveMode"] = int(self.options.default_dof_drive_mode)
+            props[i]["velocity"] = _DEFAULT_MAX_JOINT_VELOCITY
+            props[i]["effort"] = m.jnt_actfrcrange[j, 1] if m.jnt_actfrclimited[j] else _FLT_MAX
+            props[i]["stiffness"] = m.jnt_stiffness[j]
+            props[i]["damping"] = m.dof_damping[d]
+            props[i]["friction"] = m.dof_frictionloss[d]
+            props[i]["armature"] = m.dof_armature[d]
+        return props
+
+    @property
+    def num_bodies(self): return len(self.body_names)
+
+    @property
+    def num_dofs(self): return len(self.dof_names)
+
+    def __repr__(self):
+        return (f"gymapi.Asset({self.source}: {self.num_bodies} bodies, {self.num_dofs} dofs, "
+                f"{len(self.shape_geoms)} shapes)")
+
+
+_DEFAULT_MAX_JOINT_VELOCITY = 100.0    # PhysX's default joint speed cap (rad/s or m/s)
+
+
+def _model_error(message):
+    from myriad.physics import ModelError
+    return ModelError(message)
+
+
+def _wxyz_to_xyzw(q):
+    return np.array([q[1], q[2], q[3], q[0]], dtype=float)
+
+
+def _quat_matrix(q) -> np.ndarray:
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+class _Actor:
+    def __init__(self, env, index, asset: Asset, pose: Transform, name: str, group: int,
+                 filter: int, segmentation_id: int):
+        self.env, self.index, self.asset = env, index, asset
+        self.pose = Transform(pose.p, pose.r)
+        self.name, self.group, self.filter = name, int(group), int(filter)
+        self.segmentation_id = segmentation_id
+        self.dof_props = asset.dof_props.copy()
+        self.shape_props = copy.deepcopy(asset.shape_props)
+        self.body_props = copy.deepcopy(asset.body_props)
+        self.body_offset = 0     # index of its first body in the env (set by create_actor)
+        self.dof_offset = 0
+
+
+class Env:
+    """One env: the actors created in it, in order."""
+
+    def __init__(self, sim, index: int, lower: Vec3, upper: Vec3, num_per_row: int):
+        self.sim, self.index = sim, index
+        self.lower, self.upper, self.num_per_row = lower, upper, max(int(num_per_row), 1)
+        row, col = divmod(index, self.num_per_row)
+        spacing = upper - lower
+        self.origin = Vec3(col * spacing.x, row * spacing.y, 0.0)
+        self.actors: list[_Actor] = []
+
+    def __repr__(self):
+        return f"gymapi.Env({self.index}: {[a.name for a in self.actors]})"
+
+
+class Viewer:
+    """Not made by Myriad (`create_viewer` returns None); kept for type references."""
+
+
+class Sim:
+    """A simulation: parameters, ground, envs; after `prepare_sim` the Myriad `Envs`."""
+
+    def __init__(self, gym, device: str, params: SimParams):
+        self.gym, self.device, self.params = gym, device, copy.deepcopy(params)
+        self.ground: PlaneParams | None = None
+        self.envs: list[Env] = []
+        self.assets: list[Asset] = []
+        self.myriad = None          # myriad.api.Envs, after prepare_sim
+        self.time, self.frames = 0.0, 0
+        self.closed = False
+
+    def __repr__(self):
+        state = "prepared" if self.myriad is not None else "not prepared"
+        return f"gymapi.Sim({len(self.envs)} envs on {self.device}, {state})"
+
+
+# ---------------------------------------------------------------------------------- the scene
+def _scene_class():
+    """A `myriad.api.Scene` whose ground plane may have any normal (Isaac Gym's PlaneParams)
+    and whose actors may be kept from colliding with each other (collision groups/filters)."""
+    from myriad.api import Scene
+
+    class _IsaacScene(Scene):
+        plane_normal = (0.0, 0.0, 1.0)
+        plane_distance = 0.0
+        excluded_pairs: list = []       # (actor name, actor name) that must not collide
+
+        def compose(self):
+            spec, drives = super().compose()
+            if self.ground is not None:
+                n = np.asarray(self.plane_normal, float)
+                n = n / np.linalg.norm(n)
+                ground = next(g for g in spec.geoms if g.name == "ground")
+                # MuJoCo's plane has normal +z in its frame: rotate z onto n; n·x + d = 0
+                z = np.array([0.0, 0.0, 1.0])
+                axis = np.cross(z, n)
+                s, c = np.linalg.norm(axis), float(z @ n)
+                if s < 1e-12:
+                    quat = [1.0, 0.0, 0.0, 0.0] if c > 0 else [0.0, 1.0, 0.0, 0.0]
+                else:
+                    angle = math.atan2(s, c)
+                    axis = axis / s
+                    quat = [math.cos(angle / 2), *(axis * math.sin(angle / 2))]
+                ground.quat = quat
+                ground.pos = (-self.plane_distance * n).tolist()
+            for a, b in self.excluded_pairs:
+                bodies_a = [x.name for x in spec.bodies if x.name.startswith(a + "/")]
+                bodies_b = [x.name for x in spec.bodies if x.name.startswith(b + "/")]
+                for x in bodies_a:
+                    for y in bodies_b:
+                        spec.add_exclude(bodyname1=x, bodyname2=y)
+            return spec, drives
+
+    return _IsaacScene
+
+
+_MODES = {int(DofDriveMode.DOF_MODE_NONE): "none", int(DofDriveMode.DOF_MODE_POS): "position",
+          int(DofDriveMode.DOF_MODE_VEL): "velocity", int(DofDriveMode.DOF_MODE_EFFORT): "effort"}
+
+
+def _collide(a: _Actor, b: _Actor) -> bool:
+    """Isaac Gym's rule for two actors of one env: same collision group (or either -1), and
+    no common bit in their filters."""
+    same_group = a.group == b.group or a.group == -1 or b.group == -1
+    return same_group and (a.filter & b.filter) == 0
+
+
+# ---------------------------------------------------------------------------------- Gym
+class Gym:
+    """The Isaac Gym interface on Myriad (see the module's docstring)."""
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise _not_provided(f"isaacgym.gymapi.Gym.{name}")
+
+    def get_version(self) -> Version:
+        return Version()
+
+    # ------------------------------------------------------------------ sim
+    def create_sim(self, compute_device: int = 0, graphics_device: int = 0,
+                   type: SimType = SimType.SIM_PHYSX, params: SimParams | None = None) -> Sim:
+        params = SimParams() if params is None else params
+        if int(type) == SimType.SIM_FLEX:
+            raise NotImplementedError(f"gym.create_sim: the Flex backend (SIM_FLEX) is not "
+                                      f"provided by Myriad; use SIM_PHYSX ({_DOCS})")
+        if int(type) != SimType.SIM_PHYSX:
+            raise ValueError(f"gym.create_sim: unknown sim type {type!r}")
+        if params.use_gpu_pipeline:
+            if not torch.cuda.is_available():
+                raise RuntimeError("gym.create_sim: SimParams.use_gpu_pipeline=True needs a CUDA "
+                                   "GPU, and torch sees none; run with the CPU pipeline "
+                                   "(--sim_device cpu --pipeline cpu, or "
+                                   "sim_params.use_gpu_pipeline = False)")
+            device = f"cuda:{int(compute_device)}"
+        else:
+            device = "cpu"
+        _myriad_params(params)      # check the parameters now, not at prepare_sim
+        return Sim(self, device, params)
+
+    def get_sim_params(self, sim: Sim) -> SimParams:
+        return copy.deepcopy(sim.params)
+
+    def set_sim_params(self, sim: Sim, params: SimParams) -> None:
+        if sim.myriad is None:
+            _myriad_params(params)
+            sim.params = copy.deepcopy(params)
+            return
+        old, new = _myriad_params(sim.params), _myriad_params(params)
+        changed = [f for f in ("dt", "substeps", "solver", "position_iterations",
+                               "velocity_iterations", "contact_offset", "rest_offset",
+                               "bounce_threshold_velocity", "max_depenetration_velocity")
+                   if getattr(old, f) != getattr(new, f)]
+        if changed:
+            raise _unsupported(f"gym.set_sim_params after prepare_sim changing {changed}",
+                               "only gravity can change once the sim is built")
+        sim.myriad.sim.gravity[:] = torch.tensor(new.gravity, dtype=torch.float32,
+                                                 device=sim.myriad.device)
+        sim.params = copy.deepcopy(params)
+
+    def add_ground(self, sim: Sim, params: PlaneParams) -> None:
+        self._before_prepare(sim, "add_ground")
+        n = params.normal
+        if n.length() < 1e-9:
+            raise ValueError("gym.add_ground: PlaneParams.normal must not be zero")
+        if not math.isclose(params.static_friction, params.dynamic_friction, rel_tol=1e-6,
+                            abs_tol=1e-9):
+            raise _unsupported(
+                f"gym.add_ground with static_friction={params.static_friction} != "
+                f"dynamic_friction={params.dynamic_friction}",
+                "Myriad's contacts have one Coulomb coefficient; give both the same value")
+        if sim.ground is not None:
+            raise _unsupported("a second gym.add_ground", "a sim has one ground plane")
+        sim.ground = copy.deepcopy(params)
+
+    def prepare_sim(self, sim: Sim) -> bool:
+        if sim.myriad is not None:
+            return True
+        _prepare(sim)
+        return True
+
+    def simulate(self, sim: Sim) -> None:
+        envs = self._envs(sim, "simulate")
+        envs.step()
+        sim.time += sim.params.dt
+        sim.frames += 1
+
+    def fetch_results(self, sim: Sim, wait: bool = True) -> None:
+        """Nothing to do: the state tensors are refreshed by `simulate` already."""
+
+    def get_sim_time(self, sim: Sim) -> float:
+        return sim.time
+
+    def get_elapsed_time(self, sim: Sim) -> float:
+        return sim.time
+
+    def get_frame_count(self, sim: Sim) -> int:
+        return sim.frames
+
+    def destroy_sim(self, sim: Sim) -> None:
+        sim.myriad, sim.envs, sim.closed = None, [], True
+
+    # ------------------------------------------------------------------ viewer (headless)
+    def create_viewer(self, sim: Sim, props: CameraProperties | None = None):
+        """Myriad has no interactive viewer in this layer: returns None, so code written for
+        headless runs (`if self.viewer:`) goes on. Videos: `myriad play` (docs)."""
+        warnings.warn("isaacgym on Myriad: gym.create_viewer returns None (no interactive "
+                      "viewer in this layer; run headless)", RuntimeWarning, stacklevel=2)
+        return None
+
+    def destroy_viewer(self, viewer) -> None:
+        pass
+
+    def step_graphics(self, sim: Sim) -> None:
+        pass
+
+    def draw_viewer(self, viewer, sim: Sim, render_collision: bool = True) -> None:
+        pass
+
+    def sync_frame_time(self, sim: Sim) -> None:
+        pass
+
+    def poll_viewer_events(self, viewer) -> None:
+        pass
+
+    def query_viewer_has_closed(self, viewer) -> bool:
+        return False
+
+    def query_viewer_action_events(self, viewer) -> list:
+        return []
+
+    def subscribe_viewer_keyboard_event(self, viewer, key, action: str) -> None:
+        pass
+
+    def subscribe_viewer_mouse_event(self, viewer, button, action: str) -> None:
+        pass
+
+    def viewer_camera_look_at(self, viewer, env, pos: Vec3, target: Vec3) -> None:
+        pass
+
+    def clear_lines(self, viewer) -> None:
+        pass
+
+    def add_lines(self, viewer, env, num_lines, vertices, colors) -> None:
+        pass
+
+    def set_rigid_body_color(self, env, actor_handle, rigid_body_index, mesh_type, color):
+        pass    # drawing only
+
+    def set_rigid_body_segmentation_id(self, env, actor_handle, rigid_body_index, sid):
+        pass    # drawing only
+
+    # ------------------------------------------------------------------ assets
+    def load_asset(self, sim: Sim, rootpath: str, filename: str,
+                   options: AssetOptions | None = None) -> Asset:
+        self._before_prepare(sim, "load_asset")
+        from myriad.physics.tolerant import asset_spec
+
+        options = AssetOptions() if options is None else options
+        _check_asset_options(options)
+        path = os.path.join(rootpath, filename)
+        spec = asset_spec(path, fix_base_link=bool(options.fix_base_link))
+        actuators = _take_actuators(spec)
+        asset = _finish_asset(spec, options, path, actuators)
+        sim.assets.append(asset)
+        return asset
+
+    load_urdf = load_asset
+    load_mjcf = load_asset
+
+    def create_box(self, sim: Sim, width: float, height: float, depth: float,
+                   options: AssetOptions | None = None) -> Asset:
+        """A box of size width (x) × height (y) × depth (z), of the options' density."""
+        return self._primitive(sim, "box", options, size=[width / 2, height / 2, depth / 2])
+
+    def create_sphere(self, sim: Sim, radius: float, options: AssetOptions | None = None):
+        return self._primitive(sim, "sphere", options, size=[radius, 0, 0])
+
+    def create_capsule(self, sim: Sim, radius: float, width: float,
+                       options: AssetOptions | None = None) -> Asset:
+        """A capsule along x: `width` the length of its cylindrical part, `radius` its caps'."""
+        return self._primitive(sim, "capsule", options, size=[radius, width / 2, 0],
+                               quat=[math.cos(math.pi / 4), 0, math.sin(math.pi / 4), 0])
+
+    def _primitive(self, sim, kind, options, size, quat=(1, 0, 0, 0)) -> Asset:
+        self._before_prepare(sim, f"create_{kind}")
+        options = AssetOptions() if options is None else options
+        _check_asset_options(options)
+        if min(size[:1]) <= 0 or any(s < 0 for s in size):
+            raise ValueError(f"gym.create_{kind}: sizes must be positive, got {size}")
+        spec = mujoco.MjSpec()
+        body = spec.worldbody.add_body(name=kind)
+        body.add_geom(name=kind, type=getattr(mujoco.mjtGeom, f"mjGEOM_{kind.upper()}"),
+                      size=list(size), quat=list(quat), density=float(options.density))
+        if not options.fix_base_link:
+            body.add_freejoint()
+        asset = _finish_asset(spec, options, f"create_{kind}{tuple(size)}", [])
+        sim.assets.append(asset)
+        return asset
+
+    def get_asset_dof_count(self, asset: Asset) -> int:
+        return asset.num_dofs
+
+    def get_asset_rigid_body_count(self, asset: Asset) -> int:
+        return asset.num_bodies
+
+    def get_asset_rigid_shape_count(self, asset: Asset) -> int:
+        return len(asset.shape_geoms)
+
+    def get_asset_joint_count(self, asset: Asset) -> int:
+        return len(asset.joint_names)
+
+    def get_asset_actuator_count(self, asset: Asset) -> int:
+        return len(asset.actuators)
+
+    def get_asset_dof_names(self, asset: Asset) -> list:
+        return list(asset.dof_names)
+
+    def get_asset_dof_name(self, asset: Asset, index: int) -> str:
+        return asset.dof_names[index]
+
+    def get_asset_rigid_body_names(self, asset: Asset) -> list:
+        return list(asset.body_names)
+
+    def get_asset_rigid_body_name(self, asset: Asset, index: int) -> str:
+        return asset.body_names[index]
+
+    def get_asset_joint_names(self, asset: Asset) -> list:
+        return list(asset.joint_names)
+
+    def get_asset_dof_dict(self, asset: Asset) -> dict:
+        return {n: i for i, n in enumerate(asset.dof_names)}
+
+    def get_asset_rigid_body_dict(self, asset: Asset) -> dict:
+        return {n: i for i, n in enumerate(asset.body_names)}
+
+    def get_asset_joint_dict(self, asset: Asset) -> dict:
+        return {n: i for i, n in enumerate(asset.joint_names)}
+
+    def find_asset_dof_index(self, asset: Asset, name: str) -> int:
+        return asset.dof_names.index(name) if name in asset.dof_names else INVALID_HANDLE
+
+    def find_asset_rigid_body_index(self, asset: Asset, name: str) -> int:
+        return asset.body_names.index(name) if name in asset.body_names else INVALID_HANDLE
+
+    def find_asset_joint_index(self, asset: Asset, name: str) -> int:
+        return asset.joint_names.index(name) if name in asset.joint_names else INVALID_HANDLE
+
+    def get_asset_dof_type(self, asset: Asset, index: int) -> DofType:
+        j = asset.dof_joints[index]
+        return (DofType.DOF_TRANSLATION if int(asset.mj.jnt_type[j])
+                == int(mujoco.mjtJoint.mjJNT_SLIDE)
+                else DofType.DOF_ROTATION)
+
+    def get_asset_dof_properties(self, asset: Asset) -> np.ndarray:
+        return asset.dof_props.copy()
+
+    def get_asset_rigid_shape_properties(self, asset: Asset) -> list:
+        return copy.deepcopy(asset.shape_props)
+
+    def set_asset_rigid_shape_properties(self, asset: Asset, props: list) -> bool:
+        _check_shape_props(props, len(asset.shape_geoms), "set_asset_rigid_shape_properties")
+        asset.shape_props = copy.deepcopy(list(props))
+        return True
+
+    def get_asset_actuator_properties(self, asset: Asset) -> list:
+        return copy.deepcopy([a["props"] for a in asset.actuators])
+
+    def get_asset_actuator_name(self, asset: Asset, index: int) -> str:
+        return asset.actuators[index]["name"]
+
+    def get_asset_actuator_joint_name(self, asset: Asset, index: int) -> str:
+        return asset.actuators[index]["joint"]
+
+    def find_asset_actuator_index(self, asset: Asset, name: str) -> int:
+        names = [a["name"] for a in asset.actuators]
+        return names.index(name) if name in names else INVALID_HANDLE
+
+    def get_asset_rigid_body_shape_indices(self, asset: Asset) -> list:
+        out = []
+        for b in asset.body_ids:
+            geoms = [i for i, g in enumerate(asset.shape_geoms) if asset.mj.geom_bodyid[g] == b]
+            out.append(IndexRange(geoms[0] if geoms else 0, len(geoms)))
+        return out
+
+    # ------------------------------------------------------------------ envs and actors
+    def create_env(self, sim: Sim, lower: Vec3, upper: Vec3, num_per_row: int) -> Env:
+        self._before_prepare(sim, "create_env")
+        env = Env(sim, len(sim.envs), lower, upper, num_per_row)
+        sim.envs.append(env)
+        return env
+
+    def get_env(self, sim: Sim, index: int) -> Env:
+        return sim.envs[index]
+
+    def get_env_count(self, sim: Sim) -> int:
+        return len(sim.envs)
+
+    def get_env_origin(self, env: Env) -> Vec3:
+        return Vec3(env.origin.x, env.origin.y, env.origin.z)
+
+    def create_actor(self, env: Env, asset: Asset, pose: Transform, name: str | None = None,
+                     group: int = -1, filter: int = -1, segmentationId: int = 0) -> int:
+        self._before_prepare(env.sim, "create_actor")
+        if not isinstance(asset, Asset):
+            raise TypeError(f"gym.create_actor: expected an Asset, got {type(asset).__name__}")
+        index = len(env.actors)
+        actor = _Actor(env, index, asset, pose, name if name is not None else f"actor{index}",
+                       group, filter, segmentationId)
+        if env.actors:
+            last = env.actors[-1]
+            actor.body_offset = last.body_offset + last.asset.num_bodies
+            actor.dof_offset = last.dof_offset + last.asset.num_dofs
+        env.actors.append(actor)
+        return index
+
+    def get_actor_count(self, env: Env) -> int:
+        return len(env.actors)
+
+    def get_sim_actor_count(self, sim: Sim) -> int:
+        return sum(len(e.actors) for e in sim.envs)
+
+    def get_sim_dof_count(self, sim: Sim) -> int:
+        return sum(a.asset.num_dofs for e in sim.envs for a in e.actors)
+
+    def get_sim_rigid_body_count(self, sim: Sim) -> int:
+        return sum(a.asset.num_bodies for e in sim.envs for a in e.actors)
+
+    def get_env_dof_count(self, env: Env) -> int:
+        return sum(a.asset.num_dofs for a in env.actors)
+
+    def get_env_rigid_body_count(self, env: Env) -> int:
+        return sum(a.asset.num_bodies for a in env.actors)
+
+    def _actor(self, env: Env, handle: int) -> _Actor:
+        if not isinstance(env, Env):
+            raise TypeError(f"expected an Env (from gym.create_env), got {type(env).__name__}")
+        if not 0 <= int(handle) < len(env.actors):
+            raise IndexError(f"env {env.index} has no actor handle {handle} (it has "
+                             f"{len(env.actors)} actors)")
+        return env.actors[int(handle)]
+
+    def get_actor_name(self, env: Env, handle: int) -> str:
+        return self._actor(env, handle).name
+
+    def get_actor_handle(self, env: Env, index: int) -> int:
+        self._actor(env, index)
+        return int(index)
+
+    def find_actor_handle(self, env: Env, name: str) -> int:
+        for a in env.actors:
+            if a.name == name:
+                return a.index
+        return INVALID_HANDLE
+
+    def get_actor_asset(self, env: Env, handle: int) -> Asset:
+        return self._actor(env, handle).asset
+
+    def get_actor_index(self, env: Env, handle: int, domain: IndexDomain) -> int:
+        actor = self._actor(env, handle)
+        if int(domain) == IndexDomain.DOMAIN_SIM:
+            return env.index * len(env.actors) + actor.index
+        return actor.index
+
+    def find_actor_index(self, env: Env, name: str, domain: IndexDomain) -> int:
+        handle = self.find_actor_handle(env, name)
+        return INVALID_HANDLE if handle < 0 else self.get_actor_index(env, handle, domain)
+
+    def get_actor_dof_count(self, env: Env, handle: int) -> int:
+        return self._actor(env, handle).asset.num_dofs
+
+    def get_actor_rigid_body_count(self, env: Env, handle: int) -> int:
+        return self._actor(env, handle).asset.num_bodies
+
+    def get_actor_rigid_shape_count(self, env: Env, handle: int) -> int:
+        return len(self._actor(env, handle).asset.shape_geoms)
+
+    def get_actor_joint_count(self, env: Env, handle: int) -> int:
+        return len(self._actor(env, handle).asset.joint_names)
+
+    def get_actor_dof_names(self, env: Env, handle: int) -> list:
+        return list(self._actor(env, handle).asset.dof_names)
+
+    def get_actor_rigid_body_names(self, env: Env, handle: int) -> list:
+        return list(self._actor(env, handle).asset.body_names)
+
+    def get_actor_joint_names(self, env: Env, handle: int) -> list:
+        return list(self._actor(env, handle).asset.joint_names)
+
+    def get_actor_dof_dict(self, env: Env, handle: int) -> dict:
+        return self.get_asset_dof_dict(self._actor(env, handle).asset)
+
+    def get_actor_rigid_body_dict(self, env: Env, handle: int) -> dict:
+        return self.get_asset_rigid_body_dict(self._actor(env, handle).asset)
+
+    def find_actor_dof_handle(self, env: Env, handle: int, name: str) -> int:
+        actor = self._actor(env, handle)
+        i = self.find_asset_dof_index(actor.asset, name)
+        return INVALID_HANDLE if i < 0 else actor.dof_offset + i
+
+    def find_actor_dof_index(self, env: Env, handle: int, name: str, domain) -> int:
+        actor = self._actor(env, handle)
+        i = self.find_asset_dof_index(actor.asset, name)
+        if i < 0:
+            return INVALID_HANDLE
+        return self._in_domain(env, actor, i, domain, "dof")
+
+    def find_actor_rigid_body_handle(self, env: Env, handle: int, name: str) -> int:
+        actor = self._actor(env, handle)
+        i = self.find_asset_rigid_body_index(actor.asset, name)
+        return INVALID_HANDLE if i < 0 else actor.body_offset + i
+
+    def find_actor_rigid_body_index(self, env: Env, handle: int, name: str, domain) -> int:
+        actor = self._actor(env, handle)
+        i = self.find_asset_rigid_body_index(actor.asset, name)
+        if i < 0:
+            return INVALID_HANDLE
+        return self._in_domain(env, actor, i, domain, "body")
+
+    def get_actor_rigid_body_index(self, env: Env, handle: int, index: int, domain) -> int:
+        return self._in_domain(env, self._actor(env, handle), int(index), domain, "body")
+
+    def get_actor_dof_index(self, env: Env, handle: int, index: int, domain) -> int:
+        return self._in_domain(env, self._actor(env, handle), int(index), domain, "dof")
+
+    def get_actor_root_rigid_body_handle(self, env: Env, handle: int) -> int:
+        return self._actor(env, handle).body_offset
+
+    def _in_domain(self, env, actor, i, domain, kind) -> int:
+        offset = actor.body_offset if kind == "body" else actor.dof_offset
+        per_env = (self.get_env_rigid_body_count(env) if kind == "body"
+                   else self.get_env_dof_count(env))
+        if int(domain) == IndexDomain.DOMAIN_ACTOR:
+            return i
+        if int(domain) == IndexDomain.DOMAIN_ENV:
+            return offset + i
+        return env.index * per_env + offset + i
+
+    # ------------------------------------------------------------------ actor properties
+    def get_actor_dof_properties(self, env: Env, handle: int) -> np.ndarray:
+        return self._actor(env, handle).dof_props.copy()
+
+    def set_actor_dof_properties(self, env: Env, handle: int, props) -> bool:
+        actor = self._actor(env, handle)
+        props = np.asarray(props)
+        if props.dtype.names is None or set(DofProperties.names) - set(props.dtype.names):
+            raise ValueError("set_actor_dof_properties: expected the structured array of "
+                             "get_actor_dof_properties (fields "
+                             f"{list(DofProperties.names)})")
+        if props.shape != actor.dof_props.shape:
+            raise ValueError(f"set_actor_dof_properties: {props.shape[0] if props.ndim else 0} "
+                             f"entries for actor {actor.name!r} with {actor.asset.num_dofs} "
+                             "DOFs")
+        new = actor.dof_props.copy()
+        for f in DofProperties.names:
+            new[f] = props[f]
+        bad = [int(m) for m in new["driveMode"] if int(m) not in _MODES]
+        if bad:
+            raise ValueError(f"set_actor_dof_properties: unknown driveMode {bad}")
+        changed = new["hasLimits"] != actor.asset.dof_props["hasLimits"]
+        if changed.any():
+            names = [actor.asset.dof_names[i] for i in np.flatnonzero(changed)]
+            raise _unsupported(f"set_actor_dof_properties changing hasLimits of {names}",
+                               "whether a joint is limited is fixed by the asset")
+        vel_stiff = (new["driveMode"] == DofDriveMode.DOF_MODE_VEL) & (new["stiffness"] != 0)
+        if vel_stiff.any():
+            names = [actor.asset.dof_names[i] for i in np.flatnonzero(vel_stiff)]
+            raise _unsupported(f"DOF_MODE_VEL with stiffness != 0 on {names}",
+                               "a velocity drive has damping only; set stiffness to 0")
+        sim = env.sim
+        if sim.myriad is not None:
+            if (new["driveMode"] != actor.dof_props["driveMode"]).any():
+                raise _unsupported("set_actor_dof_properties changing driveMode after "
+                                   "prepare_sim", "drive modes are fixed when the sim is built")
+            actor.dof_props = new
+            _apply_dof_props(sim, [actor])
+            if (new["effort"] != actor.asset.dof_props["effort"]).any():
+                _check_efforts(sim, built=True)
+        else:
+            actor.dof_props = new
+        return True
+
+    def get_actor_rigid_shape_properties(self, env: Env, handle: int) -> list:
+        return copy.deepcopy(self._actor(env, handle).shape_props)
+
+    def set_actor_rigid_shape_properties(self, env: Env, handle: int, props: list) -> bool:
+        actor = self._actor(env, handle)
+        _check_shape_props(props, len(actor.asset.shape_geoms),
+                           "set_actor_rigid_shape_properties")
+        actor.shape_props = copy.deepcopy(list(props))
+        if env.sim.myriad is not None:
+            _apply_shape_props(env.sim, [actor])
+        return True
+
+    def get_actor_rigid_body_properties(self, env: Env, handle: int) -> list:
+        return copy.deepcopy(self._actor(env, handle).body_props)
+
+    def set_actor_rigid_body_properties(self, env: Env, handle: int, props: list,
+                                        recomputeInertia: bool = False) -> bool:
+        actor = self._actor(env, handle)
+        if len(props) != actor.asset.num_bodies:
+            raise ValueError(f"set_actor_rigid_body_properties: {len(props)} entries for actor "
+                             f"{actor.name!r} with {actor.asset.num_bodies} bodies")
+        new = copy.deepcopy(list(props))
+        for i, (p, old) in enumerate(zip(new, actor.body_props)):
+            body = actor.asset.body_names[i]
+            if not (p.mass > 0):
+                raise ValueError(f"set_actor_rigid_body_properties: body {body!r}: mass "
+                                 f"{p.mass} must be > 0")
+            if not np.allclose(p.com._t(), old.com._t(), atol=1e-7):
+                raise _unsupported(f"set_actor_rigid_body_properties changing the com of body "
+                                   f"{body!r}", "centres of mass are fixed by the asset")
+            if (int(p.flags) & RIGID_BODY_DISABLE_GRAVITY) != (int(old.flags)
+                                                               & RIGID_BODY_DISABLE_GRAVITY):
+                raise _unsupported(f"set_actor_rigid_body_properties changing "
+                                   f"RIGID_BODY_DISABLE_GRAVITY of body {body!r}",
+                                   "use AssetOptions.disable_gravity")
+            if recomputeInertia and old.mass > 0:
+                p.inertia = Mat33._of(old.inertia._t() * (p.mass / old.mass))
+            p.invMass = 1.0 / p.mass
+            p.invInertia = Mat33._of(np.linalg.pinv(p.inertia._t()))
+        actor.body_props = new
+        if env.sim.myriad is not None:
+            _apply_body_props(env.sim, [actor])
+        return True
+
+    # ------------------------------------------------------------------ tensors
+    def _envs(self, sim: Sim, call: str):
+        if not isinstance(sim, Sim):
+            raise TypeError(f"gym.{call}: expected a Sim (from gym.create_sim), got "
+                            f"{type(sim).__name__}")
+        if sim.myriad is None:
+            raise RuntimeError(f"gym.{call}: call gym.prepare_sim(sim) first, after creating "
+                               "the envs and actors")
+        return sim.myriad
+
+    def _before_prepare(self, sim: Sim, call: str) -> None:
+        if sim.closed:
+            raise RuntimeError(f"gym.{call}: the sim was destroyed")
+        if sim.myriad is not None:
+            raise _unsupported(f"gym.{call} after prepare_sim",
+                               "a Myriad sim is built once, from all envs and actors")
+
+    def acquire_actor_root_state_tensor(self, sim: Sim) -> Tensor:
+        envs = self._envs(sim, "acquire_actor_root_state_tensor")
+        return Tensor(sim.myriad_views("root", envs))
+
+    def acquire_dof_state_tensor(self, sim: Sim) -> Tensor:
+        envs = self._envs(sim, "acquire_dof_state_tensor")
+        return Tensor(sim.myriad_views("dof", envs))
+
+    def acquire_rigid_body_state_tensor(self, sim: Sim) -> Tensor:
+        envs = self._envs(sim, "acquire_rigid_body_state_tensor")
+        return Tensor(sim.myriad_views("body", envs))
+
+    def acquire_net_contact_force_tensor(self, sim: Sim) -> Tensor:
+        envs = self._envs(sim, "acquire_net_contact_force_tensor")
+        return Tensor(sim.myriad_views("contact", envs))
+
+    def acquire_dof_force_tensor(self, sim: Sim) -> Tensor:
+        envs = self._envs(sim, "acquire_dof_force_tensor")
+        return Tensor(sim.myriad_views("dof_force", envs))
+
+    def refresh_actor_root_state_tensor(self, sim: Sim) -> bool:
+        self._envs(sim, "refresh_actor_root_state_tensor").refresh()
+        return True
+
+    def refresh_dof_state_tensor(self, sim: Sim) -> bool:
+        self._envs(sim, "refresh_dof_state_tensor").refresh()
+        return True
+
+    def refresh_rigid_body_state_tensor(self, sim: Sim) -> bool:
+        self._envs(sim, "refresh_rigid_body_state_tensor").refresh()
+        return True
+
+    def refresh_dof_force_tensor(self, sim: Sim) -> bool:
+        self._envs(sim, "refresh_dof_force_tensor").refresh()
+        return True
+
+    def refresh_net_contact_force_tensor(self, sim: Sim) -> bool:
+        self._envs(sim, "refresh_net_contact_force_tensor")   # a view of the simulator's
+        return True
+
+    def refresh_force_sensor_tensor(self, sim: Sim) -> bool:
+        raise _not_provided("isaacgym.gymapi.Gym.refresh_force_sensor_tensor")
+
+    def _values(self, sim: Sim, call: str, desc, per_env_shape: tuple) -> torch.Tensor:
+        """The tensor behind `desc` as [num_envs, *per_env_shape], float32 on the sim's
+        device (Isaac Gym's flat layouts, env-major)."""
+        envs = self._envs(sim, call)
+        t = desc.torch if isinstance(desc, Tensor) else desc
+        if not isinstance(t, torch.Tensor):
+            raise TypeError(f"gym.{call}: expected a gymapi.Tensor (gymtorch.unwrap_tensor(...))"
+                            f", got {type(desc).__name__}")
+        if t.device != envs.device or t.dtype != torch.float32:
+            raise ValueError(f"gym.{call}: the tensor is {t.dtype} on {t.device}; expected "
+                             f"torch.float32 on {envs.device}")
+        n = int(np.prod(per_env_shape))
+        if t.numel() != envs.num_envs * n:
+            flat = (envs.num_envs * per_env_shape[0],) + tuple(per_env_shape[1:])
+            raise ValueError(f"gym.{call}: the tensor has shape {tuple(t.shape)}; expected "
+                             f"{flat} (all envs, env-major)")
+        return t.reshape(envs.num_envs, *per_env_shape)
+
+    def _actor_selection(self, sim: Sim, call: str, indices, count) -> torch.Tensor:
+        """[num_envs, num_actors] bool: the actors named by int32 sim-domain indices."""
+        envs = self._envs(sim, call)
+        t = indices.torch if isinstance(indices, Tensor) else indices
+        if not isinstance(t, torch.Tensor) or t.dtype != torch.int32:
+            raise ValueError(f"gym.{call}: actor indices must be an int32 tensor "
+                             "(gymtorch.unwrap_tensor(ids.to(torch.int32)))")
+        t = t.reshape(-1)[: int(count)].to(envs.device).long()
+        A = envs.num_actors
+        sel = torch.zeros(envs.num_envs * A, dtype=torch.bool, device=envs.device)
+        if len(t):
+            low, high = torch.stack((t.min(), t.max())).tolist()
+            if low < 0 or high >= envs.num_envs * A:
+                raise ValueError(f"gym.{call}: actor index out of range [0, "
+                                 f"{envs.num_envs * A}): got min {low}, max {high}")
+            sel[t] = True
+        return sel.view(envs.num_envs, A)
+
+    def _root_now(self, envs) -> torch.Tensor:
+        sim = envs.sim
+        both = torch.cat((sim.body_pose, sim.body_vel), dim=-1)
+        return both[:, envs._root_body]
+
+    def set_actor_root_state_tensor(self, sim: Sim, root_states) -> bool:
+        envs = self._envs(sim, "set_actor_root_state_tensor")
+        values = self._values(sim, "set_actor_root_state_tensor", root_states,
+                              (envs.num_actors, 13))
+        envs.set_root_states(values.clone())
+        return True
+
+    def set_actor_root_state_tensor_indexed(self, sim: Sim, root_states, indices,
+                                            count: int) -> bool:
+        call = "set_actor_root_state_tensor_indexed"
+        envs = self._envs(sim, call)
+        values = self._values(sim, call, root_states, (envs.num_actors, 13))
+        sel = self._actor_selection(sim, call, indices, count)
+        new = torch.where(sel[..., None], values, self._root_now(envs))
+        envs.set_root_states(new, env_ids=sel.any(dim=1))
+        return True
+
+    def set_dof_state_tensor(self, sim: Sim, dof_states) -> bool:
+        envs = self._envs(sim, "set_dof_state_tensor")
+        values = self._values(sim, "set_dof_state_tensor", dof_states, (envs.num_dofs, 2))
+        envs.set_dof_state(values[..., 0].clone(), values[..., 1].clone())
+        return True
+
+    def set_dof_state_tensor_indexed(self, sim: Sim, dof_states, indices, count: int) -> bool:
+        call = "set_dof_state_tensor_indexed"
+        envs = self._envs(sim, call)
+        values = self._values(sim, call, dof_states, (envs.num_dofs, 2))
+        mask = self._actor_selection(sim, call, indices, count)[:, sim.dof_actor]
+        s = envs.sim
+        pos = torch.where(mask, values[..., 0], s.q[:, envs._dof_q])
+        vel = torch.where(mask, values[..., 1], s.qd[:, envs.dof_columns])
+        envs.set_dof_state(pos, vel, env_ids=mask.any(dim=1))
+        return True
+
+    def set_dof_actuation_force_tensor(self, sim: Sim, forces) -> bool:
+        envs = self._envs(sim, "set_dof_actuation_force_tensor")
+        envs.set_dof_efforts(self._values(sim, "set_dof_actuation_force_tensor", forces,
+                                          (envs.num_dofs,)).clone())
+        return True
+
+    def set_dof_actuation_force_tensor_indexed(self, sim: Sim, forces, indices, count) -> bool:
+        call = "set_dof_actuation_force_tensor_indexed"
+        envs = self._envs(sim, call)
+        values = self._values(sim, call, forces, (envs.num_dofs,))
+        mask = self._actor_selection(sim, call, indices, count)[:, sim.dof_actor]
+        current = envs.sim.joint_force[:, envs.dof_columns]
+        envs.set_dof_efforts(torch.where(mask, values, current))
+        return True
+
+    def _set_targets(self, sim, call, targets, kind, indices=None, count=None) -> bool:
+        envs = self._envs(sim, call)
+        values = self._values(sim, call, targets, (envs.num_dofs,))
+        store = sim.position_targets if kind == "pos" else sim.velocity_targets
+        if indices is None:
+            store.copy_(values)
+        else:
+            mask = self._actor_selection(sim, call, indices, count)[:, sim.dof_actor]
+            store.copy_(torch.where(mask, values, store))
+        dofs, cols = sim.drive_dofs[kind], sim.drive_ctrl[kind]
+        if len(dofs):
+            envs.sim.ctrl[:, cols] = store[:, dofs]
+        return True
+
+    def set_dof_position_target_tensor(self, sim: Sim, targets) -> bool:
+        return self._set_targets(sim, "set_dof_position_target_tensor", targets, "pos")
+
+    def set_dof_position_target_tensor_indexed(self, sim, targets, indices, count) -> bool:
+        return self._set_targets(sim, "set_dof_position_target_tensor_indexed", targets, "pos",
+                                 indices, count)
+
+    def set_dof_velocity_target_tensor(self, sim: Sim, targets) -> bool:
+        return self._set_targets(sim, "set_dof_velocity_target_tensor", targets, "vel")
+
+    def set_dof_velocity_target_tensor_indexed(self, sim, targets, indices, count) -> bool:
+        return self._set_targets(sim, "set_dof_velocity_target_tensor_indexed", targets, "vel",
+                                 indices, count)
+
+    def apply_rigid_body_force_tensors(self, sim: Sim, forceTensor=None, torqueTensor=None,
+                                       space=CoordinateSpace.ENV_SPACE) -> bool:
+        call = "apply_rigid_body_force_tensors"
+        envs = self._envs(sim, call)
+        shape = (envs.num_bodies, 3)
+        forces = None if forceTensor is None else self._values(sim, call, forceTensor, shape)
+        torques = None if torqueTensor is None else self._values(sim, call, torqueTensor, shape)
+        envs.apply_body_forces(forces, torques, frame=_frame(space))
+        return True
+
+    def apply_rigid_body_force_at_pos_tensors(self, sim: Sim, forceTensor, posTensor=None,
+                                              space=CoordinateSpace.ENV_SPACE) -> bool:
+        call = "apply_rigid_body_force_at_pos_tensors"
+        envs = self._envs(sim, call)
+        shape = (envs.num_bodies, 3)
+        forces = self._values(sim, call, forceTensor, shape)
+        pos = None if posTensor is None else self._values(sim, call, posTensor, shape)
+        envs.apply_body_forces(forces, positions=pos, frame=_frame(space))
+        return True
+
+
+def _frame(space) -> str:
+    """ENV_SPACE and GLOBAL_SPACE are both the world frame of a Myriad env (envs have no
+    offsets between them); LOCAL_SPACE is each body's frame."""
+    return "local" if int(space) == CoordinateSpace.LOCAL_SPACE else "world"
+
+
+# ---------------------------------------------------------------------------------- helpers
+def _myriad_params(params: SimParams):
+    """Isaac Gym's SimParams as `myriad.SimParams` (ValueError if out of range)."""
+    from myriad.physics import SimParams as MyriadParams
+
+    px = params.physx
+    if px.solver_type not in (0, 1):
+        raise ValueError(f"SimParams.physx.solver_type={px.solver_type}: 0 (PGS) or 1 (TGS)")
+    if not 1 <= int(px.num_position_iterations) <= 255:
+        raise ValueError("SimParams.physx.num_position_iterations must lie in [1, 255]")
+    if not 0 <= int(px.num_velocity_iterations) <= 255:
+        raise ValueError("SimParams.physx.num_velocity_iterations must lie in [0, 255]")
+    g = params.gravity
+    return MyriadParams(
+        dt=float(params.dt), substeps=int(params.substeps), gravity=(g.x, g.y, g.z),
+        solver="tgs" if int(px.solver_type) == 1 else "pgs",
+        position_iterations=int(px.num_position_iterations),
+        velocity_iterations=int(px.num_velocity_iterations),
+        contact_offset=float(px.contact_offset), rest_offset=float(px.rest_offset),
+        bounce_threshold_velocity=float(px.bounce_threshold_velocity),
+        max_depenetration_velocity=float(px.max_depenetration_velocity),
+        max_joint_velocity=_DEFAULT_MAX_JOINT_VELOCITY)
+
+
+# options honoured, accepted because they only draw or import, and refused when not default
+_DRAWING_OPTIONS = ("flip_visual_attachments", "use_mesh_materials", "mesh_normal_mode",
+                    "slices_per_cylinder", "min_particle_mass", "tendon_limit_stiffness",
+                    "vhacd_params")
+
+
+def _check_asset_options(o: AssetOptions) -> None:
+    """Refuse options that would change the physics and that Myriad does not honour."""
+    d = AssetOptions()
+    refused = []
+    for name in ("replace_cylinder_with_capsule", "override_com", "override_inertia",
+                 "vhacd_enabled", "convex_decomposition_from_submeshes"):
+        if bool(getattr(o, name)) != bool(getattr(d, name)):
+            refused.append(f"{name}={getattr(o, name)!r}")
+    if not o.enable_gyroscopic_forces:
+        refused.append("enable_gyroscopic_forces=False (Myriad's dynamics always include them)")
+    # body velocity damping: Myriad has none, which is the value 0 exactly; PhysX's default
+    # is accepted (documented), other values are refused
+    for name in ("linear_damping", "angular_damping"):
+        v = float(getattr(o, name))
+        if v != 0.0 and v != getattr(d, name):
+            refused.append(f"{name}={v} (Myriad applies no body velocity damping; 0 is exact)")
+    # body speed caps: not applied; the defaults and larger values are accepted (documented)
+    for name in ("max_linear_velocity", "max_angular_velocity"):
+        v = float(getattr(o, name))
+        if v < getattr(d, name):
+            refused.append(f"{name}={v} (Myriad applies no body speed cap; values >= the "
+                           f"default {getattr(d, name)} are accepted)")
+    if not (o.density > 0):
+        refused.append(f"density={o.density} (must be > 0)")
+    if int(o.default_dof_drive_mode) not in _MODES:
+        raise ValueError(f"AssetOptions.default_dof_drive_mode={o.default_dof_drive_mode!r}")
+    if refused:
+        raise NotImplementedError("AssetOptions not supported by Myriad yet: "
+                                  + "; ".join(refused) + f"; {_DOCS}")
+    if float(o.thickness) != d.thickness:
+        warnings.warn(f"isaacgym on Myriad: AssetOptions.thickness={o.thickness} is not applied "
+                      "(contacts use SimParams.physx.contact_offset / rest_offset)",
+                      RuntimeWarning, stacklevel=3)
+
+
+def _take_actuators(spec: mujoco.MjSpec) -> list:
+    """Record the MJCF actuators (Isaac Gym reports them; its tasks read motor_effort and
+    apply DOF forces themselves) and remove them: Isaac Gym never drives them."""
+    out = []
+    for act in list(spec.actuators):
+        gear = float(act.gear[0])
+        props = ActuatorProperties(
+            motor_effort=gear, control_limited=bool(act.ctrllimited == 1),
+            lower_control_limit=float(act.ctrlrange[0]),
+            upper_control_limit=float(act.ctrlrange[1]),
+            force_limited=bool(act.forcelimited == 1), lower_force_limit=float(act.forcerange[0]),
+            upper_force_limit=float(act.forcerange[1]))
+        out.append({"name": act.name, "joint": act.target, "props": props})
+        spec.delete(act)
+    return out
+
+
+def _finish_asset(spec: mujoco.MjSpec, options: AssetOptions, source: str,
+                  actuators: list) -> Asset:
+    """Apply density, armature and collapse_fixed_joints to a spec; make the Asset."""
+    roots = spec.worldbody.bodies
+    if len(roots) != 1:
+        raise _model_error(f"{source}: an asset must have exactly one body under the world "
+                           f"(one articulation or rigid body); it has {len(roots)}")
+    bodies = [b for b in spec.bodies if b.name != "world"]
+    for b in bodies:
+        if not b.explicitinertial:
+            for g in b.geoms:
+                if not (g.mass > 0) and float(options.density) != 1000.0:
+                    g.density = float(options.density)
+    if options.collapse_fixed_joints:
+        fixed = [b.name for b in bodies if b is not roots[0] and not list(b.joints)]
+        if fixed:
+            raise _unsupported(f"AssetOptions.collapse_fixed_joints=True on {source} (links "
+                               f"on fixed joints: {fixed[:6]})",
+                               "fixed-joint links stay separate bodies")
+    armature = float(options.armature)
+    if armature:
+        if options.use_physx_armature:
+            for j in spec.joints:
+                if j.type in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+                    j.armature = j.armature + armature
+        else:           # PhysX: added to the diagonal of every link's inertia tensor
+            probe = spec.copy()
+            probe.compiler.fusestatic = False
+            m = probe.compile()
+            for b in bodies:
+                i = m.body(b.name).id
+                b.explicitinertial = True
+                b.mass = float(m.body_mass[i])
+                b.ipos = m.body_ipos[i].tolist()
+                b.iquat = m.body_iquat[i].tolist()
+                b.inertia = (m.body_inertia[i] + armature).tolist()
+                b.fullinertia = [np.nan] * 6
+    return Asset(spec, options, source, actuators)
+
+
+def _check_shape_props(props, count: int, call: str) -> None:
+    if len(props) != count:
+        raise ValueError(f"{call}: {len(props)} entries for {count} collision shapes")
+    d = RigidShapeProperties()
+    for i, p in enumerate(props):
+        if not (p.friction >= 0 and 0 <= p.restitution <= 1):
+            raise ValueError(f"{call}: shape {i}: friction {p.friction} must be >= 0 and "
+                             f"restitution {p.restitution} in [0, 1]")
+        for name in ("rolling_friction", "torsion_friction", "compliance"):
+            if getattr(p, name) != getattr(d, name):
+                raise _unsupported(f"{call}: shape {i}: {name}={getattr(p, name)}",
+                                   "Myriad honours friction and restitution per shape")
+
+
+# ---------------------------------------------------------------------------------- prepare
+def _prepare(sim: Sim) -> None:
+    envs = sim.envs
+    if not envs:
+        raise ValueError("gym.prepare_sim: the sim has no envs; call gym.create_env and "
+                         "gym.create_actor first")
+    first = envs[0]
+    if not first.actors:
+        raise ValueError("gym.prepare_sim: env 0 has no actors")
+    for env in envs[1:]:
+        for k in range(max(len(env.actors), len(first.actors))):
+            a = env.actors[k] if k < len(env.actors) else None
+            b = first.actors[k] if k < len(first.actors) else None
+            if a is None or b is None or a.asset is not b.asset:
+                what = (f"has no actor {k} where env 0 has {b.name!r} ({b.asset.source})"
+                        if a is None else
+                        f"has an extra actor {k} {a.name!r} ({a.asset.source})" if b is None else
+                        f"actor {k} {a.name!r} is made from {a.asset.source}, env 0's actor {k} "
+                        f"{b.name!r} from {b.asset.source}")
+                raise ValueError(f"gym.prepare_sim: env {env.index} {what}. Myriad needs every "
+                                 "env to hold the same actors (same assets, same order)")
+    for env in envs:
+        for a, b in zip(env.actors, first.actors):
+            if a.asset.fix_base and (a.pose.p != b.pose.p or a.pose.r != b.pose.r):
+                raise _unsupported(f"gym.prepare_sim: fixed-base actor {a.name!r} of env "
+                                   f"{env.index} at another pose than in env 0",
+                                   "a fixed base is welded at the same pose in every env")
+            if (a.dof_props["driveMode"] != b.dof_props["driveMode"]).any():
+                raise _unsupported(f"gym.prepare_sim: actor {a.name!r} of env {env.index} has "
+                                   "other DOF drive modes than in env 0",
+                                   "drive modes must be the same in every env")
+    A = len(first.actors)
+    pairs = {}
+    for env in envs:
+        for i in range(A):
+            for j in range(i + 1, A):
+                c = _collide(env.actors[i], env.actors[j])
+                if pairs.setdefault((i, j), c) != c:
+                    raise _unsupported(f"gym.prepare_sim: actors {i} and {j} collide in env 0 "
+                                       f"but not in env {env.index} (or the reverse)",
+                                       "collision groups/filters must act alike in every env")
+    scene = _scene_class()()
+    names = [f"a{k}" for k in range(A)]
+    self_collide = []
+    for env in envs:
+        for k, a in enumerate(env.actors):
+            sc = (a.filter & a.filter) == 0
+            if env.index == 0:
+                self_collide.append(sc)
+            elif self_collide[k] != sc:
+                raise _unsupported(f"gym.prepare_sim: actor {a.name!r}: self-collisions on in "
+                                   f"one env and off in another (filter)")
+    if sim.ground is not None:
+        g = sim.ground
+        scene.add_ground(friction=float(g.static_friction), restitution=float(g.restitution))
+        scene.plane_normal = (g.normal.x, g.normal.y, g.normal.z)
+        scene.plane_distance = float(g.distance)
+    scene.excluded_pairs = [(names[i], names[j]) for (i, j), c in pairs.items() if not c]
+    for k, a in enumerate(first.actors):
+        modes = [_MODES[int(m)] for m in a.dof_props["driveMode"]]
+        p, r = a.pose.p, a.pose.r.normalize()
+        scene.add_actor(names[k], a.asset.spec, pos=(p.x, p.y, p.z), quat=(r.x, r.y, r.z, r.w),
+                        fix_base=a.asset.fix_base, self_collisions=self_collide[k],
+                        dof_mode=modes if modes else "effort", stiffness=1.0, damping=1.0,
+                        gravity=not a.asset.options.disable_gravity)
+    params = _myriad_params(sim.params)
+    efforts = _check_efforts(sim, built=False)
+
+    def fix_model(model):
+        for j, (limited, value) in efforts.items():
+            model.jnt_actfrclimited[j] = limited
+            model.jnt_actfrcrange[j] = (-value, value) if limited else (0.0, 0.0)
+
+    built = scene.build(len(envs), device=sim.device, params=params, fix_model=fix_model)
+    sim.myriad = built
+    _index_maps(sim)
+    # each env's own start pose of free actors
+    poses = torch.zeros(len(envs), A, 13)
+    for env in envs:
+        for k, a in enumerate(env.actors):
+            r = a.pose.r.normalize()
+            poses[env.index, k, :7] = torch.tensor([a.pose.p.x, a.pose.p.y, a.pose.p.z,
+                                                    r.x, r.y, r.z, r.w])
+    built.set_root_states(poses.to(built.device), forward=False)
+    all_actors = [a for env in envs for a in env.actors]
+    _apply_dof_props(sim, all_actors)
+    _apply_shape_props(sim, all_actors)
+    _apply_body_props(sim, all_actors)
+    built.forward()
+
+
+def _index_maps(sim: Sim) -> None:
+    built, m = sim.myriad, sim.myriad.model
+    dev = built.device
+    long = dict(dtype=torch.long, device=dev)
+    first = sim.envs[0].actors
+    dof_actor = [k for k, a in enumerate(first) for _ in range(a.asset.num_dofs)]
+    if len(dof_actor) != built.num_dofs or built.num_bodies != sum(a.asset.num_bodies
+                                                                   for a in first):
+        raise RuntimeError(f"isaacgym on Myriad: the built model has {built.num_dofs} DOFs and "
+                           f"{built.num_bodies} bodies; the assets have {len(dof_actor)} and "
+                           f"{sum(a.asset.num_bodies for a in first)} (a bug: please report)")
+    sim.dof_actor = torch.as_tensor(dof_actor, **long)
+    sim.drive_dofs, sim.drive_ctrl = {}, {}
+    modes = np.concatenate([a.dof_props["driveMode"] for a in first]) if dof_actor else \
+        np.zeros(0, int)
+    for kind, mode in (("pos", DofDriveMode.DOF_MODE_POS), ("vel", DofDriveMode.DOF_MODE_VEL)):
+        dofs = np.flatnonzero(modes == int(mode))
+        cols = [m.actuator_names.index(built.dof_names[d] + "/drive") for d in dofs]
+        sim.drive_dofs[kind] = torch.as_tensor(dofs, **long)
+        sim.drive_ctrl[kind] = torch.as_tensor(cols, **long)
+    sim.dof_joint = [m.dof_jnt[int(c)] for c in built.dof_columns.cpu().numpy()]
+    N = built.num_envs
+    sim.position_targets = torch.zeros(N, built.num_dofs, dtype=torch.float32, device=dev)
+    sim.velocity_targets = torch.zeros(N, built.num_dofs, dtype=torch.float32, device=dev)
+    # the actor's geoms in Myriad's order: its bodies' collision geoms
+    sim.actor_shape_geoms = []
+    for k, a in enumerate(first):
+        prefix = f"a{k}/"
+        geoms = [g for g in range(m.ngeom) if m.geom_body[g] >= 0
+                 and m.body_names[m.geom_body[g]].startswith(prefix)
+                 and (m.geom_contype[g] or m.geom_conaffinity[g])]
+        if len(geoms) != len(a.asset.shape_geoms):
+            raise RuntimeError(f"isaacgym on Myriad: actor {a.name!r} has {len(geoms)} "
+                               f"collision geoms built, {len(a.asset.shape_geoms)} in its asset")
+        sim.actor_shape_geoms.append(geoms)
+
+    def views(kind, envs):
+        if kind not in sim._views:
+            source = {"root": envs.root_states, "dof": envs.dof_state,
+                      "body": envs.rigid_body_states, "contact": envs.net_contact_force,
+                      "dof_force": envs.dof_forces}[kind]
+            width = {"root": 13, "dof": 2, "body": 13, "contact": 3, "dof_force": None}[kind]
+            sim._views[kind] = (source.view(-1, width) if width else source.view(-1))
+        return sim._views[kind]
+
+    sim._views = {}
+    sim.myriad_views = views
+
+
+def _check_efforts(sim: Sim, built: bool) -> dict:
+    """{joint: (limited, effort)} where the DOF effort limits differ from the built model's:
+    they must be the same in every env (one limit per joint in Myriad)."""
+    first = sim.envs[0].actors
+    out = {}
+    for k, a in enumerate(first):
+        column = np.stack([env.actors[k].dof_props["effort"] for env in sim.envs]) \
+            if a.asset.num_dofs else np.zeros((len(sim.envs), 0))
+        varies = (column != column[0]).any(axis=0)
+        if varies.any():
+            names = [a.asset.dof_names[i] for i in np.flatnonzero(varies)]
+            raise _unsupported(f"DOF effort limits of {names} (actor {a.name!r}) that differ "
+                               "between envs", "one effort limit per DOF for all envs")
+        changed = column[0] != a.asset.dof_props["effort"]
+        if changed.any() and built:
+            names = [a.asset.dof_names[i] for i in np.flatnonzero(changed)]
+            raise _unsupported(f"set_actor_dof_properties changing the effort limit of {names} "
+                               "after prepare_sim", "effort limits are set when the sim is built")
+        for i in np.flatnonzero(changed):
+            joint = a.asset.dof_joints[i]
+            value = float(column[0, i])
+            # the asset's joint order within the composed model: offset by earlier actors
+            out[sum(f.asset.mj.njnt for f in first[:k]) + joint] = (value < _FLT_MAX, value)
+    return out
+
+
+def _apply_dof_props(sim: Sim, actors: list) -> None:
+    """DOF properties into Myriad's per-env parameters (see docs/isaacgym.md for the map)."""
+    built = sim.myriad
+    s, m = built.sim, built.model
+    for actor in actors:
+        e, p = actor.env.index, actor.dof_props
+        for i in range(actor.asset.num_dofs):
+            d = actor.dof_offset + i
+            col = int(built.dof_columns[d])
+            j = sim.dof_joint[d]
+            mode = int(p["driveMode"][i])
+            kp, kv = float(p["stiffness"][i]), float(p["damping"][i])
+            if mode in (DofDriveMode.DOF_MODE_POS, DofDriveMode.DOF_MODE_VEL):
+                name = built.dof_names[d] + "/drive"
+                a = m.actuator_names.index(name)
+                s.actuator_kp[e, a] = kp if mode == DofDriveMode.DOF_MODE_POS else 0.0
+                s.actuator_kv[e, a] = kv
+                s.joint_stiffness[e, j] = 0.0
+                s.dof_damping[e, col] = 0.0
+            else:       # no drive: the gains act as a spring to 0 and a damper
+                s.joint_stiffness[e, j] = kp
+                s.dof_damping[e, col] = kv
+            s.dof_frictionloss[e, col] = float(p["friction"][i])
+            s.dof_armature[e, col] = float(p["armature"][i])
+            s.dof_max_velocity[e, col] = float(p["velocity"][i])
+            if p["hasLimits"][i]:
+                s.joint_range[e, j, 0] = float(p["lower"][i])
+                s.joint_range[e, j, 1] = float(p["upper"][i])
+
+
+def _apply_shape_props(sim: Sim, actors: list) -> None:
+    s = sim.myriad.sim
+    for actor in actors:
+        geoms = sim.actor_shape_geoms[actor.index]
+        for g, prop in zip(geoms, actor.shape_props):
+            s.geom_friction[actor.env.index, g] = float(prop.friction)
+            s.geom_restitution[actor.env.index, g] = float(prop.restitution)
+
+
+def _apply_body_props(sim: Sim, actors: list) -> None:
+    built = sim.myriad
+    s, m = built.sim, built.model
+    for actor in actors:
+        for i, prop in enumerate(actor.body_props):
+            b = actor.body_offset + i
+            s.body_mass[actor.env.index, b] = float(prop.mass)
+            rot = _quat_matrix(m.body_iquat[b])     # Myriad's principal axes (xyzw)
+            principal = rot.T @ prop.inertia._t() @ rot
+            off = principal - np.diag(np.diag(principal))
+            if np.abs(off).max() > 1e-6 * max(np.abs(principal).max(), 1e-12):
+                name = actor.asset.body_names[i]
+                raise _unsupported(f"set_actor_rigid_body_properties: body {name!r}: an inertia "
+                                   "with other principal axes than the asset's",
+                                   "Myriad keeps each body's principal axes")
+            s.body_inertia[actor.env.index, b] = torch.as_tensor(np.diag(principal).copy(),
+                                                                 dtype=torch.float32)
+
+
+def acquire_gym() -> Gym:
+    """The Gym interface (one object; any number of sims)."""
+    return _GYM
+
+
+_GYM = Gym()
+
+
+def __getattr__(name):
+    if name.startswith("__"):
+        raise AttributeError(name)
+    raise _not_provided(f"isaacgym.gymapi.{name}")

@@ -1,0 +1,136 @@
+"""`isaacgym.gymutil` on Myriad: the standard command-line flags and SimParams from them.
+
+`parse_arguments` adds Isaac Gym's flags to an argparse parser and derives the same fields:
+
+    --sim_device cuda:0 | cpu       sim_device_type ("cuda"/"cpu"), compute_device_id (int)
+    --pipeline gpu | cpu            use_gpu_pipeline (forced False when sim_device is the CPU)
+    --graphics_device_id N
+    --physx | --flex                physics_engine (gymapi.SIM_PHYSX / gymapi.SIM_FLEX)
+    --num_threads N  --subscenes N  --slices N (default: subscenes)
+    --headless, --nographics        when asked for (headless=True, no_graphics=True)
+
+plus `use_gpu` (sim_device_type == "cuda"). On Myriad only the CPU pipeline runs without a GPU:
+pass `--sim_device cpu --pipeline cpu` there (the original's defaults are cuda:0 and gpu).
+"""
+
+from __future__ import annotations
+
+import argparse
+import warnings
+
+from . import gymapi
+
+
+def parse_device_str(device_str: str):
+    """"cuda:1" -> ("cuda", 1); "cpu" -> ("cpu", 0); "cuda" -> ("cuda", 0)."""
+    kind, _, index = str(device_str).partition(":")
+    kind = kind.lower()
+    if kind not in ("cpu", "cuda"):
+        raise ValueError(f"invalid device string {device_str!r}: expected 'cpu', 'cuda' or "
+                         "'cuda:N'")
+    return kind, int(index) if index else 0
+
+
+def parse_arguments(description="Isaac Gym Example", headless=False, no_graphics=False,
+                    custom_parameters=None):
+    """Parse `sys.argv` with the standard flags and `custom_parameters`: a list of dicts with
+    "name" (e.g. "--num_envs") and optionally "type", "default", "help", "action"."""
+    parser = argparse.ArgumentParser(description=description)
+    if headless:
+        parser.add_argument("--headless", action="store_true", help="Run headless without "
+                            "creating a viewer window")
+    if no_graphics:
+        parser.add_argument("--nographics", action="store_true",
+                            help="Disable graphics context creation, no viewer window or "
+                                 "camera sensors")
+    parser.add_argument("--sim_device", type=str, default="cuda:0",
+                        help="Physics device as in torch: cuda:0 or cpu")
+    parser.add_argument("--pipeline", type=str, default="gpu",
+                        help="Tensor API pipeline (cpu or gpu)")
+    parser.add_argument("--graphics_device_id", type=int, default=0,
+                        help="Graphics device id")
+    engine = parser.add_mutually_exclusive_group()
+    engine.add_argument("--flex", action="store_true", help="Use the FleX physics engine")
+    engine.add_argument("--physx", action="store_true", help="Use the PhysX physics engine")
+    parser.add_argument("--num_threads", type=int, default=0, help="Number of cores used by "
+                        "PhysX")
+    parser.add_argument("--subscenes", type=int, default=0, help="Number of PhysX subscenes")
+    parser.add_argument("--slices", type=int, help="Number of client threads that process env "
+                        "slices")
+    for p in custom_parameters or []:
+        if "name" not in p:
+            warnings.warn(f"gymutil.parse_arguments: custom parameter without a name: {p}",
+                          RuntimeWarning, stacklevel=2)
+            continue
+        kwargs = {k: p[k] for k in ("type", "default", "help", "action", "nargs", "choices",
+                                    "required") if k in p}
+        if "action" in kwargs:
+            kwargs.pop("type", None)
+        parser.add_argument(p["name"], **kwargs)
+    args = parser.parse_args()
+
+    args.sim_device_type, args.compute_device_id = parse_device_str(args.sim_device)
+    pipeline = args.pipeline.lower()
+    if pipeline not in ("cpu", "gpu", "cuda"):
+        parser.error(f"invalid pipeline {args.pipeline!r}: expected 'cpu' or 'gpu'")
+    args.use_gpu_pipeline = pipeline in ("gpu", "cuda")
+    if args.sim_device_type != "cuda" and args.flex:
+        print("Can't use Flex with CPU. Changing sim device to 'cuda:0'")
+        args.sim_device, args.sim_device_type, args.compute_device_id = "cuda:0", "cuda", 0
+    if args.sim_device_type != "cuda" and args.use_gpu_pipeline:
+        print("Can't use GPU pipeline with CPU Physics. Changing pipeline to 'CPU'.")
+        args.pipeline, args.use_gpu_pipeline = "CPU", False
+    args.physics_engine = gymapi.SIM_FLEX if args.flex else gymapi.SIM_PHYSX
+    args.use_gpu = args.sim_device_type == "cuda"
+    if args.slices is None:
+        args.slices = args.subscenes
+    return args
+
+
+def parse_sim_params(args, cfg=None, cfg_sim=None):
+    """A gymapi.SimParams from the parsed flags, then the "sim" section of `cfg` (or
+    `cfg_sim`): dt, substeps, up_axis ("y"/"z" or the enum), gravity, use_gpu_pipeline and
+    the "physx" / "flex" sub-sections (attribute by attribute)."""
+    params = gymapi.SimParams()
+    params.up_axis = gymapi.UP_AXIS_Z
+    params.gravity = gymapi.Vec3(0.0, 0.0, -9.81)
+    if args.physics_engine == gymapi.SIM_FLEX:
+        params.flex.shape_collision_margin = 0.01
+        params.flex.num_outer_iterations = 4
+        params.flex.num_inner_iterations = 10
+    else:
+        params.physx.solver_type = 1
+        params.physx.num_position_iterations = 4
+        params.physx.num_velocity_iterations = 1
+        params.physx.num_threads = args.num_threads
+        params.physx.use_gpu = args.use_gpu
+        params.physx.num_subscenes = args.subscenes
+    params.use_gpu_pipeline = args.use_gpu_pipeline
+    section = cfg_sim if cfg_sim is not None else (cfg or {}).get("sim")
+    if section:
+        for key, value in section.items():
+            if key == "up_axis":
+                value = {"y": gymapi.UP_AXIS_Y, "z": gymapi.UP_AXIS_Z}.get(value, value)
+                params.up_axis = gymapi.UpAxis(int(value))
+            elif key == "gravity":
+                params.gravity = gymapi.Vec3(*value)
+            elif key in ("physx", "flex"):
+                target = getattr(params, key)
+                for k, v in value.items():
+                    if k == "contact_collection":
+                        v = gymapi.ContactCollection(int(v))
+                    setattr(target, k, v)
+            elif key in gymapi.SimParams._fields:
+                setattr(params, key, value)
+    if args.physics_engine == gymapi.SIM_PHYSX and args.num_threads > 0:
+        params.physx.num_threads = args.num_threads
+    return params
+
+
+def __getattr__(name):
+    if name.startswith("__"):
+        raise AttributeError(name)
+    raise gymapi._not_provided(f"isaacgym.gymutil.{name}")
+
+
+__all__ = ["parse_arguments", "parse_device_str", "parse_sim_params"]

@@ -1,0 +1,386 @@
+"""The `isaacgym` compatibility layer: Isaac Gym Preview 4 scripts run unchanged on Myriad.
+
+Each test is written the way IsaacGymEnvs' tasks call the original (gymapi / gymtorch /
+gymutil), and checks the result against Myriad's own API or closed-form physics.
+"""
+
+import math
+import sys
+
+import numpy as np
+import pytest
+import torch
+
+from isaacgym import gymapi, gymtorch, gymutil
+from isaacgym.torch_utils import (get_euler_xyz, quat_apply, quat_from_euler_xyz, quat_mul,
+                                  quat_rotate_inverse, to_torch)
+
+import myriad
+from myriad.api import Scene
+
+# a cart on a rail with a pole, shaped as IsaacGymEnvs' assets/urdf/cartpole.urdf: a rail link
+# (the fixed base), a prismatic cart, a revolute pole (written here for the test)
+CARTPOLE_URDF = """<?xml version="1.0"?>
+<robot name="cartpole">
+  <link name="slider">
+    <visual><geometry><box size="0.03 8 0.03"/></geometry></visual>
+    <collision><geometry><box size="0.03 8 0.03"/></geometry></collision>
+    <inertial><mass value="1"/>
+      <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="slider_to_cart" type="prismatic">
+    <axis xyz="0 1 0"/>
+    <parent link="slider"/><child link="cart"/>
+    <limit effort="400" lower="-4" upper="4" velocity="100"/>
+  </joint>
+  <link name="cart">
+    <visual><geometry><box size="0.2 0.25 0.2"/></geometry></visual>
+    <collision><geometry><box size="0.2 0.25 0.2"/></geometry></collision>
+    <inertial><mass value="1"/>
+      <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="cart_to_pole" type="continuous">
+    <axis xyz="1 0 0"/>
+    <origin xyz="0.12 0 0"/>
+    <parent link="cart"/><child link="pole"/>
+  </joint>
+  <link name="pole">
+    <visual><origin xyz="0 0 0.47"/><geometry><box size="0.04 0.06 1.0"/></geometry></visual>
+    <collision><origin xyz="0 0 0.47"/><geometry><box size="0.04 0.06 1.0"/></geometry></collision>
+    <inertial><origin xyz="0 0 0.47"/><mass value="1"/>
+      <inertia ixx="0.083" iyy="0.083" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+</robot>
+"""
+
+NUM_ENVS = 16
+
+
+@pytest.fixture(scope="module")
+def cartpole_file(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("assets") / "urdf"
+    folder.mkdir()
+    (folder / "cartpole.urdf").write_text(CARTPOLE_URDF)
+    return folder / "cartpole.urdf"
+
+
+def cartpole_sim_params():
+    """Cartpole.yaml's sim section, as VecTask.__parse_sim_params fills it."""
+    p = gymapi.SimParams()
+    p.dt = 0.0166
+    p.substeps = 2
+    p.up_axis = gymapi.UP_AXIS_Z
+    p.gravity = gymapi.Vec3(0.0, 0.0, -9.81)
+    p.use_gpu_pipeline = False
+    p.num_client_threads = 0
+    for k, v in dict(num_threads=4, solver_type=1, use_gpu=False, num_position_iterations=4,
+                     num_velocity_iterations=0, contact_offset=0.02, rest_offset=0.001,
+                     bounce_threshold_velocity=0.2, max_depenetration_velocity=100.0,
+                     default_buffer_size_multiplier=2.0, max_gpu_contact_pairs=1048576,
+                     num_subscenes=4).items():
+        setattr(p.physx, k, v)
+    p.physx.contact_collection = gymapi.ContactCollection(0)
+    return p
+
+
+def make_cartpole(cartpole_file, num_envs=NUM_ENVS):
+    """Cartpole._create_envs, line for line in the original's style (z up)."""
+    gym = gymapi.acquire_gym()
+    sim = gym.create_sim(0, 0, gymapi.SIM_PHYSX, cartpole_sim_params())
+    plane_params = gymapi.PlaneParams()
+    plane_params.normal = gymapi.Vec3(0.0, 0.0, 1.0)
+    gym.add_ground(sim, plane_params)
+    spacing = 4.0
+    lower = gymapi.Vec3(0.5 * -spacing, -spacing, 0.0)
+    upper = gymapi.Vec3(0.5 * spacing, spacing, spacing)
+    asset_options = gymapi.AssetOptions()
+    asset_options.fix_base_link = True
+    asset = gym.load_asset(sim, str(cartpole_file.parent), cartpole_file.name, asset_options)
+    num_dof = gym.get_asset_dof_count(asset)
+    pose = gymapi.Transform()
+    pose.p.z = 2.0
+    pose.r = gymapi.Quat(0.0, 0.0, 0.0, 1.0)
+    envs, handles = [], []
+    for i in range(num_envs):
+        env_ptr = gym.create_env(sim, lower, upper, int(np.sqrt(num_envs)))
+        handle = gym.create_actor(env_ptr, asset, pose, "cartpole", i, 1, 0)
+        dof_props = gym.get_actor_dof_properties(env_ptr, handle)
+        dof_props["driveMode"][0] = gymapi.DOF_MODE_EFFORT
+        dof_props["driveMode"][1] = gymapi.DOF_MODE_NONE
+        dof_props["stiffness"][:] = 0.0
+        dof_props["damping"][:] = 0.0
+        gym.set_actor_dof_properties(env_ptr, handle, dof_props)
+        envs.append(env_ptr)
+        handles.append(handle)
+    gym.prepare_sim(sim)
+    return gym, sim, asset, num_dof, envs, handles
+
+
+def test_cartpole_matches_myriad_api(cartpole_file):
+    gym, sim, asset, num_dof, envs, handles = make_cartpole(cartpole_file)
+    assert num_dof == 2
+    assert gym.get_asset_dof_names(asset) == ["slider_to_cart", "cart_to_pole"]
+    assert gym.get_asset_rigid_body_names(asset) == ["slider", "cart", "pole"]
+    assert gym.get_asset_rigid_body_dict(asset) == {"slider": 0, "cart": 1, "pole": 2}
+    assert gym.find_asset_rigid_body_index(asset, "pole") == 2
+    assert gym.get_env_count(sim) == NUM_ENVS
+    assert gym.find_actor_rigid_body_handle(envs[3], handles[3], "pole") == 2
+    assert gym.get_actor_index(envs[3], handles[3], gymapi.DOMAIN_SIM) == 3
+
+    # the tensors: flat, env-major, zero-copy views refreshed in place
+    dof_state = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim))
+    root = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim))
+    bodies = gymtorch.wrap_tensor(gym.acquire_rigid_body_state_tensor(sim))
+    contacts = gymtorch.wrap_tensor(gym.acquire_net_contact_force_tensor(sim))
+    assert dof_state.shape == (NUM_ENVS * num_dof, 2)
+    assert root.shape == (NUM_ENVS, 13) and bodies.shape == (NUM_ENVS * 3, 13)
+    assert contacts.shape == (NUM_ENVS * 3, 3)
+    assert gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim)) is dof_state
+    dof_pos = dof_state.view(NUM_ENVS, num_dof, 2)[..., 0]
+    dof_vel = dof_state.view(NUM_ENVS, num_dof, 2)[..., 1]
+    torch.testing.assert_close(root[:, :3], torch.tensor([[0.0, 0.0, 2.0]]).expand(NUM_ENVS, 3))
+
+    # Myriad's own API on the same scene
+    scene = Scene().add_ground()
+    scene.add_actor("cartpole", cartpole_file, pos=(0, 0, 2.0), fix_base=True,
+                    dof_mode=("effort", "none"))
+    ref = scene.build(NUM_ENVS, params=myriad.SimParams(
+        dt=0.0166, substeps=2, gravity=(0, 0, -9.81), position_iterations=4,
+        velocity_iterations=0, contact_offset=0.02, rest_offset=0.001,
+        max_depenetration_velocity=100.0))
+
+    # Cartpole.reset_idx for all envs, then pushes as pre_physics_step makes them
+    gen = torch.Generator().manual_seed(0)
+    positions = 0.2 * (torch.rand((NUM_ENVS, num_dof), generator=gen) - 0.5)
+    velocities = 0.5 * (torch.rand((NUM_ENVS, num_dof), generator=gen) - 0.5)
+    dof_pos[:] = positions
+    dof_vel[:] = velocities
+    env_ids = torch.arange(NUM_ENVS, dtype=torch.int32)
+    gym.set_dof_state_tensor_indexed(sim, gymtorch.unwrap_tensor(dof_state),
+                                     gymtorch.unwrap_tensor(env_ids), len(env_ids))
+    ref.set_dof_state(positions.clone(), velocities.clone())
+    torch.testing.assert_close(dof_pos, ref.dof_pos)
+    for step in range(40):
+        actions = torch.rand(NUM_ENVS, generator=gen) * 2 - 1
+        forces = torch.zeros(NUM_ENVS * num_dof, dtype=torch.float)
+        forces[::num_dof] = actions * 400.0
+        gym.set_dof_actuation_force_tensor(sim, gymtorch.unwrap_tensor(forces))
+        gym.simulate(sim)
+        gym.fetch_results(sim, True)
+        gym.refresh_dof_state_tensor(sim)
+        ref.set_dof_efforts(forces.view(NUM_ENVS, num_dof).clone())
+        ref.step()
+        torch.testing.assert_close(dof_pos, ref.dof_pos, rtol=1e-5, atol=1e-5)
+        torch.testing.assert_close(dof_vel, ref.dof_vel, rtol=1e-5, atol=1e-5)
+    gym.refresh_rigid_body_state_tensor(sim)
+    torch.testing.assert_close(bodies.view(NUM_ENVS, 3, 13), ref.rigid_body_states,
+                               rtol=1e-5, atol=1e-5)
+    assert gym.get_sim_time(sim) == pytest.approx(40 * 0.0166)
+    assert dof_pos[:, 1].abs().max() > 0.05        # the pushes did move the poles
+
+
+def test_indexed_resets_touch_only_given_envs(cartpole_file):
+    gym, sim, _, num_dof, envs, _ = make_cartpole(cartpole_file, num_envs=6)
+    dof_state = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim))
+    for _ in range(5):      # everybody moves
+        forces = torch.zeros(6 * num_dof)
+        forces[::num_dof] = 50.0
+        gym.set_dof_actuation_force_tensor(sim, gymtorch.unwrap_tensor(forces))
+        gym.simulate(sim)
+    gym.refresh_dof_state_tensor(sim)
+    before = dof_state.clone()
+    # write new values everywhere in the tensor, but apply them to envs 1 and 4 only
+    dof_state[:] = 0.25
+    ids = torch.tensor([1, 4], dtype=torch.int32)
+    gym.set_dof_state_tensor_indexed(sim, gymtorch.unwrap_tensor(dof_state),
+                                     gymtorch.unwrap_tensor(ids), len(ids))
+    gym.refresh_dof_state_tensor(sim)
+    after = dof_state.view(6, num_dof, 2)
+    expect = before.view(6, num_dof, 2).clone()
+    expect[[1, 4]] = 0.25
+    torch.testing.assert_close(after, expect)
+
+    # root states: free boxes, reset one actor by its sim-domain index
+    gym = gymapi.acquire_gym()
+    p = gymapi.SimParams()
+    p.up_axis, p.gravity = gymapi.UP_AXIS_Z, gymapi.Vec3(0, 0, -9.81)
+    sim = gym.create_sim(0, 0, gymapi.SIM_PHYSX, p)
+    box = gym.create_box(sim, 0.2, 0.2, 0.2, gymapi.AssetOptions())
+    ball = gym.create_sphere(sim, 0.1, gymapi.AssetOptions())
+    for i in range(3):
+        env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 2)
+        gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(0, 0, 1.0 + i)), "box", i, 0)
+        gym.create_actor(env, ball, gymapi.Transform(gymapi.Vec3(1, 0, 1.0)), "ball", i, 0)
+    gym.prepare_sim(sim)
+    root = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim))
+    assert root.shape == (6, 13)
+    # each env's own start pose: the box of env i starts at z = 1 + i
+    torch.testing.assert_close(root.view(3, 2, 13)[:, 0, 2], torch.tensor([1.0, 2.0, 3.0]))
+    gym.simulate(sim)
+    gym.refresh_actor_root_state_tensor(sim)
+    before = root.clone()
+    root[:, 2] = 5.0
+    root[:, 7:13] = 0.0
+    ids = torch.tensor([gym.get_actor_index(gym.get_env(sim, 1), 1, gymapi.DOMAIN_SIM)],
+                       dtype=torch.int32)          # env 1's ball: sim index 3
+    assert int(ids[0]) == 3
+    gym.set_actor_root_state_tensor_indexed(sim, gymtorch.unwrap_tensor(root),
+                                            gymtorch.unwrap_tensor(ids), 1)
+    gym.refresh_actor_root_state_tensor(sim)
+    expect = before.clone()
+    expect[3, 2] = 5.0
+    expect[3, 7:13] = 0.0
+    torch.testing.assert_close(root, expect)
+
+
+def test_falling_box_lands_on_y_up_ground():
+    """Y up, Isaac Gym's default: gravity along -y, the ground plane's normal along +y."""
+    gym = gymapi.acquire_gym()
+    p = gymapi.SimParams()              # defaults: UP_AXIS_Y, gravity (0, -9.8, 0)
+    assert p.up_axis == gymapi.UP_AXIS_Y and p.gravity.y == pytest.approx(-9.8)
+    p.dt, p.substeps = 1 / 60, 2
+    sim = gym.create_sim(0, 0, gymapi.SIM_PHYSX, p)
+    plane = gymapi.PlaneParams()
+    plane.normal = gymapi.Vec3(0, 1, 0)
+    gym.add_ground(sim, plane)
+    box = gym.create_box(sim, 0.3, 0.2, 0.4, gymapi.AssetOptions())
+    for i in range(2):
+        env = gym.create_env(sim, gymapi.Vec3(-1, 0, -1), gymapi.Vec3(1, 1, 1), 2)
+        pose = gymapi.Transform(gymapi.Vec3(0.5, 1.0, -0.25))
+        gym.create_actor(env, box, pose, "box", i, 0)
+    gym.prepare_sim(sim)
+    root = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim))
+    for step in range(12):      # free fall first: y = 1 - g t² / 2
+        gym.simulate(sim)
+    gym.refresh_actor_root_state_tensor(sim)
+    t = 12 / 60
+    assert root[0, 1].item() == pytest.approx(1.0 - 0.5 * 9.8 * t * t, abs=0.01)
+    assert root[0, 8].item() == pytest.approx(-9.8 * t, abs=0.05)
+    for step in range(78):
+        gym.simulate(sim)
+    gym.refresh_actor_root_state_tensor(sim)
+    # at rest on the plane y = 0: the box's centre half its height (0.2 / 2) above
+    torch.testing.assert_close(root[:, 1], torch.full((2,), 0.1), atol=5e-3, rtol=0)
+    torch.testing.assert_close(root[:, [0, 2]], torch.tensor([[0.5, -0.25]] * 2), atol=1e-3,
+                               rtol=0)
+    assert root[:, 7:13].abs().max() < 0.05
+    contacts = gymtorch.wrap_tensor(gym.acquire_net_contact_force_tensor(sim))
+    gym.refresh_net_contact_force_tensor(sim)
+    mass = 0.3 * 0.2 * 0.4 * 1000.0             # the default density
+    torch.testing.assert_close(contacts[:, 1], torch.full((2,), mass * 9.8), rtol=0.05, atol=0)
+
+
+def test_errors_name_what_is_missing(cartpole_file):
+    gym = gymapi.acquire_gym()
+    with pytest.raises(NotImplementedError, match=r"isaacgym\.gymapi\.Gym\.get_camera_image "
+                                                  r"is not provided by Myriad"):
+        gym.get_camera_image(None, None, 0, gymapi.IMAGE_COLOR)
+    assert not hasattr(gym, "create_cloth_grid")    # still an AttributeError for hasattr
+    with pytest.raises(NotImplementedError, match="gymapi.SoftMaterial"):
+        gymapi.SoftMaterial
+    with pytest.raises(NotImplementedError, match="SIM_FLEX"):
+        gym.create_sim(0, 0, gymapi.SIM_FLEX, gymapi.SimParams())
+
+    sim = gym.create_sim(0, 0, gymapi.SIM_PHYSX, cartpole_sim_params())
+    options = gymapi.AssetOptions()
+    options.replace_cylinder_with_capsule = True
+    with pytest.raises(NotImplementedError, match="replace_cylinder_with_capsule"):
+        gym.load_asset(sim, str(cartpole_file.parent), cartpole_file.name, options)
+    options = gymapi.AssetOptions()
+    options.fix_base_link = True
+    cartpole = gym.load_asset(sim, str(cartpole_file.parent), cartpole_file.name, options)
+    box = gym.create_box(sim, 0.1, 0.1, 0.1)
+    lower, upper = gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1)
+    env0 = gym.create_env(sim, lower, upper, 2)
+    gym.create_actor(env0, cartpole, gymapi.Transform(), "cartpole", 0, 1)
+    env1 = gym.create_env(sim, lower, upper, 2)
+    gym.create_actor(env1, box, gymapi.Transform(), "box", 1, 1)
+    with pytest.raises(ValueError, match=r"env 1 actor 0 'box' .*cartpole.*same actors"):
+        gym.prepare_sim(sim)
+    with pytest.raises(RuntimeError, match="prepare_sim"):
+        gym.acquire_dof_state_tensor(sim)
+
+
+def test_parse_arguments(monkeypatch):
+    custom = [{"name": "--num_envs", "type": int, "default": 16, "help": "envs"},
+              {"name": "--record", "action": "store_true"}]
+    monkeypatch.setattr(sys, "argv", ["prog", "--sim_device", "cpu", "--pipeline", "gpu",
+                                      "--num_threads", "2", "--subscenes", "4", "--physx",
+                                      "--num_envs", "8", "--headless"])
+    args = gymutil.parse_arguments(description="t", headless=True, custom_parameters=custom)
+    assert (args.sim_device_type, args.compute_device_id) == ("cpu", 0)
+    assert not args.use_gpu and not args.use_gpu_pipeline       # no GPU pipeline on the CPU
+    assert args.physics_engine == gymapi.SIM_PHYSX and args.headless
+    assert (args.num_threads, args.subscenes, args.slices) == (2, 4, 4)
+    assert args.num_envs == 8 and args.record is False and args.graphics_device_id == 0
+    params = gymutil.parse_sim_params(args, {"sim": {"dt": 0.005, "up_axis": "y",
+                                                     "gravity": [0, -9.81, 0],
+                                                     "physx": {"num_position_iterations": 8}}})
+    assert params.dt == 0.005 and params.up_axis == gymapi.UP_AXIS_Y
+    assert params.gravity.y == pytest.approx(-9.81) and params.physx.num_threads == 2
+    assert params.physx.num_position_iterations == 8 and not params.use_gpu_pipeline
+
+    monkeypatch.setattr(sys, "argv", ["prog", "--sim_device", "cuda:1", "--flex"])
+    args = gymutil.parse_arguments()
+    assert (args.sim_device_type, args.compute_device_id) == ("cuda", 1)
+    assert args.use_gpu and args.use_gpu_pipeline and args.physics_engine == gymapi.SIM_FLEX
+    assert args.slices == 0
+
+
+def test_math_conventions():
+    q = gymapi.Quat.from_axis_angle(gymapi.Vec3(0, 0, 1), math.pi / 2)
+    v = q.rotate(gymapi.Vec3(1, 0, 0))
+    assert (v.x, v.y, v.z) == pytest.approx((0, 1, 0), abs=1e-9)
+    r = gymapi.Quat.from_euler_zyx(0.3, -0.2, 1.1)
+    assert r.to_euler_zyx() == pytest.approx((0.3, -0.2, 1.1))
+    t = gymapi.Transform(gymapi.Vec3(1, 2, 3), q)
+    p = t.inverse().transform_point(t.transform_point(gymapi.Vec3(0.5, -1, 2)))
+    assert (p.x, p.y, p.z) == pytest.approx((0.5, -1, 2))
+    # torch_utils agrees with gymapi.Quat (x, y, z, w)
+    qt = to_torch([[r.x, r.y, r.z, r.w]], device="cpu")
+    u = r.rotate(gymapi.Vec3(0.1, 0.2, 0.3))
+    torch.testing.assert_close(quat_apply(qt, torch.tensor([[0.1, 0.2, 0.3]])),
+                               torch.tensor([[u.x, u.y, u.z]]))
+    torch.testing.assert_close(quat_from_euler_xyz(*[torch.tensor([a]) for a in
+                                                     (0.3, -0.2, 1.1)]), qt)
+    roll, pitch, yaw = get_euler_xyz(qt)
+    assert (roll.item(), pitch.item(), yaw.item()) == pytest.approx(
+        (0.3, 2 * math.pi - 0.2, 1.1), abs=1e-5)
+    qq = q * r
+    torch.testing.assert_close(quat_mul(to_torch([[q.x, q.y, q.z, q.w]], device="cpu"), qt),
+                               torch.tensor([[qq.x, qq.y, qq.z, qq.w]]))
+    torch.testing.assert_close(quat_rotate_inverse(qt, quat_apply(qt, torch.ones(1, 3))),
+                               torch.ones(1, 3))
+
+
+def test_position_drive_gains_stick_to_each_env(cartpole_file):
+    """DOF_MODE_POS with per-env stiffness set between create_actor calls (how projects
+    randomize): the slider reaches its target in every env, the stiffer drive faster."""
+    gym = gymapi.acquire_gym()
+    sim = gym.create_sim(0, 0, gymapi.SIM_PHYSX, cartpole_sim_params())
+    options = gymapi.AssetOptions()
+    options.fix_base_link = True
+    options.default_dof_drive_mode = gymapi.DOF_MODE_POS
+    asset = gym.load_asset(sim, str(cartpole_file.parent), cartpole_file.name, options)
+    assert (gym.get_asset_dof_properties(asset)["driveMode"] == gymapi.DOF_MODE_POS).all()
+    for i, kp in enumerate((200.0, 2000.0)):
+        env = gym.create_env(sim, gymapi.Vec3(), gymapi.Vec3(), 1)
+        h = gym.create_actor(env, asset, gymapi.Transform(gymapi.Vec3(0, 0, 2)), "cp", i, 1)
+        props = gym.get_actor_dof_properties(env, h)
+        props["stiffness"][0], props["damping"][0] = kp, 2 * math.sqrt(kp * 2.0)
+        props["stiffness"][1], props["damping"][1] = 500.0, 20.0   # holds the pole up
+        gym.set_actor_dof_properties(env, h, props)
+    gym.prepare_sim(sim)
+    assert gym.get_actor_dof_properties(gym.get_env(sim, 1), 0)["stiffness"][0] == 2000.0
+    dof_state = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim)).view(2, 2, 2)
+    targets = torch.tensor([0.5, 0.0, 0.5, 0.0])
+    gym.set_dof_position_target_tensor(sim, gymtorch.unwrap_tensor(targets))
+    for _ in range(12):
+        gym.simulate(sim)
+    gym.refresh_dof_state_tensor(sim)
+    assert dof_state[1, 0, 0] > dof_state[0, 0, 0] + 0.05    # the stiffer drive is ahead
+    for _ in range(250):
+        gym.simulate(sim)
+    gym.refresh_dof_state_tensor(sim)
+    torch.testing.assert_close(dof_state[..., 0], torch.tensor([[0.5, 0.0]] * 2), atol=2e-3,
+                               rtol=0)
