@@ -139,24 +139,9 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
         _normal_row(m, e, ln, r, biased, tgs, hs, h, max_depenetration, factor, rows, v, dq)
     for k in range(ncontact):
         _friction_rows(e, ln, 3 * k + 1, biased, tgs, hs, rows, c, v, dq)
-    _wait(ln)
-    if ln[0] == 0:
-        # the dof rows (dry friction, speed cap) before the limits: their impulses M⁻¹e_dof move
-        # the other dofs of the tree too, and after the limit block they undid it in every
-        # sweep (a G1's thumb 0.17 rad past its limit with qd 0 before and after the solve).
-        # Most do nothing in a sweep (no dry friction, speed under the cap): tested on this
-        # env's 1D views, one index each, before the row is visited
-        row_type = rows.type[e]
-        row_bound = rows.mu[e]
-        row_cap = rows.k[e]
-        speed = v[e]
-        for dof in range(layout.end - layout.dofs):
-            r = layout.dofs + dof
-            if row_type[r] == DOF and (row_bound[r] > 0.0 or wp.abs(speed[dof]) > row_cap[r]):
-                _dof_row(m, e, r, dof, factor, rows, v)
     # the joint limits last of the one-sided rows: a joint's mechanical stop has the last word
     # over contacts (a UR5's overlapping link meshes pushed its wrist 0.26 rad past its limit
-    # when the limits came before the friction rows) and over the dof rows
+    # when the limits came before the friction rows)
     _wait(ln)
     _limit_rows(m, e, ln, layout, limit_jnt, first, biased, tgs, hs, h, max_depenetration,
                 factor, rows, v, dq)
@@ -166,6 +151,19 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
             _spring_row(e, ln, r, h, rows, v)
     _wait(ln)
     if ln[0] == 0:
+        # most dof rows do nothing in a sweep (no dry friction, speed under the cap): tested
+        # on this env's 1D views, one index each, before the row is visited. (Before the limit
+        # block instead, they kept a G1 with hands within its limits in 38 of 40 envs rather
+        # than 33, but a TALOS's mimic-coupled gripper joints then passed theirs in 14 rather
+        # than 2: the equalities after them undo the limits; to solve together, issue 40)
+        row_type = rows.type[e]
+        row_bound = rows.mu[e]
+        row_cap = rows.k[e]
+        speed = v[e]
+        for dof in range(layout.end - layout.dofs):
+            r = layout.dofs + dof
+            if row_type[r] == DOF and (row_bound[r] > 0.0 or wp.abs(speed[dof]) > row_cap[r]):
+                _dof_row(m, e, r, dof, factor, rows, v)
         # equalities last: the sweep ends with them holding, whatever the rows before did
         if layout.springs > layout.equalities:
             for i in range(m.neq):
