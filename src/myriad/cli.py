@@ -4,9 +4,11 @@
                            experiment=NAME checkpoint=PATH resume=auto ...]   train (PPO)
     myriad play task=Ant [checkpoint=PATH num_steps=1000 video=out.mp4]   video of a policy
     myriad export task=Ant [checkpoint=PATH output=policy.onnx]    ONNX policy + .json sidecar
+    myriad eval task=Ant [checkpoint=PATH episodes=100 num_envs=N seed=S judge=true
+                          output=eval.json]       score the deterministic policy over episodes
     myriad demo [--model FILE ...]                                 simulate under random actions
 
-train, play and export take Hydra overrides: any key of cfg/config.yaml, and task.* / train.*
+train, play, export and eval take Hydra overrides: any key of cfg/config.yaml, and task.* / train.*
 keys of the task's configs (e.g. task.env.episodeLength=500,
 train.params.config.learning_rate=1e-4).
 An unknown key fails, with or without Hydra's + or ++, naming the nearest valid keys.
@@ -100,6 +102,9 @@ def _hydra_command(command: str, overrides: list[str]) -> int:
         if command == "export":
             from .rl import export
             return export.export(overrides)
+        if command == "eval":
+            from .rl import evaluate
+            return evaluate.evaluate(overrides)
         return {"train": run.train, "play": run.play}[command](overrides)
     except KeyboardInterrupt:
         print("interrupted (the last checkpoint is kept)", file=sys.stderr)
@@ -117,7 +122,7 @@ def _hydra_command(command: str, overrides: list[str]) -> int:
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv and argv[0] in ("train", "play", "export"):
+    if argv and argv[0] in ("train", "play", "export", "eval"):
         return _hydra_command(argv[0], argv[1:])
     # the raw formatter keeps the usage examples of the docstring one per line
     parser = argparse.ArgumentParser(prog="myriad", description=__doc__,
@@ -127,6 +132,8 @@ def main(argv=None) -> int:
     sub.add_parser("play", help="video of a trained policy: myriad play task=Ant checkpoint=...")
     sub.add_parser("export", help="a trained policy as ONNX for a robot: myriad export task=Ant "
                    "checkpoint=... output=policy.onnx")
+    sub.add_parser("eval", help="score a trained policy over whole episodes (mean, 95 %% CI): "
+                   "myriad eval task=Ant checkpoint=... episodes=100")
     p = sub.add_parser("demo", help="simulate a batch of envs under random actions and report",
                        description="Simulate a batch of envs under random actions and report "
                        "the throughput and the state reached.\n\n  myriad demo --envs 64 "

@@ -28,6 +28,12 @@ def load_policy(checkpoint: str, train_cfg: dict, task):
     except (RuntimeError, KeyError) as err:
         raise ValueError(f"checkpoint {checkpoint} does not fit the {type(task).__name__} network "
                          f"of the train config ({config.get('name')}): {err}") from err
+    return policy_from_network(network, task)
+
+
+def policy_from_network(network, task):
+    """`load_policy`'s function for a network that already holds its weights (`myriad eval`
+    picks the network the checkpoint fits with `export.load_network`)."""
     network.to(task.device).eval()
     states = None
     if network.is_rnn():            # [layers, 1, units] defaults, one row per env instead

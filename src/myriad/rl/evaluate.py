@@ -1,0 +1,463 @@
+"""`myriad eval`: the deterministic policy (the actor's mean action) over whole episodes, scored
+with the task's own success measure, as the Isaac Gym paper reports it.
+
+    myriad eval task=ShadowHand [checkpoint=PATH num_envs=N episodes=100 seed=S judge=true
+                                 output=eval.json]
+
+What is measured, per finished episode (each a mean with a 95 % confidence interval over the
+episodes):
+  - every task: `episode_reward` (the undiscounted return) and `episode_length` (env steps);
+  - hand tasks: `consecutive_successes`, the goals reached in a row before the episode ended (a
+    drop, the time limit, or the variant's maxConsecutiveSuccesses), at the variant's own
+    successTolerance and episodeLength; counted from the task's own `successes` buffer;
+  - FrankaCubeStack, Trifinger: `success_rate`, the share of episodes that ended in the task's
+    success (the flags the task counts its `success_rate` metric from; Franka also `lift_rate`);
+  - Anymal, AnymalTerrain: `tracking_error_lin` (m/s, |commanded - actual| base-frame planar
+    velocity) and `tracking_error_yaw` (rad/s), averaged over the episode's steps (as
+    benchmarks/anymal_tracking.py measures them, but over whole episodes); AnymalTerrain also
+    `terrain_level`, the curriculum level each episode was played at (and the envs' mean level
+    at the end).
+
+Episodes: each env contributes at most ceil(episodes / num_envs) episodes, its first ones, and
+the evaluation stops once `episodes` are collected (the envs keep running meanwhile). Taking the
+first episodes to finish in any env would favour short ones (early falls and drops); with
+num_envs dividing episodes (the default num_envs is episodes, up to 256 on a CPU and 4096 on a
+GPU) every env gives the same number and nothing is favoured.
+"""
+
+from __future__ import annotations
+
+import copy
+import contextlib
+import io
+import json
+import math
+import os
+import random
+import time
+
+import torch
+
+HAND_TASKS = ("ShadowHand", "ShadowHandOpenAI_FF", "ShadowHandOpenAI_LSTM", "AllegroHand")
+SUCCESS_RATE_TASKS = ("FrankaCubeStack", "Trifinger")
+TRACKING_TASKS = ("Anymal", "AnymalTerrain")
+
+# the top-level keys a judged evaluation may set: none of them changes the task
+JUDGE_ALLOWED = {"task", "train", "checkpoint", "num_envs", "seed", "episodes", "judge",
+                 "device", "output", "train_dir", "task.env.numEnvs"}
+PROGRESS_EVERY_S = 10.0
+
+# two-sided 95 % quantiles of Student's t for 1..30 degrees of freedom
+_T95 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179,
+        2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064,
+        2.060, 2.056, 2.052, 2.048, 2.045, 2.042)
+
+
+def mean_ci(values) -> dict:
+    """Mean, sample standard deviation and the 95 % confidence interval of the mean (Student's
+    t) of a list of per-episode values; n < 2 gives no interval (null)."""
+    values = [float(v) for v in values]
+    n = len(values)
+    if n == 0:
+        return {"mean": None, "ci95": None, "half_width": None, "std": None, "n": 0}
+    mean = sum(values) / n
+    if n < 2:
+        return {"mean": mean, "ci95": None, "half_width": None, "std": None, "n": 1}
+    std = math.sqrt(sum((v - mean) ** 2 for v in values) / (n - 1))
+    t = _T95[n - 2] if n - 1 <= len(_T95) else 1.96
+    half = t * std / math.sqrt(n)
+    return {"mean": mean, "ci95": [mean - half, mean + half], "half_width": half, "std": std,
+            "n": n}
+
+
+def wilson_ci(successes: int, n: int) -> list[float] | None:
+    """The 95 % Wilson score interval of a success rate (sensible at 0 and 1, where the t
+    interval collapses to a point)."""
+    if n == 0:
+        return None
+    z, p = 1.96, successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return [max(0.0, centre - half), min(1.0, centre + half)]
+
+
+class ConsecutiveSuccesses:
+    """Goals reached in a row per env: `update(reached, done)` adds this step's goals and
+    returns every env's count as of the end of the step (read it for the `done` envs: their
+    episode's count), then restarts the envs that `done` marks."""
+
+    def __init__(self, num_envs: int, device="cpu"):
+        self.count = torch.zeros(num_envs, device=device)
+
+    def update(self, reached: torch.Tensor, done: torch.Tensor) -> torch.Tensor:
+        self.count += reached.float()
+        ended = self.count.clone()
+        self.count.masked_fill_(done.bool(), 0.0)
+        return ended
+
+
+def consecutive_successes(reached, done) -> list[float]:
+    """The count of each episode that ends in a scripted sequence of [T, N] (or [T]) goal and
+    episode-end flags, in the order the episodes end (env order within a step)."""
+    reached, done = torch.as_tensor(reached), torch.as_tensor(done).bool()
+    if reached.dim() == 1:
+        reached, done = reached[:, None], done[:, None]
+    counter, out = ConsecutiveSuccesses(reached.shape[1]), []
+    for r, d in zip(reached, done):
+        out += counter.update(r, d)[d].tolist()
+    return out
+
+
+class EpisodeCollector:
+    """Per-episode values of finished episodes: the return and length of each, and what a probe
+    measures at its end. Each env gives at most `quota` (= ceil(episodes / num_envs)) episodes,
+    its first; `full` once `episodes` are collected."""
+
+    def __init__(self, num_envs: int, episodes: int, device="cpu"):
+        self.episodes = episodes
+        self.quota = math.ceil(episodes / num_envs)
+        self.returns = torch.zeros(num_envs, dtype=torch.float64, device=device)
+        self.lengths = torch.zeros(num_envs, dtype=torch.long, device=device)
+        self.taken = torch.zeros(num_envs, dtype=torch.long, device=device)
+        self.values: dict[str, list[float]] = {"episode_reward": [], "episode_length": []}
+
+    @property
+    def collected(self) -> int:
+        return len(self.values["episode_reward"])
+
+    @property
+    def full(self) -> bool:
+        return self.collected >= self.episodes
+
+    def add(self, rewards: torch.Tensor, done: torch.Tensor, measures: dict | None = None) -> int:
+        """One env step: `rewards` [N], `done` [N] and, for the finished envs, `measures` (name
+        -> [N] values, read where `done`). Returns the episodes taken in this step."""
+        self.returns += rewards.to(self.returns.dtype)
+        self.lengths += 1
+        done = done.bool()
+        if not bool(done.any()):
+            return 0
+        ids = torch.nonzero(done & (self.taken < self.quota)).flatten()
+        ids = ids[:max(0, self.episodes - self.collected)]
+        self.taken[done] += 1
+        for name, column in (("episode_reward", self.returns), ("episode_length", self.lengths),
+                             *(measures or {}).items()):
+            self.values.setdefault(name, []).extend(column[ids].double().tolist())
+        self.returns.masked_fill_(done, 0.0)
+        self.lengths.masked_fill_(done, 0)
+        return len(ids)
+
+
+# ------------------------------------------------------------------ what each task reports
+class Probe:
+    """What a task family measures per episode beyond the return: `before_step`, then
+    `after_step(done)` -> {name: [N] values at the end of the finishing envs' episodes}."""
+    primary = "episode_reward"
+
+    def __init__(self, task):
+        self.task = task
+
+    def reset(self) -> dict:
+        """The first reset of every env, before any episode is counted."""
+        return self.task.reset()
+
+    def before_step(self) -> None:
+        pass
+
+    def after_step(self, done: torch.Tensor) -> dict:
+        return {}
+
+    def describe(self) -> dict:
+        """Task settings the figure depends on."""
+        env = self.task.cfg["env"]
+        return {k: env[k] for k in ("episodeLength", "episodeLength_s") if k in env} | {
+            "max_episode_length": int(self.task.max_episode_length)}
+
+    def extra(self) -> dict:
+        return {}
+
+
+class HandProbe(Probe):
+    """Consecutive successes from the task's `successes` buffer, read where the task itself
+    counts finished episodes (`_count_finished`, after the step's goals and before its resets
+    zero them)."""
+    primary = "consecutive_successes"
+
+    def __init__(self, task):
+        super().__init__(task)
+        self.counter = ConsecutiveSuccesses(task.num_envs, task.device)
+        self.before = task.successes.clone()
+        self.at_end = None
+        count_finished = task._count_finished
+
+        def snapshot(finished):
+            self.at_end = task.successes.clone()
+            count_finished(finished)
+        task._count_finished = snapshot
+
+    def after_step(self, done):
+        reached = (self.at_end - self.before).clamp(min=0.0)
+        self.before = self.task.successes.clone()
+        return {"consecutive_successes": self.counter.update(reached, done)}
+
+    def describe(self):
+        env = self.task.cfg["env"]
+        return super().describe() | {k: env.get(k) for k in (
+            "successTolerance", "maxConsecutiveSuccesses", "fallDistance")}
+
+
+class ShareProbe(Probe):
+    """Success (and Franka's lift) flags of finishing episodes, as the task counts them for its
+    `success_rate` metric (`EpisodeShares.count`)."""
+    primary = "success_rate"
+
+    def __init__(self, task):
+        super().__init__(task)
+        self.flags = {}
+        count = task.shares.count
+
+        def record(done, **flags):
+            self.flags = {name: flag.clone() for name, flag in flags.items()}
+            count(done, **flags)
+        task.shares.count = record
+
+    def after_step(self, done):
+        return {name: flag.float() for name, flag in self.flags.items()}
+
+    def describe(self):
+        env = self.task.cfg["env"]
+        return super().describe() | {k: v for k, v in env.items() if "Tolerance" in k}
+
+
+class TrackingProbe(Probe):
+    """Mean |commanded - actual| base velocity over each episode's steps (base frame: planar
+    velocity norm, yaw rate); AnymalTerrain: also the level each episode was played at."""
+    primary = "tracking_error_lin"
+
+    def __init__(self, task):
+        super().__init__(task)
+        n, dev = task.num_envs, task.device
+        self.lin = torch.zeros(n, dtype=torch.float64, device=dev)
+        self.yaw = torch.zeros(n, dtype=torch.float64, device=dev)
+        self.steps = torch.zeros(n, dtype=torch.float64, device=dev)
+        self.terrain = hasattr(task, "levels")
+        if self.terrain:
+            self.primary = "terrain_level"
+            self.levels = task.levels.clone()
+
+    def reset(self):
+        # the curriculum moves an env's level when its episode ends; the first reset ends none
+        moving = getattr(self.task, "move_levels", False)
+        if self.terrain:
+            self.task.move_levels = False
+        try:
+            return super().reset()
+        finally:
+            if self.terrain:
+                self.task.move_levels = moving
+
+    def before_step(self):
+        if self.terrain:
+            self.levels = self.task.levels.clone()
+
+    def after_step(self, done):
+        from ..torch_utils import quat_rotate_inverse
+
+        root = self.task.envs.root_states[:, 0]
+        lin = quat_rotate_inverse(root[:, 3:7], root[:, 7:10])
+        ang = quat_rotate_inverse(root[:, 3:7], root[:, 10:13])
+        cmd = self.task.commands
+        live = (~done).double()     # a finished env's state is already its next episode's
+        self.lin += live * torch.norm(cmd[:, :2] - lin[:, :2], dim=-1).double()
+        self.yaw += live * (cmd[:, 2] - ang[:, 2]).abs().double()
+        self.steps += live
+        steps = self.steps.clamp(min=1.0)
+        out = {"tracking_error_lin": self.lin / steps, "tracking_error_yaw": self.yaw / steps}
+        if self.terrain:
+            out["terrain_level"] = self.levels.double()
+        for buf in (self.lin, self.yaw, self.steps):
+            buf.masked_fill_(done, 0.0)
+        return out
+
+    def extra(self):
+        if not self.terrain:
+            return {}
+        return {"final_mean_terrain_level": float(self.task.levels.float().mean())}
+
+
+def probe_for(name: str, task) -> Probe:
+    if name in HAND_TASKS:
+        return HandProbe(task)
+    if name in SUCCESS_RATE_TASKS:
+        return ShareProbe(task)
+    if name in TRACKING_TASKS:
+        return TrackingProbe(task)
+    return Probe(task)
+
+
+# ------------------------------------------------------------------ the loop
+def run_episodes(task, policy, episodes: int, probe: Probe | None = None, report=None,
+                 report_every_s: float = PROGRESS_EVERY_S) -> dict:
+    """Step `task` under `policy(obs, new_episode)` until `episodes` episodes are collected (or
+    Ctrl-C: `partial` true). Returns the collector's per-episode values, the env steps and the
+    wall time."""
+    probe = probe or Probe(task)
+    collector = EpisodeCollector(task.num_envs, episodes, task.device)
+    obs, done, steps, partial = probe.reset()["obs"], None, 0, False
+    if isinstance(probe, HandProbe):        # the reset above drew new goals: start counting here
+        probe.before = task.successes.clone()
+    started = last_report = time.monotonic()
+    try:
+        while not collector.full:
+            probe.before_step()
+            with torch.no_grad():
+                out, rewards, resets, _ = task.step(policy(obs, done))
+            obs, done = out["obs"], resets.bool().clone()
+            steps += 1
+            collector.add(rewards, done, probe.after_step(done))
+            now = time.monotonic()
+            if report is not None and now - last_report >= report_every_s:
+                last_report = now
+                report(f"  {collector.collected}/{episodes} episodes ({steps:,} steps, "
+                       f"{now - started:.0f} s)")
+    except KeyboardInterrupt:
+        partial = True
+    return {"values": collector.values, "episodes": collector.collected, "steps": steps,
+            "env_steps": steps * task.num_envs, "wall_s": time.monotonic() - started,
+            "partial": partial}
+
+
+def summarize(values: dict[str, list[float]]) -> dict:
+    results = {name: mean_ci(v) for name, v in values.items()}
+    for name in ("success_rate", "lift_rate"):
+        if name in values and values[name]:
+            results[name]["wilson95"] = wilson_ci(round(sum(values[name])), len(values[name]))
+    return results
+
+
+# ------------------------------------------------------------------ the command
+def check_judged(overrides: list[str]) -> None:
+    """judge=true: refuse every override that changes the task (anything but JUDGE_ALLOWED)."""
+    from .run import given_keys
+
+    changed = sorted(k for k in given_keys(overrides) if k not in JUDGE_ALLOWED
+                     and not k.startswith("train.") and not k.startswith("hydra."))
+    if changed:
+        shown = ", ".join(next(o for o in overrides if o.split("=", 1)[0].lstrip("+~") == k)
+                          for k in changed)
+        raise ValueError(f"judge=true: {shown} would change the task (its success tolerance, "
+                         "episode length, randomization ... as configured are what a judged "
+                         "figure means); only num_envs=, seed=, episodes=, checkpoint=, "
+                         "device=, output= may be given")
+
+
+def checkpoint_task(checkpoint: str) -> str | None:
+    """The task of the run that wrote `checkpoint` (`<run>/nn/x.pth` with `<run>/summary.json`),
+    or None where that is not known."""
+    folder = os.path.dirname(os.path.abspath(checkpoint))
+    if os.path.basename(folder) != "nn":
+        return None
+    try:
+        with open(os.path.join(os.path.dirname(folder), "summary.json")) as f:
+            return json.load(f).get("task")
+    except (OSError, ValueError):
+        return None
+
+
+def evaluate(overrides: list[str]) -> int:
+    """`myriad eval task=<T> [checkpoint=PATH num_envs=N episodes=K seed=S judge=true
+    output=FILE.json]`."""
+    from ..tasks import TASKS, config_int
+    from . import run
+    from .export import load_network, read_checkpoint
+    from .policy import policy_from_network
+    from .train import atomic_json
+
+    cfg = run.compose(overrides)
+    if not isinstance(cfg.judge, bool):
+        raise ValueError(f"judge={cfg.judge}: true or false")
+    if cfg.judge:
+        check_judged(overrides)
+    episodes = config_int(cfg.episodes, "episodes", minimum=1)
+    if cfg.output is not None and not str(cfg.output).endswith(".json"):
+        raise ValueError(f"output={cfg.output}: the file name must end in .json")
+    device = run.resolve_device(cfg.device)
+    if cfg.num_envs is None:
+        cfg.num_envs = min(episodes, 4096 if device.startswith("cuda") else 256)
+    # the network as the train config gives it and as its CPU profile changes it (a checkpoint
+    # trained on a CPU without num_envs=): the weights pick the one they fit (as export does)
+    candidates = []
+    with contextlib.redirect_stdout(io.StringIO()):       # minibatch adjustments: not ours
+        for num_envs in (cfg.num_envs, None):
+            trial = copy.deepcopy(cfg)
+            trial.num_envs = num_envs
+            candidates.append(run.task_and_train_configs(trial, overrides)[:2])
+    task_cfg, _ = candidates[0]
+    cfg.seed = config_int(cfg.seed, "seed")
+    train_cfgs = [c[1] for c in candidates]
+    if train_cfgs[1] == train_cfgs[0]:
+        train_cfgs = train_cfgs[:1]
+    name = task_cfg["name"]
+    checkpoint = str(cfg.checkpoint or run.latest_checkpoint(cfg.train_dir, name))
+    state = read_checkpoint(checkpoint)          # missing or unreadable: a one-line error
+    written_by = checkpoint_task(checkpoint)
+    if written_by is not None and written_by != name:
+        raise ValueError(f"checkpoint {checkpoint} was written by a {written_by} run (its "
+                         f"summary.json), not {name}: give task={written_by} or a {name} "
+                         "checkpoint")
+    output = str(cfg.output or os.path.join(os.path.dirname(os.path.dirname(
+        os.path.abspath(checkpoint))), "eval.json"))
+
+    seed = int(cfg.seed)
+    torch.manual_seed(seed)
+    random.seed(seed)
+    import numpy as np
+    np.random.seed(seed % 2**32)
+    task = TASKS[name](task_cfg, device=device)
+    # what spans episodes in training (AnymalTerrain's levels, a randomization schedule) as the
+    # checkpoint left it, where its shapes fit these envs (the same num_envs)
+    saved = (state.get("myriad") or {}).get("task") or {}
+    restored = None
+    if saved:
+        try:
+            task.load_training_state(saved)
+            restored = sorted(saved)
+        except ValueError as err:
+            print(f"note: the checkpoint's task state is not restored: {err}", flush=True)
+    network, _ = load_network(state, train_cfgs, task.num_obs, task.num_actions, name,
+                              checkpoint)
+    policy = policy_from_network(network, task)
+    probe = probe_for(name, task)
+    print(f"evaluating {checkpoint} on {name}: {episodes} episodes, {task.num_envs} envs on "
+          f"{device}, seed {seed}" + (", judged" if cfg.judge else ""), flush=True)
+    measured = run_episodes(task, policy, episodes, probe,
+                            report=lambda line: print(line, flush=True))
+    results = summarize(measured["values"])
+    report = {
+        "task": name, "checkpoint": os.path.abspath(checkpoint), "epoch": state.get("epoch"),
+        "primary": probe.primary, "results": results,
+        "episodes": measured["episodes"], "episodes_requested": episodes,
+        "partial": measured["partial"], "judge": bool(cfg.judge),
+        "num_envs": task.num_envs, "seed": seed, "device": device,
+        "env_steps": measured["env_steps"], "wall_s": round(measured["wall_s"], 2),
+        "task_settings": probe.describe(), "task_state_from_checkpoint": restored,
+        **probe.extra(),
+        "overrides": list(overrides),
+        "deterministic": "the actor's mean action, clamped to [-1, 1]"}
+    os.makedirs(os.path.dirname(os.path.abspath(output)), exist_ok=True)
+    atomic_json(output, report)
+    print(format_line(report) + f"; wrote {output}", flush=True)
+    return 130 if measured["partial"] else 0
+
+
+def format_line(report: dict) -> str:
+    def shown(name):
+        r = report["results"].get(name)
+        if not r or r["mean"] is None:
+            return f"{name}: no episode finished"
+        ci = "" if r["ci95"] is None else f" ± {r['half_width']:.3g}"
+        return f"{name} {r['mean']:.4g}{ci}"
+    names = [report["primary"]] + [n for n in report["results"] if n != report["primary"]]
+    head = ("interrupted: partial result, " if report["partial"] else "") + \
+        f"{report['episodes']} episodes"
+    return head + ": " + ", ".join(shown(n) for n in names) + " (95 % CI)"

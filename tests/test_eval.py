@@ -1,0 +1,192 @@
+"""`myriad eval` (issue 42): the episode bookkeeping on a fake env with known returns, the
+consecutive-successes counter on scripted flags, the confidence interval, an Ant evaluation of
+an untrained checkpoint end to end (JSON fields), judge=true and the checkpoint errors. Nothing
+here trains: checkpoints are a freshly built network's weights, saved as rl_games saves them."""
+
+import json
+import math
+
+import pytest
+import torch
+
+from myriad import cli
+from myriad.rl import evaluate as ev
+from myriad.rl import run
+from myriad.rl.export import build_network
+
+
+def save_checkpoint(path, task, num_envs=4, summary_task=None):
+    """An untrained policy of `task` as a checkpoint (`{"model": weights, "epoch": 0}`); with
+    `summary_task`, inside a run folder whose summary.json names that task."""
+    cfg = run.compose([f"task={task}", "device=cpu", f"num_envs={num_envs}"])
+    task_cfg, train_cfg, _ = run.task_and_train_configs(cfg, [f"num_envs={num_envs}"])
+    sizes = {"Ant": (60, 8), "Humanoid": (108, 21), "ShadowHandOpenAI_FF": (42, 20)}[task]
+    torch.manual_seed(0)
+    network = build_network(train_cfg, *sizes)
+    if summary_task is not None:
+        (path / "nn").mkdir(parents=True)
+        (path / "summary.json").write_text(json.dumps({"task": summary_task}))
+        path = path / "nn" / "last.pth"
+    torch.save({"model": network.state_dict(), "epoch": 3}, path)
+    return path
+
+
+# ------------------------------------------------------------------ bookkeeping, unit tests
+class FakeTask:
+    """Env e's episodes last e + 2 steps, reward 1 per step plus 10·(episode index) at the last
+    step: returns and lengths are known in advance."""
+
+    def __init__(self, num_envs):
+        self.num_envs, self.device = num_envs, torch.device("cpu")
+        self.t = torch.zeros(num_envs, dtype=torch.long)
+        self.k = torch.zeros(num_envs, dtype=torch.long)
+
+    def reset(self):
+        return {"obs": torch.zeros(self.num_envs, 1)}
+
+    def step(self, actions):
+        self.t += 1
+        done = self.t >= torch.arange(self.num_envs) + 2
+        reward = 1.0 + 10.0 * self.k * done
+        self.k += done.long()
+        self.t[done] = 0
+        return {"obs": torch.zeros(self.num_envs, 1)}, reward.float(), done.long(), {}
+
+
+def expected_return(env, k):
+    return (env + 2) + 10 * k
+
+
+def test_episodes_are_counted_with_their_returns_and_each_env_gives_its_first_ones():
+    task = FakeTask(4)
+    out = ev.run_episodes(task, lambda obs, done: torch.zeros(4, 1), episodes=8)
+    # quota 2 per env: env 0 finishes 4 episodes before env 3 finishes its second,
+    # but only its first two count
+    got = sorted(zip(out["values"]["episode_length"], out["values"]["episode_reward"]))
+    want = sorted((e + 2.0, float(expected_return(e, k))) for e in range(4) for k in range(2))
+    assert got == want and out["episodes"] == 8 and not out["partial"]
+    assert out["steps"] == 10          # env 3's second episode ends at step 2 x 5
+    # a number of episodes that does not divide: the last round goes to the first to finish
+    out = ev.run_episodes(FakeTask(4), lambda obs, done: torch.zeros(4, 1), episodes=6)
+    assert out["episodes"] == 6 and sorted(out["values"]["episode_length"]) == [2, 2, 3, 3, 4, 5]
+
+
+def test_an_interrupted_evaluation_keeps_what_it_measured():
+    task = FakeTask(2)
+    step = task.step
+
+    def interrupted(actions):
+        if int(task.k.sum()) >= 3:
+            raise KeyboardInterrupt
+        return step(actions)
+    task.step = interrupted
+    out = ev.run_episodes(task, lambda obs, done: torch.zeros(2, 1), episodes=100)
+    assert out["partial"] and out["episodes"] == 3
+
+
+def test_consecutive_successes_on_scripted_flags():
+    # one env: goals at steps 1, 2, 4; episode ends at 5 (a drop) -> 3; then one goal reached
+    # in the very step the episode ends (a variant's maximum) -> 1; then none, time limit -> 0
+    reached = [0, 1, 1, 0, 1, 0, 0, 1, 0, 0]
+    done = [0, 0, 0, 0, 0, 1, 0, 1, 0, 1]
+    assert ev.consecutive_successes(reached, done) == [3.0, 1.0, 0.0]
+    # two envs, interleaved ends; the count restarts only in the env that finished
+    reached = [[1, 0], [1, 1], [0, 1], [1, 1]]
+    done = [[0, 0], [1, 0], [0, 1], [1, 1]]
+    assert ev.consecutive_successes(reached, done) == [2.0, 2.0, 1.0, 1.0]
+
+
+def test_mean_and_95_percent_interval():
+    r = ev.mean_ci([1.0, 2.0, 3.0, 4.0])
+    assert r["mean"] == 2.5 and r["n"] == 4
+    half = 3.182 * math.sqrt(5 / 3) / 2            # t(3) · s / sqrt(n)
+    assert r["half_width"] == pytest.approx(half) and r["ci95"] == pytest.approx(
+        [2.5 - half, 2.5 + half])
+    assert ev.mean_ci([5.0])["ci95"] is None and ev.mean_ci([])["mean"] is None
+    low, high = ev.wilson_ci(10, 10)
+    assert 0.69 < low < 0.73 and high == pytest.approx(1.0)
+
+
+# ------------------------------------------------------------------ the command
+def test_hand_consecutive_successes_come_from_the_tasks_own_count(tmp_path):
+    """With a tolerance beyond π every step reaches its goal: an OpenAI variant's episode then
+    ends at its maxConsecutiveSuccesses, the goal of the last step included."""
+    pytest.importorskip("gymnasium_robotics")
+    checkpoint = save_checkpoint(tmp_path / "ff.pth", "ShadowHandOpenAI_FF")
+    out = tmp_path / "ff.json"
+    assert cli.main(["eval", "task=ShadowHandOpenAI_FF", "device=cpu", f"checkpoint={checkpoint}",
+                     "num_envs=2", "episodes=4", "task.env.successTolerance=4.0",
+                     "task.env.maxConsecutiveSuccesses=3", f"output={out}"]) == 0
+    report = json.loads(out.read_text())
+    assert report["primary"] == "consecutive_successes"
+    assert report["results"]["consecutive_successes"]["mean"] == 3.0
+    assert report["results"]["consecutive_successes"]["n"] == 4
+    assert report["results"]["episode_length"]["mean"] == 3.0
+    settings = report["task_settings"]
+    assert settings["successTolerance"] == 4.0 and settings["maxConsecutiveSuccesses"] == 3
+
+
+def test_eval_ant_reports_mean_reward_with_ci_and_writes_json(tmp_path, capsys):
+    checkpoint = save_checkpoint(tmp_path / "antrun", "Ant", summary_task="Ant")
+    out = tmp_path / "scores" / "ant_eval.json"
+    assert cli.main(["eval", "task=Ant", "device=cpu", f"checkpoint={checkpoint}",
+                     "num_envs=4", "episodes=8", "seed=3", "task.env.episodeLength=12",
+                     f"output={out}"]) == 0
+    report = json.loads(out.read_text())
+    assert report["task"] == "Ant" and report["primary"] == "episode_reward"
+    assert report["episodes"] == report["episodes_requested"] == 8 and not report["partial"]
+    reward = report["results"]["episode_reward"]
+    assert reward["n"] == 8 and reward["ci95"][0] <= reward["mean"] <= reward["ci95"][1]
+    length = report["results"]["episode_length"]
+    assert length["n"] == 8 and 1 <= length["mean"] <= 12
+    assert report["seed"] == 3 and report["num_envs"] == 4 and report["epoch"] == 3
+    assert report["task_settings"]["episodeLength"] == 12 and not report["judge"]
+    printed = capsys.readouterr().out
+    assert "8 episodes: episode_reward" in printed and str(out) in printed
+    # default output: next to the run folder (as play's video and export's .onnx)
+    assert cli.main(["eval", "task=Ant", "device=cpu", f"checkpoint={checkpoint}",
+                     "num_envs=2", "episodes=2", "task.env.episodeLength=5"]) == 0
+    assert json.loads((tmp_path / "antrun" / "eval.json").read_text())["episodes"] == 2
+
+
+def test_judge_refuses_an_override_that_changes_the_task(tmp_path, capsys):
+    checkpoint = save_checkpoint(tmp_path / "ant.pth", "Ant")
+    assert cli.main(["eval", "task=Ant", "device=cpu", f"checkpoint={checkpoint}", "judge=true",
+                     "num_envs=2", "seed=1", "task.env.episodeLength=5000"]) == 2
+    err = capsys.readouterr().err
+    assert "judge=true: task.env.episodeLength=5000 would change the task" in err
+    assert cli.main(["eval", "task=Ant", "device=cpu", f"checkpoint={checkpoint}", "judge=true",
+                     "task.randomization.frequency=7"]) == 2
+    assert "task.randomization.frequency=7" in capsys.readouterr().err
+    assert cli.main(["eval", "task=Ant", "device=cpu", f"checkpoint={checkpoint}",
+                     "judge=maybe"]) == 2
+    assert "judge=maybe: true or false" in capsys.readouterr().err
+
+
+def test_a_checkpoint_of_another_task_or_a_bad_file_is_a_clear_error(tmp_path, capsys):
+    ant = save_checkpoint(tmp_path / "ant.pth", "Ant")
+    assert cli.main(["eval", "task=Humanoid", "device=cpu", f"checkpoint={ant}",
+                     "num_envs=1", "episodes=1"]) == 2
+    err = capsys.readouterr().err
+    assert f"checkpoint {ant} does not fit the Humanoid policy network" in err
+    assert "another task's checkpoint" in err
+    # the run folder's summary.json names the task that wrote it
+    humanoid_run = save_checkpoint(tmp_path / "hrun", "Humanoid", summary_task="Humanoid")
+    assert cli.main(["eval", "task=Ant", "device=cpu", f"checkpoint={humanoid_run}",
+                     "episodes=1"]) == 2
+    assert "was written by a Humanoid run" in capsys.readouterr().err
+    bad = tmp_path / "bad.pth"
+    bad.write_text("not a checkpoint")
+    assert cli.main(["eval", "task=Ant", "device=cpu", f"checkpoint={bad}"]) == 2
+    assert f"checkpoint {bad}: not a readable rl_games checkpoint" in capsys.readouterr().err
+    assert cli.main(["eval", "task=Ant", "device=cpu",
+                     f"checkpoint={tmp_path / 'none.pth'}"]) == 2
+    assert "no such file" in capsys.readouterr().err
+    assert cli.main(["eval", "task=Ant", "device=cpu", f"train_dir={tmp_path / 'empty'}"]) == 2
+    assert "no trained Ant run" in capsys.readouterr().err
+    assert cli.main(["eval", "task=Ant", "device=cpu", "episodez=3"]) == 2
+    assert "no key episodez (did you mean episodes?)" in capsys.readouterr().err
+    assert cli.main(["eval", "task=Ant", "device=cpu", "episodes=0"]) == 2
+    assert "episodes=0" in capsys.readouterr().err
+    assert cli.main(["eval", "task=Nope", "device=cpu"]) == 2
+    assert "Nope" in capsys.readouterr().err
