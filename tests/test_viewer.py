@@ -231,8 +231,10 @@ def test_play_in_a_real_browser_pauses_steps_resets_and_says_when_it_ended(brows
     assert cli.main(["train", *args, "max_iterations=1"]) == 0
     port = free_port()
     result = {}
+    # 2400 steps (40 s at 60 Hz): long enough to outlast a slow first click on a loaded machine
+    # (600 steps ended before the page answered once: the reload then found no server)
     play = threading.Thread(target=lambda: result.setdefault("rc", cli.main(
-        ["play", *args, "viewer=web", f"viewer_port={port}", "num_steps=600"])), daemon=True)
+        ["play", *args, "viewer=web", f"viewer_port={port}", "num_steps=2400"])), daemon=True)
     play.start()
     try:
         open_when_served(browser, port)
@@ -251,9 +253,9 @@ def test_play_in_a_real_browser_pauses_steps_resets_and_says_when_it_ended(brows
         press(browser, "pause")               # go on: the page survived the reset
         time.sleep(1.5)
         assert step_shown(browser, settle_s=0.0) > stepped
-        play.join(timeout=60)
+        play.join(timeout=120)
         assert result.get("rc") == 0
-        browser.get_by_text("play ended after 600 steps").wait_for(timeout=10_000)
+        browser.get_by_text("play ended after 2400 steps").wait_for(timeout=10_000)
     finally:
         play.join(timeout=1)     # (a daemon: a failed test leaves no play running at exit)
 
