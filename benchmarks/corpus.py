@@ -12,8 +12,11 @@ corpus is every model its users are likely to bring first and that this machine 
       three load-time fixes a user would make too: `package://` mesh paths become absolute
       paths; `<compiler discardvisual="true">` drops visual meshes (often .dae files MuJoCo
       cannot read; collision geometry is kept); `balanceinertia="true"`, the fix MuJoCo's own
-      error message names, for the links whose inertia violates the triangle inequality. URDFs
-      MuJoCo still rejects are rows "MuJoCo rejects: <its reason>".
+      error message names, for the links whose inertia violates the triangle inequality. A URDF
+      MuJoCo still rejects is loaded as Isaac Gym's importer would load it, by
+      `myriad.load_asset` (its repairs: .dae visuals dropped, .dae collision meshes replaced by a
+      same-named .stl/.obj, inertias balanced or taken from the collision geometry; the note says
+      so and counts them); only what that cannot repair stays "MuJoCo rejects: <its reason>".
       Mobile robots (`MOBILE`, a fixed list of description folders checked by hand: legged,
       humanoid, wheeled and flying robots) get a floating base (a `world` link and a floating
       joint to the URDF's root link, as `myriad.tasks.anymal` does) and a ground plane; the
@@ -63,6 +66,7 @@ import re
 import sys
 import tempfile
 import time
+import warnings
 import traceback
 import warnings
 import xml.etree.ElementTree as ET
@@ -147,7 +151,21 @@ def urdf_xml(path: str, mobile: bool) -> str:
     spec.compiler.balanceinertia = True               # the saved file forgets the flag
     if not mobile:
         return spec.to_xml()
+    return on_ground(spec)
 
+
+def tolerant_xml(path: str, mobile: bool) -> str:
+    """MJCF text of a URDF MuJoCo rejects, as `myriad.load_asset` repairs it (the base free for
+    a mobile robot, on a ground with 1 cm of clearance; fixed otherwise); its repairs are
+    RuntimeWarnings, counted in the row's note."""
+    spec = myriad.physics.tolerant.asset_spec(path, fix_base_link=not mobile)
+    if not mobile:
+        return spec.to_xml()
+    return on_ground(spec)
+
+
+def on_ground(spec) -> str:
+    """A ground plane under the robot of `spec`, its base raised to 1 cm above it."""
     spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 1])
     m = spec.compile()
     d = mujoco.MjData(m)
@@ -180,8 +198,22 @@ def corpus_models() -> list[tuple[str, str, object]]:
         name = f"{folder}/{stem}"
 
         def loader(path=path, mobile=mobile, name=name):
+            note = "floating base on ground" if mobile else "fixed base"
             try:
-                model = myriad.load_xml(urdf_xml(path, mobile), name)
+                xml = urdf_xml(path, mobile)
+            except MujocoRejects as rejected:
+                # what Isaac Gym's importer would load: myriad.load_asset's repairs
+                with warnings.catch_warnings(record=True) as repairs:
+                    warnings.simplefilter("always")
+                    try:
+                        xml = tolerant_xml(path, mobile)
+                        mujoco.MjModel.from_xml_string(xml)    # compiles, repaired?
+                    except Exception:  # noqa: BLE001  not repairable: MuJoCo's reason stands
+                        raise rejected from None
+                note += (f"; MuJoCo rejects ({rejected}), loaded by myriad.load_asset "
+                         f"({len(repairs)} repairs)")
+            try:
+                model = myriad.load_xml(xml, name)
             except myriad.ModelError as err:
                 with open(path) as f:
                     mimic = "equality" in str(err) and "<mimic" in f.read()
@@ -189,7 +221,7 @@ def corpus_models() -> list[tuple[str, str, object]]:
                     raise myriad.ModelError(f"{err} (MuJoCo turns the URDF's <mimic> joints "
                                             "into joint equalities)") from err
                 raise
-            return model, "floating base on ground" if mobile else "fixed base"
+            return model, note
         models.append((name, "example-robot-data", loader))
     return models
 
