@@ -324,6 +324,53 @@ def test_inertia_breaking_the_triangle_inequality_is_balanced(tmp_path):
                                rtol=1e-6)
 
 
+SIGN_SLIP_URDF = """<robot name="finger">
+  <link name="base"/>
+  <link name="lower">
+    <inertial><origin xyz="0 0 -0.05"/><mass value="0.05"/>
+      <inertia ixx="0.0001" iyy="0.0001" izz="0.00002" ixy="0.00015" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><box size="0.01 0.01 0.1"/></geometry></collision>
+  </link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="lower"/>
+    <axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="1" velocity="10"/></joint>
+</robot>"""
+
+
+def test_a_negative_principal_moment_counts_as_zero_then_is_balanced(tmp_path):
+    """A product of inertia with a sign slip (eigenvalues -5e-5, 2e-5, 2.5e-4, as
+    example-robot-data's finger_edu has one): MuJoCo refuses; load_asset takes the negative
+    moment as 0 and raises the two smallest to a + b = c, the largest and the axes kept."""
+    path = _write(tmp_path, "finger.urdf", SIGN_SLIP_URDF)
+    with pytest.raises(ModelError, match="positive eigenvalues"):
+        myriad.load(path)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = myriad.load_asset(path, fix_base_link=True)
+    message = _one([str(w.message) for w in caught], "link 'lower': principal inertia")
+    assert "balanced to" in message
+    lower = model.body_names.index("lower")
+    moments = np.sort(model.body_inertia[lower])
+    assert moments[2] == pytest.approx(2.5e-4, rel=1e-5)
+    floor = 1e-3 * 2.5e-4            # the negative moment first goes up to the floor
+    raise_by = (2.5e-4 - floor - 2e-5) / 2
+    np.testing.assert_allclose(moments[:2], [floor + raise_by, 2e-5 + raise_by], rtol=1e-4)
+
+
+def test_a_zero_moment_is_raised_to_the_floor(tmp_path):
+    """A rod's axis written as 0 (finger_edu's lower link: 1.2e-4, 1.2e-4, 0): MuJoCo refuses a
+    zero eigenvalue; load_asset raises it to 1e-3 of the largest, the others kept."""
+    path = _write(tmp_path, "rod.urdf", SIGN_SLIP_URDF.replace(
+        'ixx="0.0001" iyy="0.0001" izz="0.00002" ixy="0.00015"',
+        'ixx="0.00012" iyy="0.00012" izz="0" ixy="0"'))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = myriad.load_asset(path, fix_base_link=True)
+    assert "has a moment at or below 0.001 of the largest" in _one(
+        [str(w.message) for w in caught], "link 'lower'")
+    moments = np.sort(model.body_inertia[model.body_names.index("lower")])
+    np.testing.assert_allclose(moments, [1.2e-7, 1.2e-4, 1.2e-4], rtol=1e-4)
+
+
 def test_the_real_anymal_c_loads(tmp_path):
     """The whole example-robot-data ANYmal C (where installed): package:// meshes, 45 COLLADA
     visuals, five unbalanced inertias; a free base and 12 joints."""

@@ -29,7 +29,9 @@ Both
   (c - a - b) / 2 (plus 1e-9 c against rounding), so that a + b = c: the smallest change, in
   the sum of squares, that makes the inertia physical; the principal axes and the largest
   moment are kept. MuJoCo's `balanceinertia` instead sets all three moments to their mean,
-  which also lowers the largest.
+  which also lowers the largest. A moment of 0 or below (a thin rod's axis written as 0, a
+  sign slip in a product of inertia; MuJoCo refuses both) is first raised to 1e-3 of the
+  largest, then the rule above applies.
 - Isaac Gym's base: the root body is free-floating unless `fix_base_link` (MuJoCo welds a URDF's
   root link to the world). A root body without joints gets a free joint; with
   `fix_base_link=True`, a root's free joint is removed. This is an option, not a repair: no
@@ -58,6 +60,7 @@ _OPTION_ELEMENTS = {"option", "flag", "size", "statistic", "visual", "global", "
 _FLAG_SUCCESSORS = {"passive": ("spring", "damper")}  # MuJoCo 3.0 split this flag in two
 _UNKNOWN_ATTRIBUTE = re.compile(r"unrecognized attribute: '([^']+)'\s*Element '([^']+)'")
 _MESH_FORMATS = (".stl", ".obj", ".msh")  # what MuJoCo's compiler reads
+_MOMENT_FLOOR = 1e-3  # the smallest principal moment kept, as a share of the largest
 _DEFAULT_CUBE = 0.1  # m: the side of the uniform cube whose inertia a bare <inertial> gets
 
 
@@ -361,10 +364,14 @@ def _balance_inertias(spec: mujoco.MjSpec, path: str, kind: str) -> None:
             matrix = np.diag(body.inertia)
         moments, axes = np.linalg.eigh(matrix)  # ascending
         a, b, c = moments
-        if not (a + b < c and a >= -1e-12 * c):  # physical, or negative: MuJoCo's error stays
+        floor = _MOMENT_FLOOR * c
+        if c <= 0 or (a >= floor and a + b >= c):   # physical, or nothing to balance against
             continue
-        a, b = max(a, 0.0), max(b, 0.0)
-        raise_by = (c * (1 + 1e-9) - a - b) / 2
+        # a moment of 0 (a thin rod's axis written as 0) or below (a sign slip in a product
+        # of inertia, as URDF exports make) is raised to the floor, MuJoCo refusing both; then
+        # the two smallest are raised together where they break the triangle inequality
+        a, b = max(a, floor), max(b, floor)
+        raise_by = max(0.0, (c * (1 + 1e-9) - a - b) / 2)
         new = np.array([a + raise_by, b + raise_by, c])
         if full:
             m = axes @ np.diag(new) @ axes.T
@@ -374,8 +381,10 @@ def _balance_inertias(spec: mujoco.MjSpec, path: str, kind: str) -> None:
             order = np.argsort(inertia, kind="stable")
             inertia[order] = new
             body.inertia = inertia
+        fault = ("breaks A + B >= C" if moments[0] >= floor else
+                 f"has a moment at or below {_MOMENT_FLOOR:g} of the largest")
         _warn(f"{path}: {kind} {body.name!r}: principal inertia "
-              f"({moments[0]:.6g}, {moments[1]:.6g}, {c:.6g}) breaks A + B >= C; balanced to "
+              f"({moments[0]:.6g}, {moments[1]:.6g}, {c:.6g}) {fault}; balanced to "
               f"({new[0]:.6g}, {new[1]:.6g}, {c:.6g}) by raising the two smallest moments")
 
 
