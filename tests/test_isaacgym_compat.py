@@ -384,3 +384,78 @@ def test_position_drive_gains_stick_to_each_env(cartpole_file):
     gym.refresh_dof_state_tensor(sim)
     torch.testing.assert_close(dof_state[..., 0], torch.tensor([[0.5, 0.0]] * 2), atol=2e-3,
                                rtol=0)
+
+
+def _two_link_sim(tmp_path, fix_base_link: bool):
+    """4 envs of the cartpole, fixed (an arm) or free (a floating base), dof states random."""
+    (tmp_path / "cartpole.urdf").write_text(CARTPOLE_URDF)
+    gym = gymapi.acquire_gym()
+    sim = gym.create_sim(-1, -1, gymapi.SIM_PHYSX, cartpole_sim_params())
+    options = gymapi.AssetOptions()
+    options.fix_base_link = fix_base_link
+    asset = gym.load_asset(sim, str(tmp_path), "cartpole.urdf", options)
+    for i in range(4):
+        env = gym.create_env(sim, gymapi.Vec3(-2, -2, 0), gymapi.Vec3(2, 2, 2), 2)
+        pose = gymapi.Transform(gymapi.Vec3(0, 0, 2))
+        gym.create_actor(env, asset, pose, "cartpole", i, 1, 0)
+    gym.prepare_sim(sim)
+    return gym, sim
+
+
+def _rigid_velocities(gym, sim):
+    gym.refresh_rigid_body_state_tensor(sim)
+    bodies = gymtorch.wrap_tensor(gym.acquire_rigid_body_state_tensor(sim)).view(4, -1, 13)
+    return bodies[..., 7:10], bodies[..., 10:13]
+
+
+def test_jacobian_of_a_fixed_arm_maps_dof_speeds_to_link_velocities(tmp_path):
+    """acquire_jacobian_tensor on a fixed base: [envs, links - 1, 6, dofs], linear rows first at
+    each link's origin; J·qd gives the links' velocities of the rigid body state tensor."""
+    gym, sim = _two_link_sim(tmp_path, fix_base_link=True)
+    dofs = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim))
+    dofs[:, 1] = torch.randn(dofs.shape[0], generator=torch.Generator().manual_seed(0))
+    gym.set_dof_state_tensor(sim, gymtorch.unwrap_tensor(dofs))
+    jac = gymtorch.wrap_tensor(gym.acquire_jacobian_tensor(sim, "cartpole"))
+    gym.refresh_jacobian_tensors(sim)
+    assert tuple(jac.shape) == (4, 2, 6, 2)                       # cart, pole; 2 dofs
+    qd = dofs[:, 1].view(4, 2)
+    lin, ang = _rigid_velocities(gym, sim)
+    twist = torch.einsum("elrc,ec->elr", jac, qd)
+    torch.testing.assert_close(twist[..., :3], lin[:, 1:], atol=1e-5, rtol=1e-5)
+    torch.testing.assert_close(twist[..., 3:], ang[:, 1:], atol=1e-5, rtol=1e-5)
+    mass = gymtorch.wrap_tensor(gym.acquire_mass_matrix_tensor(sim, "cartpole"))
+    gym.refresh_mass_matrix_tensors(sim)
+    assert tuple(mass.shape) == (4, 2, 2)
+    torch.testing.assert_close(mass, mass.transpose(1, 2))
+
+
+def test_jacobian_and_mass_matrix_of_a_floating_base_use_world_axes(tmp_path):
+    """A free base: 6 + dofs columns, the base's (linear, angular) velocity in world axes as the
+    root state tensor gives it; J·[v, w, qd] = every link's velocity, and ½ uᵀ M u is the
+    kinetic energy Myriad computes from its own (body-axes) velocities."""
+    gym, sim = _two_link_sim(tmp_path, fix_base_link=False)
+    gen = torch.Generator().manual_seed(1)
+    roots = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim))
+    angle = 0.7
+    roots[:, 3:7] = torch.tensor([math.sin(angle / 2) * 0.6, math.sin(angle / 2) * 0.8, 0.0,
+                                  math.cos(angle / 2)])
+    roots[:, 7:13] = torch.randn(4, 6, generator=gen)
+    gym.set_actor_root_state_tensor(sim, gymtorch.unwrap_tensor(roots))
+    dofs = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim))
+    dofs[:, 1] = torch.randn(dofs.shape[0], generator=gen)
+    gym.set_dof_state_tensor(sim, gymtorch.unwrap_tensor(dofs))
+    jac = gymtorch.wrap_tensor(gym.acquire_jacobian_tensor(sim, "cartpole"))
+    mass = gymtorch.wrap_tensor(gym.acquire_mass_matrix_tensor(sim, "cartpole"))
+    gym.refresh_jacobian_tensors(sim)
+    gym.refresh_mass_matrix_tensors(sim)
+    assert tuple(jac.shape) == (4, 3, 6, 8) and tuple(mass.shape) == (4, 8, 8)
+    gym.refresh_actor_root_state_tensor(sim)
+    u = torch.cat([roots[:, 7:13], dofs[:, 1].view(4, 2)], dim=1)   # world-axes base velocity
+    lin, ang = _rigid_velocities(gym, sim)
+    twist = torch.einsum("elrc,ec->elr", jac, u)
+    torch.testing.assert_close(twist[..., :3], lin, atol=1e-4, rtol=1e-4)
+    torch.testing.assert_close(twist[..., 3:], ang, atol=1e-4, rtol=1e-4)
+    energy = 0.5 * torch.einsum("ei,eij,ej->e", u, mass, u)
+    own = sim.myriad.sim
+    expected = 0.5 * torch.einsum("ei,eij,ej->e", own.qd, own.mass_matrix, own.qd)
+    torch.testing.assert_close(energy, expected, atol=1e-4, rtol=1e-4)

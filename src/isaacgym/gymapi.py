@@ -41,6 +41,8 @@ import mujoco
 import numpy as np
 import torch
 
+from myriad.torch_utils import quat_rotate
+
 _FLT_MAX = float(np.finfo(np.float32).max)
 _DOCS = "see docs/isaacgym.md in the Myriad repository"
 
@@ -631,6 +633,7 @@ class Sim:
         self.envs: list[Env] = []
         self.assets: list[Asset] = []
         self.myriad = None          # myriad.api.Envs, after prepare_sim
+        self.algebra = {}           # ("jacobian" | "mass_matrix", actor slot) -> its tensor
         self.time, self.frames = 0.0, 0
         self.closed = False
 
@@ -1266,6 +1269,47 @@ class Gym:
         self._envs(sim, "refresh_net_contact_force_tensor")   # a view of the simulator's
         return True
 
+    def _actor_slot(self, sim: Sim, name: str, call: str) -> int:
+        names = [a.name for a in sim.envs[0].actors]
+        if name not in names:
+            raise ValueError(f"gym.{call}: no actor named {name!r}; env 0's actors are {names}")
+        return names.index(name)
+
+    def acquire_jacobian_tensor(self, sim: Sim, name: str) -> Tensor:
+        """[num_envs, links, 6, dofs] of actor `name` (linear rows first, at each link's
+        origin, world axes): a fixed base's root link has no row; a free base's 6 velocity
+        columns (linear, angular, world axes) come first. Updated by refresh_jacobian_tensors."""
+        envs = self._envs(sim, "acquire_jacobian_tensor")
+        k = self._actor_slot(sim, name, "acquire_jacobian_tensor")
+        key = ("jacobian", k)
+        if key not in sim.algebra:
+            sim.algebra[key] = _actor_algebra(sim, envs, *key)
+        return Tensor(sim.algebra[key])
+
+    def acquire_mass_matrix_tensor(self, sim: Sim, name: str) -> Tensor:
+        """[num_envs, dofs, dofs] joint-space mass matrix of actor `name` (a free base's 6
+        columns first, world axes). Updated by refresh_mass_matrix_tensors."""
+        envs = self._envs(sim, "acquire_mass_matrix_tensor")
+        k = self._actor_slot(sim, name, "acquire_mass_matrix_tensor")
+        key = ("mass_matrix", k)
+        if key not in sim.algebra:
+            sim.algebra[key] = _actor_algebra(sim, envs, *key)
+        return Tensor(sim.algebra[key])
+
+    def refresh_jacobian_tensors(self, sim: Sim) -> bool:
+        envs = self._envs(sim, "refresh_jacobian_tensors")
+        for (kind, k), tensor in sim.algebra.items():
+            if kind == "jacobian":
+                tensor.copy_(_actor_algebra(sim, envs, kind, k))
+        return True
+
+    def refresh_mass_matrix_tensors(self, sim: Sim) -> bool:
+        envs = self._envs(sim, "refresh_mass_matrix_tensors")
+        for (kind, k), tensor in sim.algebra.items():
+            if kind == "mass_matrix":
+                tensor.copy_(_actor_algebra(sim, envs, kind, k))
+        return True
+
     def refresh_force_sensor_tensor(self, sim: Sim) -> bool:
         raise _not_provided("isaacgym.gymapi.Gym.refresh_force_sensor_tensor")
 
@@ -1639,6 +1683,32 @@ def _prepare(sim: Sim) -> None:
     _apply_shape_props(sim, all_actors)
     _apply_body_props(sim, all_actors)
     built.forward()
+
+
+def _actor_algebra(sim: Sim, envs, kind: str, k: int) -> torch.Tensor:
+    """Actor slot k's Jacobian or mass matrix in Isaac Gym's (PhysX's) layout, from Myriad's:
+    a fixed base's root link row dropped; a free base's angular velocity columns turned from
+    the base's own axes (MuJoCo's free joint) to world axes, which Isaac Gym's root states use:
+    with w_body = Rᵀ w_world, J_world = J_body Rᵀ and M_world = Tᵀ M T, T = diag(I, Rᵀ, I)."""
+    actor = sim.envs[0].actors[k]
+    name = f"a{k}"
+    if kind == "jacobian":
+        value = envs.jacobians(name)
+        if actor.asset.fix_base:
+            return value[:, 1:].contiguous()
+    else:
+        value = envs.mass_matrix(name)
+        if actor.asset.fix_base:
+            return value.contiguous()
+    root = envs.actor_bodies(name)[0]
+    quat = envs.sim.body_pose[:, root, 3:7]                             # xyzw, world from base
+    eye = torch.eye(3, device=value.device).expand(quat.shape[0], 3, 3)
+    rot = torch.stack([quat_rotate(quat, eye[:, :, i]) for i in range(3)], dim=-1)   # R
+    t = torch.eye(value.shape[-1], device=value.device).repeat(quat.shape[0], 1, 1)
+    t[:, 3:6, 3:6] = rot.transpose(1, 2)
+    if kind == "jacobian":
+        return (value @ t[:, None]).contiguous()
+    return (t.transpose(1, 2) @ value @ t).contiguous()
 
 
 def _index_maps(sim: Sim) -> None:
