@@ -19,6 +19,9 @@ SUBSET = {
     "gymnasium/humanoid": (1.0, 2, 150.0, 0.05),
     "solo/solo12": (1.0, 2, 150.0, 0.05),
     "go2/go2": (1.0, 2, 150.0, 0.05),
+    # a URDF MuJoCo rejects (inertias not positive definite), loaded by myriad.load_asset's
+    # repairs as Isaac Gym would load it
+    "go1/go1": (1.0, 2, 150.0, 0.05),
     "talos_data/talos_left_arm": (1.0, 2, 150.0, 0.05),
     "ur/ur10_robot": (1.0, 2, 150.0, 0.05),
     # a contact between two links along a normal its joints can barely move (J M⁻¹ Jᵀ tiny):
