@@ -20,7 +20,7 @@ import numpy as np
 import warp as wp
 
 from . import pairs as pair_rules
-from .model import Model
+from .model import Model, dof_tree_spans
 from .params import SimParams
 from .runtime.launch import block_threads
 from .stages.collision import CANDIDATES_PER_SLOT
@@ -175,20 +175,9 @@ def allocate_data(dm: DeviceModel, num_envs: int, device) -> Data:
 
 # ------------------------------------------------------------------ the model's derived layouts
 def tree_spans(model) -> tuple[np.ndarray, np.ndarray]:
-    """[lo, hi) of the dof tree of each dof [nv, 2] and of each body's moving dofs [nbody, 2].
-
-    A dof tree is a top dof (no parent dof) with all its descendants: in MuJoCo's depth-first
-    order its dofs are contiguous, and dofs of different trees never couple in the mass matrix.
-    """
-    top = np.arange(model.nv)
-    for i in range(model.nv):                      # parents come first in MuJoCo's order
-        if model.dof_parent[i] >= 0:
-            top[i] = top[model.dof_parent[i]]
-    dof_span = np.zeros((model.nv, 2), np.int32)
-    for t in np.unique(top):
-        members = np.flatnonzero(top == t)
-        assert members[-1] - members[0] + 1 == len(members), "a dof tree is not contiguous"
-        dof_span[members] = (members[0], members[-1] + 1)
+    """[lo, hi) of the dof tree of each dof [nv, 2] (`model.dof_tree_spans`) and of each body's
+    moving dofs [nbody, 2]."""
+    dof_span = dof_tree_spans(model.dof_parent)
     body_span = np.zeros((model.nbody, 2), np.int32)
     moved = model.body_last_dof >= 0
     body_span[moved] = dof_span[model.body_last_dof[moved]]

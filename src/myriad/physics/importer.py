@@ -21,7 +21,7 @@ import xml.parsers.expat
 import mujoco
 import numpy as np
 
-from .model import Model, ModelError
+from .model import Model, ModelError, dof_tree_spans
 from .types import ActuatorKind, DynType, EqualityType, JointType, ObjType, SensorType
 
 
@@ -267,13 +267,12 @@ def _check_supported(m, source: str) -> None:
             for w in range(adr, adr + num):
                 if m.jnt_type[m.wrap_objid[w]] not in (JointType.HINGE, JointType.SLIDE):
                     fail(f"{label}: a fixed tendon may only span hinge and slide joints")
-        else:
-            _check_side_sites(m, t, fail)
         if m.tendon_armature[t] != 0 or np.any(m.tendon_stiffnesspoly[t] != 0) \
                 or np.any(m.tendon_dampingpoly[t] != 0):
             fail(f"{label}: tendon armature and polynomial springs are not supported")
         if m.tendon_lengthspring[t, 0] != m.tendon_lengthspring[t, 1]:
             fail(f"{label}: a springlength dead band (two values) is not supported")
+    _check_side_sites(m, fail)
     trn = mujoco.mjtTrn
     for a in range(m.nu):
         label = _label(m, o.mjOBJ_ACTUATOR, a, "actuator")
@@ -302,37 +301,31 @@ def _check_supported(m, source: str) -> None:
                  "is not supported")
 
 
-def _check_side_sites(m, t: int, fail) -> None:
+def _check_side_sites(m, fail) -> None:
     """A side site inside its wrapping geom asks for MuJoCo's inside wrap, which Myriad does not
-    do: refused, judged at the model's initial pose."""
+    do: refused, judged at the model's initial pose (one forward kinematics for all)."""
+    wraps = [w for w in range(m.nwrap) if round(m.wrap_prm[w]) >= 0 and int(m.wrap_type[w]) in
+             (mujoco.mjtWrap.mjWRAP_SPHERE, mujoco.mjtWrap.mjWRAP_CYLINDER)]
+    if not wraps:
+        return
     data = mujoco.MjData(m)
     mujoco.mj_kinematics(m, data)
-    for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
-        side = int(round(m.wrap_prm[w]))
-        if int(m.wrap_type[w]) not in (mujoco.mjtWrap.mjWRAP_SPHERE,
-                                       mujoco.mjtWrap.mjWRAP_CYLINDER) or side < 0:
-            continue
-        g = m.wrap_objid[w]
+    for w in wraps:
+        side, g = int(round(m.wrap_prm[w])), m.wrap_objid[w]
         local = data.geom_xmat[g].reshape(3, 3).T @ (data.site_xpos[side] - data.geom_xpos[g])
         if np.linalg.norm(local) < m.geom_size[g, 0]:
+            t = int(np.searchsorted(m.tendon_adr, w, "right") - 1)
             fail(f"{_label(m, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')}: its side site "
-                 f"{_name(m, mujoco.mjtObj.mjOBJ_SITE, side)!r} lies inside the geom it wraps "
-                 "(MuJoCo's inside wrapping) is not supported")
+                 f"{_name(m, mujoco.mjtObj.mjOBJ_SITE, side)!r} lies inside the geom it wraps: "
+                 "MuJoCo's inside wrapping is not supported")
 
 
-def _tendon_paths(m) -> dict:
+def _tendon_paths(m, body_last_dof: np.ndarray) -> dict:
     """tendon_spatial (row of each spatial tendon, -1 for fixed ones) and tendon_dofspan: the
     dofs a spatial tendon's path moves with, as one range over their dof trees."""
     spatial = np.full(m.ntendon, -1)
     span = np.zeros((m.ntendon, 2))
-    tree_of = {}
-    for i in range(m.nv):        # top dof of each dof's tree, and the tree's last dof
-        top = i
-        while m.dof_parentid[top] >= 0:
-            top = m.dof_parentid[top]
-        tree_of[i] = top
-    tree_end = {top: max(i for i in range(m.nv) if tree_of[i] == top) + 1
-                for top in set(tree_of.values())}
+    dof_span = dof_tree_spans(m.dof_parentid)
     for t in range(m.ntendon):
         adr, num = m.tendon_adr[t], m.tendon_num[t]
         if m.wrap_type[adr] == mujoco.mjtWrap.mjWRAP_JOINT:
@@ -341,14 +334,9 @@ def _tendon_paths(m) -> dict:
         bodies = [m.site_bodyid[o] if k == mujoco.mjtWrap.mjWRAP_SITE else m.geom_bodyid[o]
                   for k, o in zip(m.wrap_type[adr:adr + num], m.wrap_objid[adr:adr + num])
                   if k != mujoco.mjtWrap.mjWRAP_PULLEY]
-        dofs = [m.body_dofadr[b] for b in set(bodies) if m.body_dofnum[b] > 0]
-        for b in set(bodies):    # a body without dofs of its own moves with an ancestor's
-            while b > 0 and m.body_dofnum[b] == 0:
-                b = m.body_parentid[b]
-            if b > 0:
-                dofs.append(m.body_dofadr[b])
-        if dofs:
-            span[t] = (min(tree_of[d] for d in dofs), max(tree_end[tree_of[d]] for d in dofs))
+        moving = [body_last_dof[b - 1] for b in set(bodies) if b > 0 and body_last_dof[b - 1] >= 0]
+        if moving:
+            span[t] = (dof_span[moving, 0].min(), dof_span[moving, 1].max())
     return dict(tendon_spatial=_i32(spatial), tendon_dofspan=_i32(span),
                 wrap_type=_i32(m.wrap_type))
 
@@ -500,8 +488,8 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
                   np.where(is_kind(ActuatorKind.AFFINE), -biasprm[:, 1], 0.0))
     kv = np.where(is_kind(ActuatorKind.POSITION, ActuatorKind.AFFINE), -biasprm[:, 2],
                   np.where(is_kind(ActuatorKind.VELOCITY), gainprm[:, 0], 0.0))
-    tendon_paths = _tendon_paths(m)
-    transmissions = _transmissions(m, tendon_paths)
+    tendon_paths = _tendon_paths(m, body_last_dof)
+    transmissions = _transmissions(m, tendon_paths, body_last_dof)
 
     hull_face, hull_faceadr, hull_facenum = _mesh_hulls(m, source)
     sensors = _sensors(m, source)
@@ -586,7 +574,7 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
     return model
 
 
-def _transmissions(m, tendon_paths: dict) -> dict:
+def _transmissions(m, tendon_paths: dict, body_last_dof: np.ndarray) -> dict:
     """Each actuator's transmission as entries (dof, qpos, coef), in actuator order: a joint is
     one entry of coef 1, a fixed tendon its joints with their coefficients (MuJoCo's tendon
     length, without an offset: Σ coef·q)."""
@@ -599,9 +587,7 @@ def _transmissions(m, tendon_paths: dict) -> dict:
             # each substep from the site's pose (coef unused)
             site[a], site_gear[a] = target, m.actuator_gear[a]
             body, dofs = m.site_bodyid[target], []
-            while body > 0 and m.body_dofnum[body] == 0:
-                body = m.body_parentid[body]
-            dof = m.body_dofadr[body] + m.body_dofnum[body] - 1 if body > 0 else -1
+            dof = body_last_dof[body - 1] if body > 0 else -1
             while dof >= 0:
                 dofs.append(dof)
                 dof = m.dof_parentid[dof]

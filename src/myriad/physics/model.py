@@ -287,6 +287,23 @@ class Model:
                 f"ngeom={self.ngeom} nu={self.nu} ntendon={self.ntendon} nsensor={self.nsensor})")
 
 
+def dof_tree_spans(dof_parent: np.ndarray) -> np.ndarray:
+    """[lo, hi) of the dof tree of each dof [nv, 2]. A dof tree is a top dof (no parent dof)
+    with all its descendants: in MuJoCo's depth-first order its dofs are contiguous, and dofs of
+    different trees never couple in the mass matrix."""
+    nv = len(dof_parent)
+    top = np.arange(nv)
+    for i in range(nv):                            # parents come first in MuJoCo's order
+        if dof_parent[i] >= 0:
+            top[i] = top[dof_parent[i]]
+    dof_span = np.zeros((nv, 2), np.int32)
+    for t in np.unique(top):
+        members = np.flatnonzero(top == t)
+        assert members[-1] - members[0] + 1 == len(members), "a dof tree is not contiguous"
+        dof_span[members] = (members[0], members[-1] + 1)
+    return dof_span
+
+
 def _index(names: list[str], name: str, kind: str) -> int:
     try:
         return names.index(name)

@@ -29,6 +29,7 @@ from ..types import (AFFINE, CAPSULE, CYLINDER, DYN_FILTER, DYN_FILTEREXACT, DYN
 from ..spatial import row_finite
 from ..spatial import velocity_at
 from .dynamics import subtree_sums
+from .kinematics import geom_frame
 from ..structs import Control, Dynamics, EnvParams, ModelArrays, Options, State
 
 
@@ -240,7 +241,7 @@ def fluid_wrench(p: EnvParams, s: State, e: int, b: int, ref: wp.vec3):
     density = p.fluid_density[e]
     viscosity = p.fluid_viscosity[e]
     mass = p.body_mass[e, b]
-    if (density <= 0.0 and viscosity <= 0.0) or mass < 1.0e-15:
+    if mass < 1.0e-15:              # (the caller asks only where the env has a medium)
         return wp.spatial_vector()
     inertia = p.body_inertia[e, b]
     box = wp.vec3(wp.sqrt(wp.max(1.0e-15, inertia[1] + inertia[2] - inertia[0]) / mass * 6.0),
@@ -315,7 +316,7 @@ def ellipsoid_fluid_wrench(m: ModelArrays, p: EnvParams, s: State, e: int, b: in
         if coef[0] == 0.0:
             continue
         size = _semi_axes(m.geom_type[g], p.geom_size[e, g])
-        frame = s.body_x[e, b] * wp.transform(p.geom_pos[e, g], m.geom_quat[g])
+        frame = geom_frame(m, p, s, e, g)
         rot = wp.transform_get_rotation(frame)
         pos = wp.transform_get_translation(frame)
         w = wp.quat_rotate_inv(rot, wp.spatial_top(cvel))

@@ -122,6 +122,16 @@ def kinematics(m: ModelArrays,
             sync()
 
 
+@wp.func
+def geom_frame(m: ModelArrays, p: EnvParams, s: State, e: int, g: int):
+    """World pose of geom g from its body's pose (a geom of the world: its own)."""
+    x = wp.transform(p.geom_pos[e, g], m.geom_quat[g])
+    b = m.geom_body[g]
+    if b >= 0:
+        x = s.body_x[e, b] * x
+    return x
+
+
 @wp.kernel
 def site_frames(m: ModelArrays, p: EnvParams,
                 # in: body_x; out: site_x

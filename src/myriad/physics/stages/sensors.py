@@ -27,6 +27,7 @@ import warp as wp
 
 from ..lanes import stop, sync, world_lane
 from .dynamics import newton_euler, subtree_sums
+from .kinematics import geom_frame
 from ..spatial import velocity_at
 from ..structs import Contacts, Dynamics, EnvParams, ModelArrays, Options, State
 from ..types import (BOX, CAPSULE, CYLINDER, DATA_POSITIVE, DATA_REAL, ELLIPSOID, OBJ_BODY,
@@ -116,11 +117,7 @@ def object_frame(m: ModelArrays, p: EnvParams, s: State, e: int, objtype: int, o
         return s.site_x[e, objid]
     if objtype == OBJ_GEOM:
         # from the bodies, not `geom_x`: that is the collision stage's, before the last substep
-        x = wp.transform(p.geom_pos[e, objid], m.geom_quat[objid])
-        b = m.geom_body[objid]
-        if b >= 0:
-            x = s.body_x[e, b] * x
-        return x
+        return geom_frame(m, p, s, e, objid)
     if objid < 0:
         return wp.transform_identity()
     if objtype == OBJ_BODY:

@@ -281,6 +281,17 @@ def _equality(m: ModelArrays, e: int, base: int, i: int, biased: int, tgs: int, 
 
 
 @wp.func
+def _candidate_count(rows: Rows, e: int, n: int):
+    """The joint-limit block's candidates listed in rows.block_cand (-1 after the last)."""
+    k = int(0)
+    while k < n:
+        if rows.block_cand[e, k] < 0:
+            break
+        k += 1
+    return k
+
+
+@wp.func
 def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout,
                 limit_jnt: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int,
                 hs: float, h: float, max_depenetration: float, factor: wp.array2d(dtype=float),
@@ -303,10 +314,7 @@ def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout,
                     rows.block_cand[e, k] = i
                     k += 1
         else:
-            while k < n:
-                if rows.block_cand[e, k] < 0:
-                    break
-                k += 1
+            k = _candidate_count(rows, e, n)
         # a row out of reach pushes once the joint would pass its limit within this position
         # sweep's step (`_normal_target`: err + hs·J·v < 0); the velocity sweeps move nothing,
         # and the next substep's rows see their speed
@@ -334,11 +342,7 @@ def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout,
         if k < n:
             rows.block_cand[e, k] = -1
     _wait(ln)
-    ncand = int(0)
-    while ncand < n:
-        if rows.block_cand[e, ncand] < 0:
-            break
-        ncand += 1
+    ncand = _candidate_count(rows, e, n)
     for k in range(ncand):
         r = base + rows.block_cand[e, k]
         old = rows.lam[e, r]

@@ -16,6 +16,7 @@ exactly as they use a fixed tendon's coefficients (`constraints`, `forces`).
 import warp as wp
 
 from ..spatial import velocity_at
+from .kinematics import geom_frame
 from ..structs import EnvParams, ModelArrays, State
 from ..types import WRAP_CYLINDER, WRAP_PULLEY, WRAP_SPHERE
 
@@ -237,10 +238,7 @@ def spatial_tendons(m: ModelArrays, p: EnvParams,
         arc = float(-1.0)
         wrapped = wp.mat33()
         if geom >= 0:
-            gbody = m.geom_body[geom]
-            frame = wp.transform(p.geom_pos[e, geom], m.geom_quat[geom])
-            if gbody >= 0:
-                frame = s.body_x[e, gbody] * frame
+            frame = geom_frame(m, p, s, e, geom)
             side = int(wp.round(m.wrap_coef[w + 1]))
             side_point = wp.vec3()
             if side >= 0:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import warp as wp
 
 from ...spatial import tangents
+from ..kinematics import geom_frame
 from ...structs import Contacts, EnvParams, HFields, Meshes, ModelArrays, Options, State
 from ...types import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPHERE
 from .convex import (bounding_box, bounding_radius, box_corner, boxes_apart,
@@ -583,10 +584,7 @@ def geom_frames(m: ModelArrays, p: EnvParams, meshes: Meshes,
     """Each geom's pose in the world, and its bounding sphere for the broadphase (the pair test
     then reads 4 floats per geom instead of a pose, a size and a shape's radius)."""
     e, g = wp.tid()
-    x = wp.transform(p.geom_pos[e, g], m.geom_quat[g])
-    b = m.geom_body[g]
-    if b >= 0:
-        x = s.body_x[e, b] * x
+    x = geom_frame(m, p, s, e, g)
     s.geom_x[e, g] = x
     t = m.geom_type[g]
     radius = float(0.0)
