@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# The GPU check, in four stages, each meant as one command of at most 8 minutes on a fresh GPU
+# The GPU check, in five stages, each meant as one command of at most 8 minutes on a fresh GPU
 # machine:
-#   peers   MuJoCo Warp and Myriad on the same models (gpu_peers.py), then the throughput table
-#           (throughput.py) in the time left
+#   peers   MuJoCo Warp and Myriad on the same models (gpu_peers.py; PEERS_ARGS: more of its
+#           arguments), then the throughput table (throughput.py) in the time left
+#   lanes   the cooperative kernels' lanes per world swept (lane_sweep.py; LANES_ARGS,
+#           LANES_BUDGET_S 150)
 #   tests   the test suite on CUDA, one pytest process per file
 #   soak    every task under random actions for two episode lengths: nothing may go non-finite
 #   train   short training runs that time the paper's milestones
@@ -11,7 +13,7 @@
 # MuJoCo Warp's kernels are not in that cache and compile in the peers stage):
 #   python benchmarks/precompile_cuda.py --arch 90 --cache .device/kcache     # here (no GPU)
 #   WARP_CACHE_PATH=.device/kcache bash benchmarks/gpu_suite.sh peers         # there, one stage
-#   bash benchmarks/gpu_suite.sh                  # all four: peers tests soak train
+#   bash benchmarks/gpu_suite.sh                  # all five: peers lanes tests soak train
 # Each stage prints its budget first and, last, what it skipped to stay inside it. Budgets, in
 # seconds: PEERS_S (the whole peers stage, 480) of which PEERS_BUDGET_S (240) for gpu_peers.py;
 # TEST_TIMEOUT (420, per test file; the files run side by side); SOAK_BUDGET_S (420);
@@ -22,7 +24,7 @@ cd "$(dirname "$0")/.."
 DEVICE=${DEVICE:-cuda:0}
 LOGS=${LOGS:-gpu_logs}
 mkdir -p "$LOGS"
-stages=${*:-peers tests soak train}
+stages=${*:-peers lanes tests soak train}
 status=0
 export PYTHONUNBUFFERED=1
 
@@ -33,7 +35,7 @@ for stage in $stages; do
       budget=${PEERS_S:-480} peers_budget=${PEERS_BUDGET_S:-240}
       echo "== peers on $DEVICE: budget $budget s (gpu_peers $peers_budget s, then throughput.py)"
       python3 benchmarks/gpu_peers.py --device "$DEVICE" --budget-s "$peers_budget" \
-        --json "$LOGS/peers.json" 2>&1 | tee "$LOGS/peers.log"
+        --json "$LOGS/peers.json" ${PEERS_ARGS:-} 2>&1 | tee "$LOGS/peers.log"
       [ "${PIPESTATUS[0]}" -eq 0 ] || status=1
       skipped="gpu_peers.py: $(sed -n 's/^skipped: //p' "$LOGS/peers.log")"
       left=$((budget - (SECONDS - start)))
@@ -70,6 +72,16 @@ for stage in $stages; do
       timed_out=$(awk '$3 == 124 {print $1}' "$LOGS/tests/exit_codes" | sort | paste -sd' ')
       skipped="${timed_out:+the rest of $timed_out (stopped at $timeout_s s)}"
       rm -rf "$LOGS/tests" ;;
+    lanes)
+      # lanes per world of the cooperative kernels: each count's stage times, the best per kind
+      # of work, the default, and the same state from the same solve lane count
+      lanes_budget=${LANES_BUDGET_S:-150}
+      echo "== lanes on $DEVICE: budget $lanes_budget s"
+      timeout "$lanes_budget" python3 benchmarks/lane_sweep.py --device "$DEVICE" \
+        ${LANES_ARGS:-} 2>&1 | tee "$LOGS/lanes.log"
+      rc=${PIPESTATUS[0]}
+      [ "$rc" -eq 124 ] && skipped="lane_sweep.py after the last printed (cut at $lanes_budget s)"
+      [ "$rc" -eq 0 ] || [ "$rc" -eq 124 ] || status=1 ;;
     soak)
       soak_budget=${SOAK_BUDGET_S:-420}
       echo "== soak on $DEVICE: budget $soak_budget s"
@@ -106,7 +118,7 @@ Ingenuity 45 1000 5000
 Humanoid 240 1000 3000 5000
 Anymal 120 10 40}"
       skipped=$(IFS=';'; echo "${dropped[*]}") ;;
-    *) echo "unknown stage $stage (peers, tests, soak, train)"; exit 2 ;;
+    *) echo "unknown stage $stage (peers, lanes, tests, soak, train)"; exit 2 ;;
   esac
   echo "== $stage: $((SECONDS - start)) s; skipped to stay inside the budget: ${skipped:-nothing}"
 done

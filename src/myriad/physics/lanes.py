@@ -14,7 +14,9 @@ items in index order, as a serial loop does) and with many (CUDA; the CPU too wi
 `MYRIAD_CPU_BLOCK_DIM`, through Warp's cooperative CPU fibers). Each item is computed by one
 lane in the same arithmetic either way, and sums keep a fixed order (a parent gathers its
 children, highest index first), so the results do not depend on the lane count or on timing:
-bit for bit, not only up to rounding.
+bit for bit, not only up to rounding. One exception: the solve's J·v sums (`solver_tgs._dot`)
+add each lane's part in lane order, so they depend on the solve's lane count (never on timing:
+the same count gives the same bits on every run).
 
 The loops over a world's items are written inline or in functions marked `inline=True`: a CPU
 build passes structs to a function by value, so a call per body would copy the model's arrays

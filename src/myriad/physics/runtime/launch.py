@@ -180,7 +180,10 @@ class Runtime:
         def replay():
             if self._graph is None:
                 wp.load_module("myriad.physics", device=self.device, recursive=True)
-                with wp.ScopedCapture(device=self.device, stream=self._stream) as capture:
+                # only the engine's modules: the default would first load every Warp module
+                # the process imported (another library's, compiled for nothing)
+                with wp.ScopedCapture(device=self.device, stream=self._stream,
+                                      force_module_load=False) as capture:
                     fn()
                 self._graph = capture.graph
             wp.capture_launch(self._graph, stream=self._stream)
