@@ -7,7 +7,7 @@ every lane count gives the same state bit for bit.
 Each model is set up as in `gpu_peers.py` (same MJCF, timestep, keyframe, control noise, one
 substep, TGS 4/0) and stepped once per configuration: first every kind of work at the same lane
 count L (1, 2, 4, 8, 16, 32: the lane counts that divide the 32-thread block, so no kernel is
-compiled again), then the best L per kind (the sum of its stages' times, below) together, then
+compiled again; the solve 1 lane, or 0 = the whole block, for L > 1), then the best L per kind (the sum of its stages' times, below) together, then
 the default `BlockDim()`. A kind's count only changes which threads take a world's items, not the
 arithmetic (`physics/lanes.py`), except the solve's: its sums add each lane's part in lane order
 (`solver_tgs._dot`), so configurations with the same solve lane count must end in the same state
@@ -15,7 +15,7 @@ arithmetic (`physics/lanes.py`), except the solve's: its sums add each lane's pa
 
     bodies  kinematics, dynamics, solve unconstrained (tree levels' bodies)
     rows    constraint rows (a family's items)
-    solve   solve constraints (the sweeps' sums; 32 lanes = a world per block)
+    solve   solve constraints (1, or 0: a world per block; `BlockDim` refuses others)
     dofs    integrate, constraint outputs (dofs, joints, contacts, sensors)
 """
 
@@ -80,7 +80,10 @@ def main() -> None:
           flush=True)
     for name in args.models:
         mjm, model = gpu_peers.load(name)
-        configs = [(f"all {L}", BlockDim(bodies=L, dofs=L, rows=L, solve=L)) for L in LANES]
+        # the sweeps wait on the block inside loops whose length is the world's (its contacts):
+        # their lanes are 1 (no wait) or the whole block (0), never several worlds per block
+        configs = [(f"all {L}", BlockDim(bodies=L, dofs=L, rows=L, solve=1 if L == 1 else 0))
+                   for L in LANES]
         rows = []
         for label, block in configs:
             start = time.perf_counter()
@@ -91,6 +94,7 @@ def main() -> None:
         best = {kind: min(LANES, key=lambda L: sum(
             rows[LANES.index(L)][2]["stage_ms"][s] for s in stages))
             for kind, stages in KINDS.items()}
+        best["solve"] = 1 if best["solve"] == 1 else 0
         for label, block in (("best per kind", BlockDim(**best)), ("default", BlockDim())):
             rows.append((label, block, measure(model, mjm, args.worlds, args.steps, args.device,
                                                block)))

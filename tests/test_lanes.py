@@ -45,7 +45,7 @@ def run(model, controls: torch.Tensor, block_dim: int, monkeypatch,
 
 @pytest.mark.parametrize("name", list(MODELS))
 def test_the_stages_around_the_solve_give_the_one_lane_results_bit_for_bit(name, monkeypatch):
-    """10 steps with contacts, the solve kept to one lane per world: one lane per world against
+    """10 steps with contacts, the solve one lane per world (the default): one lane per world against
     blocks of 32 threads (the CUDA configuration: several worlds per block, the last block
     partly empty) and of 3 (lanes that do not divide the items evenly)."""
     monkeypatch.setattr(step, "BLOCK_DIM", dataclasses.replace(step.BLOCK_DIM, solve=1))
@@ -60,11 +60,12 @@ def test_the_stages_around_the_solve_give_the_one_lane_results_bit_for_bit(name,
 
 @pytest.mark.parametrize("name, scale", [("ant", 1.0), ("hand-and-cube", 1.0), ("humanoid", 0.0)])
 def test_the_cooperative_solve_matches_the_one_lane_solve(name, scale, monkeypatch):
-    """The solve's lanes sum each row's J·v in another order than one lane (a block-wide
-    reduction): 10 steps with contacts stay within 1e-5 of the one-lane joint positions, and
+    """The cooperative solve (`BlockDim(solve=0)`: a world per block; not the default) sums
+    each row's J·v in another order than one lane (a block-wide reduction): 10 steps with contacts stay within 1e-5 of the one-lane joint positions, and
     repeat bit for bit. (The humanoid lies down under no input: under random torques its
     unconverged sweeps amplify the last bits, 1e-3 after 10 steps, as any change of the sums'
     order does.)"""
+    monkeypatch.setattr(step, "BLOCK_DIM", dataclasses.replace(step.BLOCK_DIM, solve=0))
     model = MODELS[name]()
     controls = scale * (torch.rand(10, 5, model.nu,
                                    generator=torch.Generator().manual_seed(0)) * 2 - 1)
