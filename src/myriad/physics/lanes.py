@@ -35,6 +35,38 @@ def sync():
     ...
 
 
+@wp.func_native("""
+#if defined(__CUDA_ARCH__)
+    return lanes == 32;
+#else
+    return false;
+#endif
+""")
+def warp_lanes(lanes: int) -> bool:
+    """Whether a world's `lanes` are one whole warp (CUDA, 32 lanes; a world's lanes start at a
+    multiple of `lanes` in a block of a multiple of 32 threads): its sums can then pass through
+    the warp's registers (`warp_sum`) instead of device memory and a wait of the block."""
+    ...
+
+
+@wp.func_native("""
+#if defined(__CUDA_ARCH__)
+    float s = x;
+    for (int k = 16; k > 0; k >>= 1) s += __shfl_xor_sync(0xffffffffu, s, k);
+    __syncwarp();
+    return s;
+#else
+    return x;
+#endif
+""")
+def warp_sum(x: float) -> float:
+    """x summed over the 32 lanes of the calling warp, the same bits on every lane (a butterfly:
+    at each step two lanes add the same two values, in either order); every lane's writes before
+    it are seen by all after it (`__syncwarp`). Only where `warp_lanes` holds; every lane of the
+    warp must call it."""
+    ...
+
+
 @wp.func(inline=True)
 def world_lane(block: int, thread: int, lanes: int, nworld: int):
     """(world, lane, active) of thread `thread` of block `block`: `active` is false for the

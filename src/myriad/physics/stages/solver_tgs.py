@@ -29,7 +29,7 @@ import warp as wp
 from .. import dense
 from .constraints import _col, build_contact_rows, build_dof_row
 from ..types import DOF, EQUALITY, FRICTION, INACTIVE, NORMAL, SOFT
-from ..lanes import stop, sync, world_lane
+from ..lanes import stop, sync, warp_lanes, warp_sum, world_lane
 from ..structs import Contacts, Dynamics, ModelArrays, Options, RowLayout, Rows, State
 
 # fraction of the last substep's impulse a limit row, or the normal row of a contact with the
@@ -68,12 +68,15 @@ def _row_in_use(i: int, used: int, layout: RowLayout):
 def _dot(rows: Rows, a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
          sp: wp.vec4i, ln: wp.vec2i):
     """a[e, r] · v[e] over the row's span, the same on every lane of the world: one lane sums
-    it 8 wide (`dense.row_dot`); lanes each sum their dofs, write the part, wait, and add the
-    parts in lane order (another order of the terms than one lane's, the same on every run).
-    The parts go to one of two buffers in turn: a lane writing the next sum's part has passed
-    the wait after which every lane read this one's."""
+    it 8 wide (`dense.row_dot`); lanes each sum their dofs and combine the parts: on CUDA with
+    a world per warp through the warp's registers (`warp_sum`, a butterfly), else by writing
+    the part, waiting, and adding the parts in lane order. Either is another order of the terms
+    than one lane's, the same on every run. The parts go to one of two buffers in turn: a lane
+    writing the next sum's part has passed the wait after which every lane read this one's."""
     if ln[1] == 1:
         return dense.row_dot(a, e, r, v, sp)
+    if warp_lanes(ln[1]):       # CUDA, a world per warp: the parts meet in registers
+        return warp_sum(dense.row_dot_lane(a, e, r, v, sp, ln[0], ln[1]))
     turn = rows.lane_turn[e, ln[0]] % 2
     rows.lane_turn[e, ln[0]] = turn + 1
     rows.lane_sum[e, turn, ln[0]] = dense.row_dot_lane(a, e, r, v, sp, ln[0], ln[1])
