@@ -11,8 +11,9 @@ import torch
 
 from myriad import cli
 from myriad.rl import evaluate as ev
-from myriad.rl import run
+from myriad.rl import run, shipped
 from myriad.rl.export import build_network
+from myriad.tasks import TASKS
 
 
 def save_checkpoint(path, task, num_envs=4, summary_task=None):
@@ -182,8 +183,10 @@ def test_a_checkpoint_of_another_task_or_a_bad_file_is_a_clear_error(tmp_path, c
     assert cli.main(["eval", "task=Ant", "device=cpu",
                      f"checkpoint={tmp_path / 'none.pth'}"]) == 2
     assert "no such file" in capsys.readouterr().err
-    assert cli.main(["eval", "task=Ant", "device=cpu", f"train_dir={tmp_path / 'empty'}"]) == 2
-    assert "no trained Ant run" in capsys.readouterr().err
+    unshipped = next(t for t in TASKS if t not in shipped.manifest())   # else eval falls back
+    assert cli.main(["eval", f"task={unshipped}", "device=cpu",
+                     f"train_dir={tmp_path / 'empty'}"]) == 2
+    assert f"no trained {unshipped} run" in capsys.readouterr().err
     assert cli.main(["eval", "task=Ant", "device=cpu", "episodez=3"]) == 2
     assert "no key episodez (did you mean episodes?)" in capsys.readouterr().err
     assert cli.main(["eval", "task=Ant", "device=cpu", "episodes=0"]) == 2

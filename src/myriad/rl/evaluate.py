@@ -368,7 +368,7 @@ def evaluate(overrides: list[str]) -> int:
     """`myriad eval task=<T> [checkpoint=PATH num_envs=N episodes=K seed=S judge=true
     output=FILE.json]`."""
     from ..tasks import TASKS, config_int
-    from . import run
+    from . import run, shipped
     from .export import load_network, read_checkpoint
     from .policy import policy_from_network
     from .train import atomic_json
@@ -398,15 +398,17 @@ def evaluate(overrides: list[str]) -> int:
     if train_cfgs[1] == train_cfgs[0]:
         train_cfgs = train_cfgs[:1]
     name = task_cfg["name"]
-    checkpoint = str(cfg.checkpoint or run.latest_checkpoint(cfg.train_dir, name))
+    checkpoint = run.policy_checkpoint(cfg, name)
     state = read_checkpoint(checkpoint)          # missing or unreadable: a one-line error
     written_by = checkpoint_task(checkpoint)
     if written_by is not None and written_by != name:
         raise ValueError(f"checkpoint {checkpoint} was written by a {written_by} run (its "
                          f"summary.json), not {name}: give task={written_by} or a {name} "
                          "checkpoint")
-    output = str(cfg.output or os.path.join(os.path.dirname(os.path.dirname(
-        os.path.abspath(checkpoint))), "eval.json"))
+    output = str(cfg.output or run.output_beside(checkpoint, cfg.train_dir,
+                                                  f"{name}_eval.json" if
+                                                  shipped.is_shipped(checkpoint) else
+                                                  "eval.json"))
 
     seed = int(cfg.seed)
     torch.manual_seed(seed)

@@ -526,11 +526,8 @@ def export(overrides: list[str]) -> int:
     if train_cfgs[1] == train_cfgs[0]:
         train_cfgs = train_cfgs[:1]
     name = task_cfg["name"]
-    checkpoint = cfg.checkpoint or run.latest_checkpoint(cfg.train_dir, name)
-    if not os.path.isfile(checkpoint):
-        raise FileNotFoundError(f"checkpoint={checkpoint}: no such file")
-    output = cfg.output or os.path.join(os.path.dirname(os.path.dirname(
-        os.path.abspath(checkpoint))), f"{name}.onnx")
+    checkpoint = run.policy_checkpoint(cfg, name)
+    output = cfg.output or run.output_beside(checkpoint, cfg.train_dir, f"{name}.onnx")
     task_cfg["env"]["numEnvs"] = 1
     task = TASKS[name](copy.deepcopy(task_cfg), device="cpu")
     info = export_policy(name, task, train_cfgs, str(checkpoint), str(output))

@@ -17,6 +17,8 @@ import json
 import math
 import contextlib
 import os
+import platform
+import subprocess
 import time
 
 from omegaconf import OmegaConf
@@ -318,6 +320,9 @@ def checkpoint_and_experiment(cfg, task: str) -> tuple[str | None, str]:
     if cfg.resume and cfg.checkpoint:
         raise ValueError("give checkpoint=PATH or resume=auto, not both")
     checkpoint = cfg.checkpoint
+    if checkpoint == "shipped":          # fine-tuned in a new run folder
+        from .shipped import checkpoint_for
+        checkpoint = checkpoint_for(task)
     # Hydra reads experiment=nan or experiment=7 as numbers: a folder name is text
     experiment = None if cfg.experiment is None else str(cfg.experiment)
     if cfg.resume:
@@ -456,8 +461,10 @@ def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
                "describe": {"task": name, "device": device,
                             "num_envs": task.num_envs * processes, "seed": int(cfg.seed),
                             "minibatch_size": minibatch * processes,
-                            "machine": f"{os.cpu_count()} CPU cores" + (
-                                "" if device == "cpu" else f", {_gpu_name(device)}")}}
+                            "machine": f"{os.cpu_count()} CPU cores ({cpu_name()})" + (
+                                "" if device == "cpu" else f", {_gpu_name(device)}"),
+                            "command": "myriad train " + " ".join(overrides),
+                            "revision": revision()}}
         if distributed is not None:
             run["describe"]["processes"] = processes
             run["distributed"] = distributed
@@ -499,12 +506,64 @@ def _gpu_name(device: str) -> str:
     return torch.cuda.get_device_name(torch.device(device))
 
 
-def latest_checkpoint(train_dir: str, task: str) -> str:
-    folder = newest_run(train_dir, task)
-    if folder is None:
-        raise FileNotFoundError(f"no trained {task} run under {train_dir}/: train one with "
-                                f"`myriad train task={task}` or pass checkpoint=<file.pth>")
-    return os.path.join(folder, "nn", "last.pth")
+def cpu_name() -> str:
+    """The processor's model name (Linux), else its architecture."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.machine()
+
+
+def revision() -> str:
+    """The source tree's git revision (+dirty when it has changes), or the package's version."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    try:
+        rev = subprocess.run(["git", "describe", "--always", "--dirty=+dirty"], cwd=here,
+                             capture_output=True, text=True, timeout=10, check=True)
+        return rev.stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        from importlib.metadata import version
+        return f"myriad {version('myriad')}"
+
+
+def policy_checkpoint(cfg, task: str) -> str:
+    """The checkpoint `play` and `eval` run: checkpoint=PATH; checkpoint=shipped, the policy that
+    comes with Myriad (`shipped.py`); none given, the newest run's nn/last.pth, or the shipped
+    policy while the task has no run under train_dir."""
+    from . import shipped
+
+    if cfg.checkpoint == "shipped":
+        return shipped.checkpoint_for(task)
+    if cfg.checkpoint:
+        if not os.path.isfile(str(cfg.checkpoint)):
+            raise FileNotFoundError(f"checkpoint={cfg.checkpoint}: no such file")
+        return str(cfg.checkpoint)
+    folder = newest_run(cfg.train_dir, task)
+    if folder is not None:
+        return os.path.join(folder, "nn", "last.pth")
+    try:
+        path = shipped.checkpoint_for(task)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"no trained {task} run under {cfg.train_dir}/ and no shipped "
+                                f"{task} policy: train one with `myriad train task={task}` or "
+                                "pass checkpoint=<file.pth>") from None
+    print(f"no {task} run under {cfg.train_dir}/: running the shipped policy ({path})",
+          flush=True)
+    return path
+
+
+def output_beside(checkpoint: str, train_dir: str, file: str) -> str:
+    """Where play's video and eval's report go by default: the checkpoint's run folder, or for
+    a shipped policy train_dir/shipped/ (never inside the installed package)."""
+    from . import shipped
+
+    if shipped.is_shipped(checkpoint):
+        return os.path.join(train_dir, "shipped", file)
+    return os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(checkpoint))), file)
 
 
 def open_viewer(cfg, task, controls: bool):
@@ -537,15 +596,13 @@ def play(overrides: list[str]) -> int:
     cfg = compose(overrides)
     task_cfg, train_cfg, device = task_and_train_configs(cfg, overrides)
     name = task_cfg["name"]
-    checkpoint = cfg.checkpoint or latest_checkpoint(cfg.train_dir, name)
-    if not os.path.isfile(checkpoint):
-        raise FileNotFoundError(f"checkpoint={checkpoint}: no such file")
+    checkpoint = policy_checkpoint(cfg, name)
     given = given_keys(overrides)
     watching = cfg.viewer is not None
     task_cfg["env"]["numEnvs"] = int(cfg.num_envs or (cfg.viewer_envs if watching else 1))
     task = TASKS[name](task_cfg, device=device)
     policy = load_policy(checkpoint, train_cfg, task)
-    video = cfg.video or os.path.join(os.path.dirname(os.path.dirname(checkpoint)), f"{name}.mp4")
+    video = cfg.video or output_beside(checkpoint, cfg.train_dir, f"{name}.mp4")
     steps = None if watching and "num_steps" not in given else int(cfg.num_steps)
     fps = round(1.0 / task.dt)
     viewer = open_viewer(cfg, task, controls=True)

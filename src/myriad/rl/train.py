@@ -55,6 +55,8 @@ from rl_games.algos_torch import a2c_continuous, torch_ext
 from rl_games.common import a2c_common, env_configurations, vecenv
 from rl_games.torch_runner import Runner
 
+from . import shipped
+
 
 def atomic_write(path: str, write) -> None:
     """Write through a temporary file and rename: readers never see a half-written file."""
@@ -694,13 +696,25 @@ def train(task, train_cfg: dict, run: dict, seed: int, checkpoint: str | None = 
             # its contents to all
             weights = torch_ext.load_checkpoint(checkpoint)
             return weights if distributed is None else _to_cpu(weights)
+        weights = from_rank_0(load, distributed)
+        fine_tune = shipped.weights_only(weights)
         try:
-            agent.set_full_state_weights(from_rank_0(load, distributed))
+            if fine_tune:       # a shipped policy: its networks and normalizers, nothing else
+                agent.set_weights(weights)
+                if agent.has_central_value and "assymetric_vf_nets" in weights:
+                    agent.central_value_net.load_state_dict(weights["assymetric_vf_nets"])
+            else:
+                agent.set_full_state_weights(weights)
         except Exception as err:  # truncated file, or a checkpoint of another task's network
-            raise ValueError(f"checkpoint {checkpoint}: cannot resume from it "
+            raise ValueError(f"checkpoint {checkpoint}: cannot "
+                             f"{'train on from' if fine_tune else 'resume from'} it "
                              f"({type(err).__name__}: {err})") from err
-        print(f"resuming from {checkpoint}: epoch {agent.epoch_num}, {agent.frame:,} env-steps, "
-              f"best mean reward {agent.best_mean_reward}", flush=True)
+        if fine_tune:
+            print(f"fine-tuning from {checkpoint}: its networks and normalizers, a fresh "
+                  "optimizer, epoch 0", flush=True)
+        else:
+            print(f"resuming from {checkpoint}: epoch {agent.epoch_num}, {agent.frame:,} "
+                  f"env-steps, best mean reward {agent.best_mean_reward}", flush=True)
     processes = "" if distributed is None else \
         f" per process, {distributed['world_size']} processes (rank 0 writes the files)"
     print(f"training {run['describe']['task']} with {task.num_envs} envs on {task.device}"

@@ -1,0 +1,176 @@
+"""Trained policies that come with Myriad (`checkpoint=shipped`), and how one is made.
+
+    myriad play task=Ant                          # no Ant run yet: the shipped policy
+    myriad play task=Ant checkpoint=shipped       # the shipped policy, whatever runs exist
+    myriad eval task=Ant checkpoint=shipped       # its figure, as the manifest gives it
+    myriad train task=Ant checkpoint=shipped      # fine-tune from it, with a fresh optimizer
+
+A shipped policy is `myriad/policies/<Task>.pth` in the package: what the deterministic policy
+and a fine-tune need (rl_games' `model` dict with the observation and value normalizers, the
+asymmetric critic where the task has one, the task state its run's checkpoint held), without
+the optimizer, the random generators or the run's timers; the network's layers in float16 where
+that leaves the evaluation within its own 95 % interval. `myriad/policies/manifest.json` says,
+per task, how the policy was made and what it reaches: the training command, the code revision,
+the machine, env-steps and wall time of the run, and the `myriad eval` figure of the shipped file
+itself. Maintainers ship a run's checkpoint with
+
+    python -m myriad.rl.shipped runs/NAME/nn/last.pth [--episodes 100]
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import datetime
+import io
+import json
+import os
+import tempfile
+from importlib import resources
+
+import torch
+
+MANIFEST = "manifest.json"
+# checkpoint keys a shipped policy keeps: the actor-critic with its normalizers, the asymmetric
+# critic and its statistics, the epoch and env-steps it was trained for, the task state
+KEPT = ("model", "assymetric_vf_nets", "central_val_stats", "epoch", "frame")
+
+
+def folder() -> str:
+    """The package's policies folder (it may hold no policy yet)."""
+    return str(resources.files("myriad") / "policies")
+
+
+def manifest() -> dict:
+    """Task name -> how its shipped policy was made and what `myriad eval` measured."""
+    path = os.path.join(folder(), MANIFEST)
+    if not os.path.isfile(path):
+        return {}
+    with open(path) as f:
+        return json.load(f)
+
+
+def checkpoint_for(task: str) -> str:
+    """The shipped policy file of `task`, or a FileNotFoundError naming the tasks that have one."""
+    entry = manifest().get(task)
+    path = os.path.join(folder(), entry["file"]) if entry else None
+    if path is None or not os.path.isfile(path):
+        have = ", ".join(sorted(manifest())) or "none yet"
+        raise FileNotFoundError(f"checkpoint=shipped: no policy of {task} ships with Myriad "
+                                f"(shipped: {have}); train one with `myriad train task={task}`")
+    return path
+
+
+def is_shipped(path: str) -> bool:
+    return os.path.dirname(os.path.abspath(path)) == os.path.abspath(folder())
+
+
+def weights_only(state: dict) -> bool:
+    """A shipped policy (weights and normalizers, no optimizer): trained on from, not resumed."""
+    return "optimizer" not in state
+
+
+def stripped(state: dict, fp16: bool) -> dict:
+    """What a shipped policy keeps of a run's checkpoint; with `fp16`, the networks' layers in
+    float16 (the normalizers' statistics keep their precision)."""
+    out = {k: state[k] for k in KEPT if k in state}
+    task_state = (state.get("myriad") or {}).get("task")
+    if task_state:
+        out["myriad"] = {"task": task_state}
+    if fp16:
+        for key in ("model", "assymetric_vf_nets"):
+            if key in out:
+                out[key] = {k: v.half() if torch.is_tensor(v) and v.is_floating_point()
+                            and "mean_std" not in k else v for k, v in out[key].items()}
+    return out
+
+
+def _evaluate(task: str, path: str, episodes: int, output: str) -> dict:
+    from .evaluate import evaluate
+    evaluate([f"task={task}", f"checkpoint={path}", f"episodes={episodes}", "seed=0",
+              f"output={output}"])
+    with open(output) as f:
+        return json.load(f)
+
+
+def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
+         rev: str | None = None, machine: str | None = None) -> dict:
+    """Write `checkpoint`'s policy as its task's shipped policy, evaluated, into the manifest."""
+    from .evaluate import checkpoint_task
+    from .export import read_checkpoint
+    from .run import revision
+    from .train import atomic_json, atomic_write
+
+    state = read_checkpoint(checkpoint)
+    run_dir = os.path.dirname(os.path.dirname(os.path.abspath(checkpoint)))
+    try:
+        with open(os.path.join(run_dir, "summary.json")) as f:
+            summary = json.load(f)
+    except (OSError, ValueError) as err:
+        raise ValueError(f"{checkpoint}: its run's summary.json is not readable ({err}): ship "
+                         "the nn/last.pth of a finished `myriad train` run") from None
+    task = checkpoint_task(checkpoint)
+    figures = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for fp16 in (False, True):
+            path = os.path.join(tmp, f"{task}{'_fp16' if fp16 else ''}.pth")
+            torch.save(stripped(state, fp16), path)
+            print(f"evaluating the {'float16' if fp16 else 'float32'} policy ...", flush=True)
+            with contextlib.redirect_stdout(io.StringIO()):
+                figures[fp16] = _evaluate(task, path, episodes, path + ".json")
+        full, half = (figures[f]["results"][figures[f]["primary"]] for f in (False, True))
+        # float16 when its mean lies within the float32 policy's own 95 % interval
+        fp16 = full["half_width"] is not None and abs(half["mean"] - full["mean"]) <= \
+            full["half_width"]
+        chosen = os.path.join(tmp, f"{task}{'_fp16' if fp16 else ''}.pth")
+        os.makedirs(folder(), exist_ok=True)
+        target = os.path.join(folder(), f"{task}.pth")
+        with open(chosen, "rb") as f:
+            data = f.read()
+
+        def write(tmp_path):
+            with open(tmp_path, "wb") as f:
+                f.write(data)
+        atomic_write(target, write)
+    report = figures[fp16]
+    entry = {
+        "file": f"{task}.pth", "bytes": len(data), "dtype": "float16" if fp16 else "float32",
+        "command": command or summary.get("command"),
+        "revision": rev or summary.get("revision") or revision(),
+        "machine": machine or summary.get("machine"),
+        "device": summary.get("device"), "num_envs": summary.get("num_envs"),
+        "seed": summary.get("seed"), "env_steps": summary.get("env_steps"),
+        "wall_s": summary.get("wall_s"), "training_mean_reward": summary.get("mean_reward"),
+        "eval": {"command": f"myriad eval task={task} checkpoint=shipped episodes={episodes} "
+                            "seed=0",
+                 "primary": report["primary"], "results": report["results"],
+                 "episodes": report["episodes"], "num_envs": report["num_envs"],
+                 "device": report["device"],
+                 "float32_mean": full["mean"], "float16_mean": half["mean"]},
+        "date": datetime.date.today().isoformat()}
+    entries = manifest()
+    entries[task] = entry
+    atomic_json(os.path.join(folder(), MANIFEST), dict(sorted(entries.items())))
+    r = report["results"][report["primary"]]
+    print(f"shipped {task}: {target} ({len(data) / 1024:.0f} KiB, {entry['dtype']}); "
+          f"{report['primary']} {r['mean']:.4g} ± {r['half_width']:.3g} over "
+          f"{report['episodes']} episodes (float32 {full['mean']:.4g}, float16 "
+          f"{half['mean']:.4g})", flush=True)
+    return entry
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description="Ship a run's policy with Myriad: strip its "
+                                 "checkpoint, evaluate it and write the manifest entry.")
+    ap.add_argument("checkpoint", help="a finished run's nn/last.pth")
+    ap.add_argument("--command", help="the command that trained it (default: its summary's)")
+    ap.add_argument("--episodes", type=int, default=100)
+    ap.add_argument("--revision", help="the code revision it was trained with (default: its "
+                    "summary's, else this tree's)")
+    ap.add_argument("--machine", help="the machine it was trained on (default: its summary's)")
+    args = ap.parse_args()
+    ship(args.checkpoint, args.command, args.episodes, args.revision, args.machine)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,102 @@
+"""Policies that ship with Myriad (issue 42 item 2): the manifest and its files, the shipped Ant
+walking under `myriad eval`, play and eval falling back to it without a run, `checkpoint=shipped`
+for a task that ships none, fine-tuning from it, and `shipped.ship` making one from a run."""
+
+import json
+import os
+
+import pytest
+import torch
+
+from myriad import cli
+from myriad.rl import run, shipped
+from myriad.tasks import TASKS
+
+MB = 1 << 20
+
+
+def test_every_manifest_entry_has_its_file_its_provenance_and_its_figure():
+    entries = shipped.manifest()
+    assert "Ant" in entries
+    total = 0
+    for task, entry in entries.items():
+        assert task in TASKS
+        path = shipped.checkpoint_for(task)
+        total += os.path.getsize(path)
+        state = torch.load(path, map_location="cpu", weights_only=False)
+        assert "model" in state and shipped.weights_only(state), task   # no optimizer
+        dtypes = {v.dtype for k, v in state["model"].items()
+                  if v.is_floating_point() and "mean_std" not in k}
+        assert dtypes == {getattr(torch, entry["dtype"])}, task
+        for key in ("command", "revision", "machine", "env_steps", "wall_s", "date"):
+            assert entry[key], (task, key)
+        assert entry["command"].startswith("myriad train task=" + task)
+        figure = entry["eval"]["results"][entry["eval"]["primary"]]
+        assert figure["n"] >= 100 and figure["ci95"][0] <= figure["mean"] <= figure["ci95"][1]
+    assert total <= 30 * MB          # the issue's budget for all tasks together
+
+
+def test_the_shipped_ant_walks_as_its_manifest_says(tmp_path):
+    """4 episodes of 1000 steps: the mean reward is at least half the manifest's 100-episode
+    figure (a fresh policy scores near 0; the bar is loose for 4 episodes' spread)."""
+    out = tmp_path / "ant.json"
+    assert cli.main(["eval", "task=Ant", "device=cpu", "checkpoint=shipped", "episodes=4",
+                     "num_envs=4", "seed=1", f"output={out}"]) == 0
+    report = json.loads(out.read_text())
+    manifest = shipped.manifest()["Ant"]["eval"]["results"]["episode_reward"]["mean"]
+    assert report["results"]["episode_reward"]["mean"] > 0.5 * manifest > 1000
+    assert report["checkpoint"] == os.path.abspath(shipped.checkpoint_for("Ant"))
+
+
+def test_play_and_eval_take_the_shipped_policy_when_the_task_has_no_run(tmp_path, capsys):
+    cfg = run.compose(["task=Ant", f"train_dir={tmp_path}"])
+    path = run.policy_checkpoint(cfg, "Ant")
+    assert path == shipped.checkpoint_for("Ant")
+    assert "no Ant run under" in capsys.readouterr().out
+    # play's video, eval's report and export's .onnx go under train_dir, not into the package
+    assert run.output_beside(path, str(tmp_path), "Ant.mp4") == str(tmp_path / "shipped" /
+                                                                    "Ant.mp4")
+    # a run of the task comes first
+    folder = tmp_path / "mine"
+    (folder / "nn").mkdir(parents=True)
+    torch.save({"model": {}}, folder / "nn" / "last.pth")
+    (folder / "summary.json").write_text(json.dumps({"task": "Ant"}))
+    assert run.policy_checkpoint(cfg, "Ant") == str(folder / "nn" / "last.pth")
+    cfg.checkpoint = "shipped"                          # unless the shipped one is asked for
+    assert run.policy_checkpoint(cfg, "Ant") == shipped.checkpoint_for("Ant")
+
+
+def test_a_task_that_ships_no_policy_is_named_with_those_that_do(tmp_path, capsys):
+    missing = next(t for t in TASKS if t not in shipped.manifest())
+    with pytest.raises(FileNotFoundError, match=f"no policy of {missing} ships with Myriad "
+                                                r"\(shipped: .*Ant"):
+        shipped.checkpoint_for(missing)
+    assert cli.main(["eval", f"task={missing}", "device=cpu",
+                     f"train_dir={tmp_path}"]) == 2
+    assert f"no trained {missing} run under" in capsys.readouterr().err
+
+
+def test_fine_tuning_starts_from_the_shipped_networks_with_a_fresh_optimizer(tmp_path, capsys):
+    assert cli.main(["train", "task=Ant", "device=cpu", "checkpoint=shipped", "num_envs=32",
+                     "max_iterations=1", f"train_dir={tmp_path}", "experiment=tuned"]) == 0
+    assert "fine-tuning from" in capsys.readouterr().out
+    tuned = torch.load(tmp_path / "tuned" / "nn" / "last.pth", weights_only=False)
+    start = torch.load(shipped.checkpoint_for("Ant"), weights_only=False)
+    assert tuned["epoch"] == 1                    # counted from 0: a new run, not a resume
+    for key, before in start["model"].items():    # one epoch moves the weights only a little
+        after = tuned["model"][key].float()
+        if before.is_floating_point() and "mean_std" not in key and before.dim() == 2:
+            assert torch.linalg.norm(after - before.float()) < 0.1 * torch.linalg.norm(
+                before.float()), key
+
+
+def test_ship_keeps_the_networks_and_records_the_run_and_its_evaluation(tmp_path, monkeypatch):
+    assert cli.main(["train", "task=Ant", "device=cpu", "num_envs=32", "max_iterations=1",
+                     f"train_dir={tmp_path}", "experiment=run"]) == 0
+    monkeypatch.setattr(shipped, "folder", lambda: str(tmp_path / "policies"))
+    entry = shipped.ship(str(tmp_path / "run" / "nn" / "last.pth"), episodes=2)
+    state = torch.load(tmp_path / "policies" / "Ant.pth", weights_only=False)
+    assert set(state) <= set(shipped.KEPT) | {"myriad"} and "model" in state
+    assert entry["command"].startswith("myriad train task=Ant") and entry["env_steps"] > 0
+    assert entry["dtype"] in ("float16", "float32") and entry["eval"]["episodes"] == 2
+    assert json.loads((tmp_path / "policies" / "manifest.json").read_text())["Ant"] == entry
