@@ -21,7 +21,8 @@ def save_checkpoint(path, task, num_envs=4, summary_task=None):
     `summary_task`, inside a run folder whose summary.json names that task."""
     cfg = run.compose([f"task={task}", "device=cpu", f"num_envs={num_envs}"])
     task_cfg, train_cfg, _ = run.task_and_train_configs(cfg, [f"num_envs={num_envs}"])
-    sizes = {"Ant": (60, 8), "Humanoid": (108, 21), "ShadowHandOpenAI_FF": (42, 20)}[task]
+    sizes = {"Ant": (60, 8), "Humanoid": (108, 21), "ShadowHandOpenAI_FF": (42, 20),
+             "Trifinger": (41, 9)}[task]
     torch.manual_seed(0)
     network = build_network(train_cfg, *sizes)
     if summary_task is not None:
@@ -148,6 +149,26 @@ def test_eval_ant_reports_mean_reward_with_ci_and_writes_json(tmp_path, capsys):
     assert cli.main(["eval", "task=Ant", "device=cpu", f"checkpoint={checkpoint}",
                      "num_envs=2", "episodes=2", "task.env.episodeLength=5"]) == 0
     assert json.loads((tmp_path / "antrun" / "eval.json").read_text())["episodes"] == 2
+
+
+def test_success_rate_comes_from_the_flags_the_task_records(tmp_path):
+    """Trifinger's episodes end at the time limit; with tolerances of 10 m and 4 rad (beyond π)
+    every cube ends at its goal (success 1), with 0 none does (success 0): the share of the
+    finished episodes, as the task's own `episode_outcomes` flags them."""
+    pytest.importorskip("robot_properties_fingers")
+    checkpoint = save_checkpoint(tmp_path / "tri.pth", "Trifinger")
+    for tolerance, expected in ((10.0, 1.0), (0.0, 0.0)):
+        out = tmp_path / f"tri_{tolerance}.json"
+        assert cli.main(["eval", "task=Trifinger", "device=cpu", f"checkpoint={checkpoint}",
+                         "num_envs=2", "episodes=4", "task.env.episodeLength=6",
+                         f"task.env.successPositionTolerance={tolerance}",
+                         f"task.env.successOrientationTolerance={tolerance * 0.4}",
+                         f"output={out}"]) == 0
+        report = json.loads(out.read_text())
+        assert report["primary"] == "success_rate"
+        success = report["results"]["success_rate"]
+        assert success["n"] == 4 and success["mean"] == expected, tolerance
+        assert report["task_settings"]["successPositionTolerance"] == tolerance
 
 
 def test_judge_refuses_an_override_that_changes_the_task(tmp_path, capsys):

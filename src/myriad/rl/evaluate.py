@@ -178,25 +178,17 @@ class Probe:
 
 
 class HandProbe(Probe):
-    """Consecutive successes from the task's `successes` buffer, read where the task itself
-    counts finished episodes (`_count_finished`, after the step's goals and before its resets
-    zero them)."""
+    """Consecutive successes from the task's `successes` count as the task records it at the
+    end of each step's episodes (`episode_outcomes`, before its resets zero it)."""
     primary = "consecutive_successes"
 
     def __init__(self, task):
         super().__init__(task)
         self.counter = ConsecutiveSuccesses(task.num_envs, task.device)
         self.before = task.successes.clone()
-        self.at_end = None
-        count_finished = task._count_finished
-
-        def snapshot(finished):
-            self.at_end = task.successes.clone()
-            count_finished(finished)
-        task._count_finished = snapshot
 
     def after_step(self, done):
-        reached = (self.at_end - self.before).clamp(min=0.0)
+        reached = (self.task.episode_outcomes["successes"] - self.before).clamp(min=0.0)
         self.before = self.task.successes.clone()
         return {"consecutive_successes": self.counter.update(reached, done)}
 
@@ -207,22 +199,12 @@ class HandProbe(Probe):
 
 
 class ShareProbe(Probe):
-    """Success (and Franka's lift) flags of finishing episodes, as the task counts them for its
-    `success_rate` metric (`EpisodeShares.count`)."""
+    """Success (and Franka's lift) flags of finishing episodes, as the task records them
+    (`episode_outcomes`) for its `success_rate` metric."""
     primary = "success_rate"
 
-    def __init__(self, task):
-        super().__init__(task)
-        self.flags = {}
-        count = task.shares.count
-
-        def record(done, **flags):
-            self.flags = {name: flag.clone() for name, flag in flags.items()}
-            count(done, **flags)
-        task.shares.count = record
-
     def after_step(self, done):
-        return {name: flag.float() for name, flag in self.flags.items()}
+        return {name: flag.float() for name, flag in self.task.episode_outcomes.items()}
 
     def describe(self):
         env = self.task.cfg["env"]

@@ -133,6 +133,11 @@ class VecTask:
         self.nonfinite_action_count = torch.zeros(N, dtype=torch.long, device=dev)
         self.extras: dict = {}
         self.obs_dict: dict = {}
+        # what the episodes reached, per env, as the task records it in each step before that
+        # step's resets clear it ({name: [N] tensor}; read where the step's `done` is set): the
+        # success measures `myriad eval` reports (hands: goals reached in a row; Franka and
+        # Trifinger: success flags). Empty for tasks judged by their return alone.
+        self.episode_outcomes: dict[str, torch.Tensor] = {}
         # A masked reset in a step where no env finished changes nothing but still runs
         # forward() and the observations for every env. On a CPU, learning that no env finished
         # waits for nothing, so such steps skip it (and a task's pushes that are not due: `runs`);

@@ -219,7 +219,8 @@ class FrankaCubeStack(VecTask):
         # original flags it a step late and never bootstraps it; the observation has no clock)
         self.reset_buf[:] = stacked.long()
         done = stacked | self.timed_out()
-        self.shares.count(done, success_rate=stacked, lift_rate=self.lifted_ever)
+        self.episode_outcomes = {"success_rate": stacked, "lift_rate": self.lifted_ever.clone()}
+        self.shares.count(done, **self.episode_outcomes)
         self.compute_observations()
 
     def metrics(self) -> dict[str, float]:

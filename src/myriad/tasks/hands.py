@@ -180,6 +180,7 @@ class InHandTask(VecTask):
     def _count_finished(self, finished: torch.Tensor) -> None:
         """The original's running average of the successes of envs that finished an episode
         (kept on the device: no step waits for it)."""
+        self.episode_outcomes = {"successes": self.successes.clone()}
         count = finished.sum()
         mean = (self.successes * finished).sum() / count.clamp(min=1)
         updated = self.aver_factor * mean + (1.0 - self.aver_factor) * self.consecutive_successes

@@ -179,7 +179,8 @@ class Trifinger(VecTask):
         done = self.timed_out()
         success = reached_goal(cube[:, 0:3], cube[:, 3:7], self.goal_pos, self.goal_rot,
                                self.position_tolerance, self.orientation_tolerance)
-        self.shares.count(done, success_rate=success)
+        self.episode_outcomes = {"success_rate": success}
+        self.shares.count(done, **self.episode_outcomes)
         self.compute_observations()
 
     def metrics(self) -> dict[str, float]:
