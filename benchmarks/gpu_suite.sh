@@ -8,7 +8,8 @@
 #   tests   the test suite on CUDA, one pytest process per file
 #   soak    every task under random actions for two episode lengths: nothing may go non-finite
 #   train   short training runs that time the paper's milestones
-# Run from the repository root on a machine with an NVIDIA GPU, with the engine's CUDA kernels
+# Run from the repository root on a machine with an NVIDIA GPU (benchmarks/device_bundle.sh packs
+# the packages it lacks and the kernel cache, and prints the calls), with the engine's CUDA kernels
 # compiled beforehand on the CPU machine (a cold NVRTC build is minutes of idle device time;
 # MuJoCo Warp's kernels are not in that cache and compile in the peers stage):
 #   python benchmarks/precompile_cuda.py --arch 90 --cache .device/kcache     # here (no GPU)
