@@ -15,13 +15,16 @@ compiles (`warp.config.cuda_output = "cubin"` makes it take the cubins anyway).
 
 Warp compiles a module once per block size it is launched with: every module for the default
 (256 threads), and a module with cooperative kernels (`myriad.physics.lanes`: their last
-argument is `lanes`) also for `runtime.BlockDim.threads`.
+argument is `lanes`) also for `runtime.BlockDim.threads`. A module whose source is already in the
+cache (the same identifier, a cubin for each arch) is not compiled again: after a change, only
+the changed modules take time.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import time
 
 import warp as wp
@@ -49,6 +52,12 @@ def main() -> None:
                           for k in module.kernels.values())
         for block_dim in sorted({default, BLOCK_DIM.threads} if cooperative else {default}):
             start = time.perf_counter()
+            ident = module.get_module_identifier(block_dim)
+            cubins = [os.path.join(wp.config.kernel_cache_dir, ident, f"{ident}.sm{a}.cubin")
+                      for a in args.arch]
+            if all(os.path.isfile(c) for c in cubins):      # this source was compiled before
+                print(f"{name}: {block_dim} threads per block, in the cache", flush=True)
+                continue
             wp.set_module_options({"block_dim": block_dim}, name)
             wp.compile_aot_module(module, arch=args.arch, use_ptx=False)
             print(f"{name}: sm_{'/'.join(map(str, args.arch))}, {block_dim} threads per block, "
