@@ -3,7 +3,8 @@
 # at most 64 MiB with the working tree): the Python packages its image lacks (Warp, MuJoCo,
 # MuJoCo Warp, rl_games, Hydra, ...), unpacked and compressed as one xz stream, and the engine's
 # CUDA kernels compiled here (precompile_cuda.py; NVRTC took 20 minutes on the 2-core machine on
-# 2026-11-27, so start this first). Run from the repository root:
+# 2026-11-27, so start this first; modules already in .kc are skipped). Run from the repository
+# root, with the project's environment active (Warp, MuJoCo and torch importable):
 #
 #   bash benchmarks/device_bundle.sh            # -> .device/w1/, .device/w2/, .device/kc/
 #

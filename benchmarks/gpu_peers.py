@@ -170,8 +170,9 @@ def mujoco_warp_row(mjm, n: int, steps: int, device: str, controls) -> dict:
                           max_nefc=int(d.nefc.numpy().max()), naconmax=d.naconmax, njmax=d.njmax)
 
 
-def myriad_row(model, mjm, n: int, steps: int, device: str, controls, profile: bool) -> dict:
-    free0 = free_memory(device)
+def myriad_sim(model, mjm, n: int, device: str):
+    """Myriad's simulator of the comparison: the model's timestep in one substep, TGS 4/0, at
+    the keyframe's qpos and ctrl when the model has one."""
     params = myriad.SimParams(dt=float(mjm.opt.timestep), substeps=1, position_iterations=4,
                               velocity_iterations=0)
     sim = myriad.Simulator(model, num_envs=n, device=device, params=params)
@@ -179,13 +180,24 @@ def myriad_row(model, mjm, n: int, steps: int, device: str, controls, profile: b
         sim.q = model.qpos_from_mujoco(mjm.key_qpos[0])
         sim.ctrl = mjm.key_ctrl[0]
         sim.forward()
+    return sim
+
+
+def stage_ms(sim, controls) -> dict:
+    """Milliseconds per step of each stage over PROFILE_STEPS steps (stages synchronized)."""
+    spent = collections.Counter()
+    for _ in range(PROFILE_STEPS):
+        controls(sim.ctrl)
+        sim.step(timings=spent)
+    return {s: spent[s] / PROFILE_STEPS * 1e3 for s in STAGES}
+
+
+def myriad_row(model, mjm, n: int, steps: int, device: str, controls, profile: bool) -> dict:
+    free0 = free_memory(device)
+    sim = myriad_sim(model, mjm, n, device)
     row = stepped(sim.step, n, device, free0, controls, sim.ctrl, steps)
     if profile:
-        spent = collections.Counter()
-        for _ in range(PROFILE_STEPS):
-            controls(sim.ctrl)
-            sim.step(timings=spent)
-        row["profile_ms"] = {s: spent[s] / PROFILE_STEPS * 1e3 for s in STAGES}
+        row["profile_ms"] = stage_ms(sim, controls)
     return row | dict(nonfinite=int((sim.nonfinite != 0).sum()),
                       contact_overflow=sim.contact_overflow(),
                       contacts_per_world=float(sim.contact_count.float().mean()))

@@ -31,7 +31,6 @@ import torch
 import warp as wp
 
 import gpu_peers
-import myriad
 from myriad.physics import step as pipeline
 from myriad.physics.runtime.launch import BlockDim
 
@@ -44,19 +43,9 @@ LANES = (1, 2, 4, 8, 16, 32)
 def measure(model, mjm, n: int, steps: int, dev: str, block: BlockDim) -> dict:
     pipeline.BLOCK_DIM = block
     controls = gpu_peers.Controls(mjm, dev)
-    params = myriad.SimParams(dt=float(mjm.opt.timestep), substeps=1, position_iterations=4,
-                              velocity_iterations=0)
-    sim = myriad.Simulator(model, num_envs=n, device=dev, params=params)
-    if mjm.nkey:
-        sim.q = model.qpos_from_mujoco(mjm.key_qpos[0])
-        sim.ctrl = mjm.key_ctrl[0]
-        sim.forward()
+    sim = gpu_peers.myriad_sim(model, mjm, n, dev)
     row = gpu_peers.stepped(sim.step, n, dev, None, controls, sim.ctrl, steps)
-    spent = collections.Counter()
-    for _ in range(gpu_peers.PROFILE_STEPS):
-        controls(sim.ctrl)
-        sim.step(timings=spent)
-    row["stage_ms"] = {s: spent[s] / gpu_peers.PROFILE_STEPS * 1e3 for s in gpu_peers.STAGES}
+    row["stage_ms"] = gpu_peers.stage_ms(sim, controls)
     state = torch.cat([sim.q.flatten(), sim.qd.flatten()]).cpu().numpy().tobytes()
     row["hash"] = hashlib.sha1(state).hexdigest()[:10]
     row["nonfinite"] = int((sim.nonfinite != 0).sum())
