@@ -119,3 +119,15 @@ def test_the_block_dim_reaches_the_kernels(block_dim, expected, monkeypatch):
     out = wp.zeros((5, 4), dtype=int, device="cpu")
     sim.runtime.launch_lanes(_who_runs, 4, [out])
     np.testing.assert_array_equal(out.numpy(), np.tile(expected, (5, 1)))
+
+
+def test_a_block_dim_the_kernels_cannot_run_is_refused():
+    """The sweeps wait on the block inside loops as long as each world's contact count, so their
+    lanes are one thread or the whole block (several worlds per block hung an H100); other lane
+    counts must divide the block's threads."""
+    from myriad.physics.runtime.launch import BlockDim
+    with pytest.raises(ValueError, match="BlockDim.solve=8: must be 1"):
+        BlockDim(solve=8)
+    with pytest.raises(ValueError, match="BlockDim.bodies=3: must divide threads=32"):
+        BlockDim(bodies=3)
+    assert BlockDim().solve == 1 and BlockDim(solve=0).solve == 0
