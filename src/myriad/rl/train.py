@@ -696,9 +696,10 @@ def train(task, train_cfg: dict, run: dict, seed: int, checkpoint: str | None = 
             # its contents to all
             weights = torch_ext.load_checkpoint(checkpoint)
             return weights if distributed is None else _to_cpu(weights)
-        weights = from_rank_0(load, distributed)
-        fine_tune = shipped.weights_only(weights)
+        fine_tune = False
         try:
+            weights = from_rank_0(load, distributed)
+            fine_tune = shipped.weights_only(weights)
             if fine_tune:       # a shipped policy: its networks and normalizers, nothing else
                 agent.set_weights(weights)
                 if agent.has_central_value and "assymetric_vf_nets" in weights:
