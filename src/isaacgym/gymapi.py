@@ -1279,35 +1279,33 @@ class Gym:
         """[num_envs, links, 6, dofs] of actor `name` (linear rows first, at each link's
         origin, world axes): a fixed base's root link has no row; a free base's 6 velocity
         columns (linear, angular, world axes) come first. Updated by refresh_jacobian_tensors."""
-        envs = self._envs(sim, "acquire_jacobian_tensor")
-        k = self._actor_slot(sim, name, "acquire_jacobian_tensor")
-        key = ("jacobian", k)
-        if key not in sim.algebra:
-            sim.algebra[key] = _actor_algebra(sim, envs, *key)
-        return Tensor(sim.algebra[key])
+        return self._acquire_algebra(sim, name, "jacobian", "acquire_jacobian_tensor")
 
     def acquire_mass_matrix_tensor(self, sim: Sim, name: str) -> Tensor:
         """[num_envs, dofs, dofs] joint-space mass matrix of actor `name` (a free base's 6
         columns first, world axes). Updated by refresh_mass_matrix_tensors."""
-        envs = self._envs(sim, "acquire_mass_matrix_tensor")
-        k = self._actor_slot(sim, name, "acquire_mass_matrix_tensor")
-        key = ("mass_matrix", k)
+        return self._acquire_algebra(sim, name, "mass_matrix", "acquire_mass_matrix_tensor")
+
+    def refresh_jacobian_tensors(self, sim: Sim) -> bool:
+        return self._refresh_algebra(sim, "jacobian", "refresh_jacobian_tensors")
+
+    def refresh_mass_matrix_tensors(self, sim: Sim) -> bool:
+        return self._refresh_algebra(sim, "mass_matrix", "refresh_mass_matrix_tensors")
+
+    def _acquire_algebra(self, sim: Sim, name: str, kind: str, call: str) -> Tensor:
+        """Actor `name`'s tensor of `kind` (computed on first acquire; the same object after)."""
+        envs = self._envs(sim, call)
+        key = (kind, self._actor_slot(sim, name, call))
         if key not in sim.algebra:
             sim.algebra[key] = _actor_algebra(sim, envs, *key)
         return Tensor(sim.algebra[key])
 
-    def refresh_jacobian_tensors(self, sim: Sim) -> bool:
-        envs = self._envs(sim, "refresh_jacobian_tensors")
-        for (kind, k), tensor in sim.algebra.items():
-            if kind == "jacobian":
-                tensor.copy_(_actor_algebra(sim, envs, kind, k))
-        return True
-
-    def refresh_mass_matrix_tensors(self, sim: Sim) -> bool:
-        envs = self._envs(sim, "refresh_mass_matrix_tensors")
-        for (kind, k), tensor in sim.algebra.items():
-            if kind == "mass_matrix":
-                tensor.copy_(_actor_algebra(sim, envs, kind, k))
+    def _refresh_algebra(self, sim: Sim, kind: str, call: str) -> bool:
+        """Every acquired tensor of `kind`, recomputed in place."""
+        envs = self._envs(sim, call)
+        for (held, k), tensor in sim.algebra.items():
+            if held == kind:
+                tensor.copy_(_actor_algebra(sim, envs, held, k))
         return True
 
     def refresh_force_sensor_tensor(self, sim: Sim) -> bool:
