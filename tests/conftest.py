@@ -21,6 +21,15 @@ def device(request):
     return request.config.getoption("--device")
 
 
+@pytest.fixture(scope="session")
+def unshipped_task():
+    """A task that ships no policy: play, eval and export of it with no run must fail (for a
+    task that ships one they fall back to it, `myriad.rl.shipped`)."""
+    from myriad.rl import shipped
+    from myriad.tasks import TASKS
+    return next(t for t in TASKS if t not in shipped.manifest())
+
+
 def pytest_collection_modifyitems(config, items):
     """On a GPU (--device cuda:0) run only the tests that take the `device` fixture: the others
     do not depend on the device and run in the CPU suite."""

@@ -11,9 +11,8 @@ import torch
 
 from myriad import cli
 from myriad.rl import evaluate as ev
-from myriad.rl import run, shipped
+from myriad.rl import run
 from myriad.rl.export import build_network
-from myriad.tasks import TASKS
 
 
 def save_checkpoint(path, task, num_envs=4, summary_task=None):
@@ -185,7 +184,8 @@ def test_judge_refuses_an_override_that_changes_the_task(tmp_path, capsys):
     assert "judge=maybe: true or false" in capsys.readouterr().err
 
 
-def test_a_checkpoint_of_another_task_or_a_bad_file_is_a_clear_error(tmp_path, capsys):
+def test_a_checkpoint_of_another_task_or_a_bad_file_is_a_clear_error(tmp_path, capsys,
+                                                                      unshipped_task):
     ant = save_checkpoint(tmp_path / "ant.pth", "Ant")
     assert cli.main(["eval", "task=Humanoid", "device=cpu", f"checkpoint={ant}",
                      "num_envs=1", "episodes=1"]) == 2
@@ -204,10 +204,9 @@ def test_a_checkpoint_of_another_task_or_a_bad_file_is_a_clear_error(tmp_path, c
     assert cli.main(["eval", "task=Ant", "device=cpu",
                      f"checkpoint={tmp_path / 'none.pth'}"]) == 2
     assert "no such file" in capsys.readouterr().err
-    unshipped = next(t for t in TASKS if t not in shipped.manifest())   # else eval falls back
-    assert cli.main(["eval", f"task={unshipped}", "device=cpu",
+    assert cli.main(["eval", f"task={unshipped_task}", "device=cpu",
                      f"train_dir={tmp_path / 'empty'}"]) == 2
-    assert f"no trained {unshipped} run" in capsys.readouterr().err
+    assert f"no trained {unshipped_task} run" in capsys.readouterr().err
     assert cli.main(["eval", "task=Ant", "device=cpu", "episodez=3"]) == 2
     assert "no key episodez (did you mean episodes?)" in capsys.readouterr().err
     assert cli.main(["eval", "task=Ant", "device=cpu", "episodes=0"]) == 2

@@ -11,7 +11,7 @@ import torch
 ort = pytest.importorskip("onnxruntime")
 
 from myriad import cli  # noqa: E402
-from myriad.rl import run, shipped  # noqa: E402
+from myriad.rl import run  # noqa: E402
 from myriad.tasks import TASKS  # noqa: E402
 
 # ShadowHandOpenAI_LSTM's policy and critic, shrunk to train and export in seconds
@@ -162,7 +162,7 @@ def test_export_without_output_writes_next_to_the_run(ant_checkpoint, capsys):
     assert "Ant.onnx" in capsys.readouterr().out
 
 
-def test_export_errors_name_the_problem(ant_checkpoint, tmp_path, capsys):
+def test_export_errors_name_the_problem(ant_checkpoint, tmp_path, capsys, unshipped_task):
     def fails(*args):
         assert cli.main(["export", *args]) == 2
         return capsys.readouterr().err
@@ -182,10 +182,9 @@ def test_export_errors_name_the_problem(ant_checkpoint, tmp_path, capsys):
     broken.write_bytes(ant_checkpoint.read_bytes()[:1000])
     err = fails("task=Ant", f"checkpoint={broken}", f"output={tmp_path / 'p.onnx'}")
     assert "not a readable rl_games checkpoint" in err
-    unshipped = next(t for t in TASKS if t not in shipped.manifest())   # else export falls back
-    err = fails(f"task={unshipped}", f"train_dir={tmp_path / 'empty'}",
+    err = fails(f"task={unshipped_task}", f"train_dir={tmp_path / 'empty'}",
                 f"output={tmp_path / 'p.onnx'}")
-    assert f"no trained {unshipped} run" in err
+    assert f"no trained {unshipped_task} run" in err
     assert not list(tmp_path.glob("*.onnx")) and not list(tmp_path.glob("*.json"))
 
 
