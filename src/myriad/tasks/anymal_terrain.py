@@ -41,8 +41,6 @@ Metric (progress line, TensorBoard, summary.json): `terrain_level`, the mean lev
 
 from __future__ import annotations
 
-import math
-
 import torch
 
 from ..api import Scene
@@ -50,13 +48,10 @@ from ..assets import anymal_c_spec
 from ..torch_utils import env_mask, quat_rotate, quat_rotate_inverse, where_rows, wrap_angle
 from .anymal import default_joint_angles
 from .base import VecTask
-from .terrain import TerrainConfig, generate_terrain, height_points, next_levels, sample_heights
-
-TERRAIN_KEYS = ("levels", "types", "proportions", "tile", "border", "horizontal_scale",
-                "vertical_scale")
+from .terrain import TerrainCurriculum
 
 
-class AnymalTerrain(VecTask):
+class AnymalTerrain(TerrainCurriculum, VecTask):
     num_obs = 188
     num_actions = 12
     checkpointed = ("steps_taken", "levels")     # push clock and cost factor; terrain levels
@@ -66,10 +61,7 @@ class AnymalTerrain(VecTask):
         control_dt = cfg["sim"]["dt"] * env.get("controlFrequencyInv", 1)
         env["episodeLength"] = round(env["episodeLength_s"] / control_dt)
         self.learn = env["learn"]
-        terrain = env["terrain"]
-        self.terrain_config = TerrainConfig(**{k: (tuple(terrain[k]) if k == "proportions"
-                                                   else terrain[k]) for k in TERRAIN_KEYS})
-        self.terrain = generate_terrain(self.terrain_config, seed=int(terrain["seed"]))
+        self.init_terrain(env)
         control = env["control"]
         self.kp, self.kd = control["stiffness"], control["damping"]
         self.torque_limit, self.action_scale = control["torqueLimit"], control["actionScale"]
@@ -90,16 +82,7 @@ class AnymalTerrain(VecTask):
                 raise ValueError(f"task.env.penaltyCurriculum.{key}={curriculum[key]}: "
                                  "expected a value in (0, 1]")
 
-        # the terrain on the device: heights for the samples, tiles' start points by (level, kind)
-        self.heights = torch.as_tensor(self.terrain.heights, device=dev)
-        self.tile_origins = torch.as_tensor(self.terrain.origins, dtype=torch.float32, device=dev)
-        self.height_points = height_points(dev)
-        self.curriculum = bool(terrain["curriculum"])
-        self.levels = torch.zeros(N, dtype=torch.long, device=dev)
-        # kinds spread evenly over the envs, as the original assigns them
-        self.kinds = torch.div(torch.arange(N, device=dev) * self.terrain_config.types, N,
-                               rounding_mode="floor")
-        self.env_origins = self.tile_origins[self.levels, self.kinds]
+        self.init_levels(env)
 
         # the robot's friction: one of `frictionBuckets` values per env (env i: bucket i mod B)
         lo, hi = env["frictionRange"]
@@ -124,20 +107,7 @@ class AnymalTerrain(VecTask):
         # control steps since the task was built: the push clock and the cost curriculum's, on
         # the device (a step captured once as a CUDA graph reads it where it is at each replay)
         self.steps_taken = torch.zeros((), dtype=torch.int64, device=dev)
-        self.move_levels = False      # the curriculum moves robots whose episodes end in step
         self.reset()
-
-    def reset(self, env_ids=None) -> dict:
-        """Every env to a fresh episode on the level it holds: the curriculum moves a robot only
-        when its episode ends in a step, not at the trainer's first reset or a resumed run's."""
-        self.move_levels = False
-        obs = super().reset(env_ids)
-        self.move_levels = self.curriculum
-        return obs
-
-    def load_training_state(self, state: dict) -> None:
-        super().load_training_state(state)
-        self.env_origins[:] = self.tile_origins[self.levels, self.kinds]
 
     def _noise_scale(self) -> torch.Tensor:
         """Half-width of the uniform noise on each observation entry (scaled units)."""
@@ -152,18 +122,13 @@ class AnymalTerrain(VecTask):
         return torch.cat([torch.full((n, ), s * level) for n, s in parts]).to(self.device)
 
     def create_envs(self):
-        env, t = self.cfg["env"], self.terrain
-        c = self.terrain_config
-        scene = Scene().add_terrain(
-            t.heights, c.horizontal_scale, origin=(-c.border, -c.border),
-            friction=env["terrain"]["staticFriction"],
-            riser=env["terrain"]["slopeThreshold"] * c.horizontal_scale)
+        scene = self.add_terrain(Scene(), self.cfg["env"])
         scene.add_actor("anymal", anymal_c_spec(), pos=(0.0, 0.0, 1.0), self_collisions=False,
                         dof_mode="effort")
         return scene.build(self.num_envs, self.device, self.sim_params)
 
     def metrics(self) -> dict[str, float]:
-        metrics = {"terrain_level": float(self.levels.float().mean())}
+        metrics = super().metrics()
         if self.penalty_start < 1.0:
             metrics["penalty_factor"] = float(self.penalty_factor())
         return metrics
@@ -238,35 +203,14 @@ class AnymalTerrain(VecTask):
         noise = (2.0 * torch.rand_like(obs) - 1.0) * self.noise_scale
         self.obs_buf[:] = obs + noise
 
-    def terrain_heights(self, base_state: torch.Tensor) -> torch.Tensor:
-        """Terrain height [N, 140] under the sample points around each base (turned by yaw)."""
-        quat = base_state[:, 3:7]
-        yaw_only = torch.zeros_like(quat)
-        yaw_only[:, 2:4] = quat[:, 2:4]
-        yaw_only = yaw_only / yaw_only.norm(dim=-1, keepdim=True).clamp_min(1e-9)
-        points = quat_rotate(yaw_only[:, None].expand(-1, len(self.height_points), 4),
-                             self.height_points.expand(self.num_envs, -1, 3))
-        return sample_heights(self.heights, points[..., :2] + base_state[:, None, :2],
-                              self.terrain_config)
-
     # ------------------------------------------------------------------ reset
     def reset_idx(self, env_ids):
         done, n, dev = env_mask(env_ids, self.num_envs), self.num_envs, self.device
         e = self.envs
-        if self.move_levels:
-            walked = torch.norm(e.root_states[:, 0, :2] - self.env_origins[:, :2], dim=-1)
-            moved = next_levels(self.levels, walked, torch.norm(self.commands[:, :2], dim=-1),
-                                self.cfg["env"]["episodeLength_s"], self.terrain_config)
-            self.levels[:] = torch.where(done, moved, self.levels)
-            self.env_origins[:] = self.tile_origins[self.levels, self.kinds]
+        self.next_origins(done, torch.norm(self.commands[:, :2], dim=-1))
         states = e.root_states.clone()
-        root = torch.zeros(n, 13, device=dev)
         start = self.cfg["env"]["baseInitState"]
-        root[:, :3] = self.env_origins
-        root[:, 2] += start["height"]
-        root[:, :2] += torch.empty(n, 2, device=dev).uniform_(-start["xyNoise"], start["xyNoise"])
-        root[:, 6] = 1.0
-        states[:, 0] = root
+        states[:, 0] = self.start_root_states(start["height"], start["xyNoise"])
         e.set_root_states(states, done, forward=False)
         pos = self.default_dof_pos * torch.empty(n, self.num_actions, device=dev).uniform_(0.5, 1.5)
         vel = torch.empty(n, self.num_actions, device=dev).uniform_(-0.1, 0.1)

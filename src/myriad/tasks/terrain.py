@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
+from ..torch_utils import quat_rotate
+
 KINDS = ("smooth slope", "rough slope", "stairs down", "stairs up", "obstacles")
 
 
@@ -215,3 +217,92 @@ def next_levels(levels: torch.Tensor, walked: torch.Tensor, command_speed: torch
     down = walked < command_speed * episode_s * 0.25
     up = walked > config.tile / 2
     return (levels - down.long() + up.long()).clamp(min=0) % config.levels
+
+
+TERRAIN_KEYS = ("levels", "types", "proportions", "tile", "border", "horizontal_scale",
+                "vertical_scale")
+
+
+class TerrainCurriculum:
+    """What a `VecTask` on the terrain grid shares (AnymalTerrain, G1Rough): the grid built from
+    `env.terrain` before the envs (`init_terrain`), the scene's height field (`add_terrain`),
+    each env's tile and its level curriculum (`init_levels`, `next_origins`), the heights under
+    the base (`terrain_heights`) and the `terrain_level` metric. The task keeps `levels` in its
+    `checkpointed`."""
+
+    def init_terrain(self, env: dict) -> None:
+        """Before `VecTask.__init__` (which builds the scene): the grid."""
+        terrain = env["terrain"]
+        self.terrain_config = TerrainConfig(**{k: (tuple(terrain[k]) if k == "proportions"
+                                                   else terrain[k]) for k in TERRAIN_KEYS})
+        self.terrain = generate_terrain(self.terrain_config, seed=int(terrain["seed"]))
+
+    def add_terrain(self, scene, env: dict):
+        """`scene` with the grid as its shared height field (geom "terrain")."""
+        t, c = self.terrain, self.terrain_config
+        return scene.add_terrain(
+            t.heights, c.horizontal_scale, origin=(-c.border, -c.border),
+            friction=env["terrain"]["staticFriction"],
+            riser=env["terrain"]["slopeThreshold"] * c.horizontal_scale)
+
+    def init_levels(self, env: dict) -> None:
+        """After `VecTask.__init__`: the heights and tiles on the device, every env on level 0,
+        the kinds of tile spread evenly over the envs (as the original assigns them)."""
+        dev, N = self.device, self.num_envs
+        self.heights = torch.as_tensor(self.terrain.heights, device=dev)
+        self.tile_origins = torch.as_tensor(self.terrain.origins, dtype=torch.float32, device=dev)
+        self.height_points = height_points(dev)
+        self.curriculum = bool(env["terrain"]["curriculum"])
+        self.levels = torch.zeros(N, dtype=torch.long, device=dev)
+        self.kinds = torch.div(torch.arange(N, device=dev) * self.terrain_config.types, N,
+                               rounding_mode="floor")
+        self.env_origins = self.tile_origins[self.levels, self.kinds]
+        self.move_levels = False      # the curriculum moves robots whose episodes end in step
+
+    def reset(self, env_ids=None) -> dict:
+        """Every env to a fresh episode on the level it holds: the curriculum moves a robot only
+        when its episode ends in a step, not at the trainer's first reset or a resumed run's."""
+        self.move_levels = False
+        obs = super().reset(env_ids)
+        self.move_levels = self.curriculum
+        return obs
+
+    def load_training_state(self, state: dict) -> None:
+        super().load_training_state(state)
+        self.env_origins[:] = self.tile_origins[self.levels, self.kinds]
+
+    def metrics(self) -> dict[str, float]:
+        return {"terrain_level": float(self.levels.float().mean())}
+
+    def next_origins(self, done: torch.Tensor, command_speed: torch.Tensor) -> None:
+        """At a reset of the envs `done` [N]: the curriculum's move (if on) by how far each base
+        walked from its origin against `command_speed` [N] over the episode."""
+        if not self.move_levels:
+            return
+        walked = torch.norm(self.envs.root_states[:, 0, :2] - self.env_origins[:, :2], dim=-1)
+        moved = next_levels(self.levels, walked, command_speed,
+                            self.cfg["env"]["episodeLength_s"], self.terrain_config)
+        self.levels[:] = torch.where(done, moved, self.levels)
+        self.env_origins[:] = self.tile_origins[self.levels, self.kinds]
+
+    def start_root_states(self, height: float, xy_noise: float) -> torch.Tensor:
+        """[N, 13] root states at rest over each env's origin: `height` above it, x and y each
+        ± `xy_noise`, upright."""
+        n, dev = self.num_envs, self.device
+        root = torch.zeros(n, 13, device=dev)
+        root[:, :3] = self.env_origins
+        root[:, 2] += height
+        root[:, :2] += torch.empty(n, 2, device=dev).uniform_(-xy_noise, xy_noise)
+        root[:, 6] = 1.0
+        return root
+
+    def terrain_heights(self, base_state: torch.Tensor) -> torch.Tensor:
+        """Terrain height [N, 140] under the sample points around each base (turned by yaw)."""
+        quat = base_state[:, 3:7]
+        yaw_only = torch.zeros_like(quat)
+        yaw_only[:, 2:4] = quat[:, 2:4]
+        yaw_only = yaw_only / yaw_only.norm(dim=-1, keepdim=True).clamp_min(1e-9)
+        points = quat_rotate(yaw_only[:, None].expand(-1, len(self.height_points), 4),
+                             self.height_points.expand(self.num_envs, -1, 3))
+        return sample_heights(self.heights, points[..., :2] + base_state[:, None, :2],
+                              self.terrain_config)
