@@ -1,8 +1,9 @@
-"""How well a trained ANYmal policy tracks its velocity commands.
+"""How well a trained ANYmal or G1 policy tracks its velocity commands.
 
     python benchmarks/anymal_tracking.py runs/bench_cpu_anymal/nn/last.pth [--envs 256 --seconds 10]
     python benchmarks/anymal_tracking.py runs/terrain/nn/last.pth --task AnymalTerrain \
         --tiles rough --level 4
+    python benchmarks/anymal_tracking.py runs/G1Velocity/nn/last.pth --task G1Velocity --seconds 20
 
 For AnymalTerrain, `--tiles` puts every env on tiles of one kind (flat: the smooth slope's level
 0, which is level ground; rough, stairs-up, stairs-down, obstacles, slope: that kind at
@@ -10,7 +11,8 @@ For AnymalTerrain, `--tiles` puts every env on tiles of one kind (flat: the smoo
 
 Runs the deterministic policy in fresh episodes (commands drawn as in training) and reports the
 mean absolute error between commanded and actual base velocity in the base frame (forward,
-lateral, yaw rate) over the last half of the window, next to what standing still would score.
+lateral, yaw rate) over the last half of the window, next to what standing still would score,
+and the share of episodes (those running at the start and those begun since) that ended in a fall.
 """
 
 import argparse
@@ -46,15 +48,15 @@ def main() -> None:
     ap.add_argument("checkpoint")
     ap.add_argument("--envs", type=int, default=256)
     ap.add_argument("--seconds", type=float, default=10.0)
-    ap.add_argument("--task", default="Anymal", choices=["Anymal", "AnymalTerrain"])
+    ap.add_argument("--task", default="Anymal", choices=["Anymal", "AnymalTerrain", "G1Velocity"])
     ap.add_argument("--tiles", default="flat", choices=list(TILES))
     ap.add_argument("--level", type=int, default=0, help="AnymalTerrain: difficulty row 0-9")
     args = ap.parse_args()
 
     torch.manual_seed(0)
     _, train_cfg, _ = task_and_train_configs(compose([f"task={args.task}", "device=cpu"]))
-    if args.task == "Anymal":
-        task = myriad.make("Anymal", num_envs=args.envs)
+    if args.task != "AnymalTerrain":
+        task = myriad.make(args.task, num_envs=args.envs)
     else:
         task = myriad.make("AnymalTerrain", num_envs=args.envs,
                            **{"env.terrain.curriculum": False})
@@ -62,12 +64,13 @@ def main() -> None:
     policy = load_policy(args.checkpoint, train_cfg, task)
     obs = task.reset()["obs"]
     steps = round(args.seconds / task.dt)
-    errors, still, falls = [], [], 0
+    errors, still, falls, episodes = [], [], 0, args.envs
     for step in range(steps):
         with torch.no_grad():
             out, _, resets, extras = task.step(policy(obs))
         obs = out["obs"]
         falls += int((resets.bool() & ~extras["time_outs"].bool()).sum())
+        episodes += int(resets.bool().sum())
         if step >= steps // 2:
             root = task.envs.root_states[:, 0]
             lin = quat_rotate_inverse(root[:, 3:7], root[:, 7:10])
@@ -80,8 +83,8 @@ def main() -> None:
     print(f"{args.envs} envs, {args.seconds:g} s, last half: mean |command - actual| "
           f"forward {err[0]:.3f} m/s, lateral {err[1]:.3f} m/s, yaw {err[2]:.3f} rad/s "
           f"(standing still: {base[0]:.3f}, {base[1]:.3f}, {base[2]:.3f}); "
-          f"episodes ended by a fall: {falls}"
-          + (f"; tiles {args.tiles}, level {args.level}" if args.task != "Anymal" else ""))
+          f"episodes ended by a fall: {falls} of {episodes} ({100 * falls / episodes:.1f} %)"
+          + (f"; tiles {args.tiles}, level {args.level}" if args.task == "AnymalTerrain" else ""))
 
 
 if __name__ == "__main__":

@@ -162,6 +162,10 @@ TASKS = {   # few envs, short episodes: resets, time-outs and re-samples in a fe
     "AnymalTerrain": (randomization("anymal", "anymal/base"),     # pushes, cost curriculum
                       dict(episodeLength_s=0.06, pushInterval_s=0.04,
                            penaltyCurriculum={"start": 0.3, "decay": 0.99})),
+    "G1Velocity": (randomization("g1", "g1/pelvis"),            # pushes, command re-draws
+                   {"episodeLength_s": 0.06, "pushInterval_s": 0.04,
+                    "env.commands.resample_s": 0.04}),
+    "G1Rough": (None, dict(episodeLength_s=0.06, pushInterval_s=0.04)),    # + curriculum
     "ShadowHand": (randomization("hand", "object/object"), dict(episodeLength=3)),
     "ShadowHandOpenAI_FF": (None, dict(episodeLength=3)),     # its own randomization
     "AllegroHand": (randomization("hand", "object/object"), dict(episodeLength=3)),
@@ -175,8 +179,8 @@ TASKS = {   # few envs, short episodes: resets, time-outs and re-samples in a fe
 def build(name: str, frequency: int = 1):
     """`name` with 4 envs, its `TASKS` settings (randomization re-sampled at resets once
     `frequency` steps passed), stepping as a GPU steps it; reset."""
-    if name in ("Anymal", "AnymalTerrain"):
-        pytest.importorskip("cmeel", reason="ANYmal needs example-robot-data")
+    if name in ("Anymal", "AnymalTerrain", "G1Velocity", "G1Rough"):
+        pytest.importorskip("cmeel", reason="ANYmal and the G1 need example-robot-data")
     if name == "HumanoidAMP":
         pytest.importorskip("pybullet_data", reason="HumanoidAMP needs pybullet (.[amp])")
     torch.manual_seed(0)
@@ -208,11 +212,12 @@ def test_task_step_never_reads_the_device(name):
     assert int(task.nonfinite_action_count.sum()) == 1
     assert task.envs.sim.nonfinite.tolist() == [0, 0, 0, 0], "flags cleared by the reset"
     # on a CPU the step asks once whether any env finished (free there), and nothing else
-    # (AnymalTerrain also whether a push is due)
+    # (the tasks with pushes also whether a push is due)
     task.skip_idle_resets = True
     with recording_syncs() as syncs:
         task.step(actions)
-    assert syncs == ["aten._local_scalar_dense.default"] * (2 if name == "AnymalTerrain" else 1)
+    pushes = name in ("AnymalTerrain", "G1Velocity", "G1Rough")
+    assert syncs == ["aten._local_scalar_dense.default"] * (2 if pushes else 1)
 
 
 class TraceRecorder(TorchDispatchMode):

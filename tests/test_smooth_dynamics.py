@@ -5,12 +5,16 @@ batching is checked along with the physics. Tolerances are float32-sized, stated
 relative to the scale of the quantity where it spans orders of magnitude.
 """
 
+import importlib.util
+
 import mujoco
 import numpy as np
 import pytest
 import torch
 
 import myriad
+from myriad.assets import g1_spec
+from myriad.physics.importer import from_mujoco
 from models import capsule_chain_xml, chain_xml, random_tree_xml
 from oracle import free_motion_mujoco, full_mass_matrix, random_qpos
 
@@ -24,6 +28,8 @@ MODELS = {
     "random_tree": lambda: myriad.load_xml(random_tree_xml(seed=7, nbody=30), "random_tree"),
     "chain_1to1000": lambda: myriad.load_xml(chain_xml(nlink=10, mass_ratio=1000.0), "chain"),
 }
+if importlib.util.find_spec("cmeel") is not None:       # example-robot-data (.[anymal])
+    MODELS["g1"] = lambda: from_mujoco(g1_spec().compile(), source="g1")
 
 
 # Trajectory tolerances after 100 steps: positions (m or rad) and velocities (relative to their
@@ -32,7 +38,7 @@ MODELS = {
 # accelerations are good to ~5e-4 relative, and whose velocities drift apart from MuJoCo's
 # float64 ones by up to ~2.5e-2 relative over 100 steps of whipping motion (measured).
 TRAJECTORY_TOL = {"ant": (1e-3, 1e-3), "humanoid": (1e-3, 1e-3), "random_tree": (1e-3, 1e-3),
-                  "chain_1to1000": (1e-2, 5e-2)}
+                  "chain_1to1000": (1e-2, 5e-2), "g1": (1e-3, 1e-3)}
 
 
 @pytest.fixture(scope="module", params=list(MODELS))
@@ -48,6 +54,8 @@ def test_test_models_are_what_they_claim(model):
         assert (model.nq, model.nv, model.nu) == (28, 27, 21)
     if name == "ant":
         assert (model.nq, model.nv, model.nu) == (15, 14, 8)
+    if name == "g1":
+        assert (model.nq, model.nv, model.nbody) == (36, 35, 30)      # the pelvis, 29 links
     if name == "random_tree":
         assert model.nbody == 30 and set(model.jnt_type.tolist()) == {0, 1, 2, 3}
         assert any(n >= 2 for n in model.body_jntnum), "no body with two joints"

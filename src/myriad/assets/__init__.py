@@ -6,6 +6,7 @@ gets its robot from here.
 | robot       | extra            | package: file                                                       |
 |-------------|------------------|---------------------------------------------------------------------|
 | ANYmal C    | `myriad[anymal]` | example-robot-data: robots/anymal_c_simple_description/urdf/anymal.urdf |
+| Unitree G1  | `myriad[anymal]` | example-robot-data: robots/g1_description/urdf/g1_29dof_rev_1_0.urdf (meshes/*.STL read to fit capsules) |
 | Shadow Hand | `myriad[hands]`  | gymnasium-robotics: envs/assets/hand/{robot,shared,shared_asset}.xml (OpenAI's) |
 | Allegro     | `myriad[hands]`  | example-robot-data: robots/allegro_hand_description/urdf/allegro_right_hand.urdf |
 | Franka Panda | `myriad[arms]`  | example-robot-data: robots/panda_description/urdf/panda.urdf (arm, hand, fingers) |
@@ -99,6 +100,89 @@ def anymal_c_spec() -> mujoco.MjSpec:
         'fusestatic="true"/></mujoco>', root_link="base",
         text_fixes={singular: '<inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" '
                               'izz="0.001"/>'})
+
+
+# ---------------------------------------------------------------------------- Unitree G1
+G1 = "robots/g1_description/urdf/g1_29dof_rev_1_0.urdf"
+G1_PACKAGE = "package://example-robot-data/"
+G1_ARMATURE = 0.01       # kg·m², every joint: Isaac Lab's G1 actuator groups all use 0.01
+
+
+def capsule_around(vertices: np.ndarray, quantile: float = 0.9) -> tuple[np.ndarray, np.ndarray,
+                                                                         float, float]:
+    """A capsule standing in for a link's mesh: along the vertices' principal axis, its radius
+    the `quantile` of their distances from that axis (a few outlying flanges and bolts are left
+    out), its ends at the vertices' extremes along it. Returns (centre, axis, radius,
+    half-length of the segment)."""
+    centre = vertices.mean(axis=0)
+    offsets = vertices - centre
+    axis = np.linalg.eigh(offsets.T @ offsets)[1][:, -1]
+    along = offsets @ axis
+    radius = float(np.quantile(np.linalg.norm(offsets - along[:, None] * axis, axis=1), quantile))
+    centre = centre + axis * 0.5 * (along.max() + along.min())
+    return centre, axis, radius, max(0.0, 0.5 * (along.max() - along.min()) - radius)
+
+
+def _rpy_z_to(axis: np.ndarray) -> tuple[float, float, float]:
+    """URDF roll-pitch-yaw of a frame whose z axis is `axis`."""
+    z = axis / np.linalg.norm(axis)
+    x = np.cross([0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    R = np.column_stack([x, np.cross(z, x), z])
+    return (float(np.arctan2(R[2, 1], R[2, 2])), float(np.arcsin(-np.clip(R[2, 0], -1, 1))),
+            float(np.arctan2(R[1, 0], R[0, 0])))
+
+
+def g1_spec(armature: float = G1_ARMATURE) -> mujoco.MjSpec:
+    """Unitree's G1 (29 DOF, rev 1.0) of example-robot-data with a free pelvis, its collision
+    meshes replaced by capsules, as the peers' G1 tasks replace them with primitives:
+    - each mesh collision (pelvis contour, hips, knees, ankle pitch links, torso, logo, head,
+      shoulder yaw, elbows, wrists) becomes the capsule `capsule_around` fits to the STL's
+      vertices in the link's frame (a sphere where the capsule would be shorter than 1 cm);
+      the URDF's own primitives stay: the shoulders' cylinders
+      (as capsules, Isaac Gym's replace_cylinder_with_capsule) and the four 5 mm spheres at the
+      corners of each foot sole, which are the feet;
+    - inertias are the URDF's; fixed links (contour, logo, head, IMUs, cameras, rubber hands)
+      are fused into their parents, leaving the pelvis and 29 jointed links;
+    - every joint gets `armature` (the URDF gives none; the motors' reflected inertia is of
+      this order) and keeps the URDF's effort limit as its actuator force range.
+    """
+    path = installed_file("example-robot-data", G1, "anymal")
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(path))))
+    text = open(path).read()
+
+    def capsule(match: re.Match) -> str:
+        mesh = match.group(1).replace(G1_PACKAGE, root + "/")
+        centre, axis, radius, half = capsule_around(stl_vertices(mesh))
+        roll, pitch, yaw = _rpy_z_to(axis)
+        shape = (f'<cylinder radius="{radius:.5f}" length="{2 * half:.5f}"/>' if half > 0.005
+                 else f'<sphere radius="{radius:.5f}"/>')      # a round link
+        return (f'<collision><origin xyz="{centre[0]:.5f} {centre[1]:.5f} {centre[2]:.5f}" '
+                f'rpy="{roll:.5f} {pitch:.5f} {yaw:.5f}"/><geometry>{shape}</geometry>'
+                '</collision>')
+
+    # every mesh collision sits at its link's origin (checked: the pattern requires it)
+    text, meshes = re.subn(
+        r'<collision>\s*<origin xyz="0 0 0" rpy="0 0 0"\s*/>\s*<geometry>\s*'
+        r'<mesh filename="([^"]+)"\s*/>\s*</geometry>\s*</collision>', capsule, text)
+    if meshes != 24 or re.search(r"<collision>(?:(?!</collision>).)*<mesh", text, re.S):
+        raise ModelError(f"{path}: not the file g1_spec was written for ({meshes} mesh "
+                         "collisions at link origins, expected 24)")
+    with tempfile.NamedTemporaryFile("w", suffix=".urdf", delete=False) as fixed:
+        fixed.write(text)
+    try:
+        spec = urdf_spec(fixed.name, '<mujoco><compiler discardvisual="true" '
+                         'inertiafromgeom="false" fusestatic="true"/></mujoco>',
+                         root_link="pelvis")
+    finally:
+        os.unlink(fixed.name)
+    for geom in spec.geoms:
+        if geom.type == mujoco.mjtGeom.mjGEOM_CYLINDER:
+            geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+    for joint in spec.joints:
+        if joint.type != mujoco.mjtJoint.mjJNT_FREE:
+            joint.armature = armature
+    return spec
 
 
 # ---------------------------------------------------------------------------- Shadow Hand

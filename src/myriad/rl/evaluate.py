@@ -12,11 +12,12 @@ episodes):
     successTolerance and episodeLength; counted from the task's own `successes` buffer;
   - FrankaCubeStack, Trifinger: `success_rate`, the share of episodes that ended in the task's
     success (the flags the task counts its `success_rate` metric from; Franka also `lift_rate`);
-  - Anymal, AnymalTerrain: `tracking_error_lin` (m/s, |commanded - actual| base-frame planar
-    velocity) and `tracking_error_yaw` (rad/s), averaged over the episode's steps (as
-    benchmarks/anymal_tracking.py measures them, but over whole episodes); AnymalTerrain also
-    `terrain_level`, the curriculum level each episode was played at (and the envs' mean level
-    at the end).
+  - Anymal, AnymalTerrain, G1Velocity, G1Rough: `tracking_error_lin` (m/s, |commanded -
+    actual| base-frame planar velocity) and `tracking_error_yaw` (rad/s), averaged over the
+    episode's steps (as benchmarks/anymal_tracking.py measures them, but over whole episodes);
+    the terrain tasks also `terrain_level`, the curriculum level each episode was played at (and
+    the envs' mean level at the end); the G1 tasks also `fell`, the share of episodes that
+    ended in a fall.
 
 Episodes: each env contributes at most ceil(episodes / num_envs) episodes, its first ones, and
 the evaluation stops once `episodes` are collected (the envs keep running meanwhile). Taking the
@@ -40,7 +41,7 @@ import torch
 
 HAND_TASKS = ("ShadowHand", "ShadowHandOpenAI_FF", "ShadowHandOpenAI_LSTM", "AllegroHand")
 SUCCESS_RATE_TASKS = ("FrankaCubeStack", "Trifinger")
-TRACKING_TASKS = ("Anymal", "AnymalTerrain")
+TRACKING_TASKS = ("Anymal", "AnymalTerrain", "G1Velocity", "G1Rough")
 
 # the top-level keys a judged evaluation may set: none of them changes the task
 JUDGE_ALLOWED = {"task", "train", "checkpoint", "num_envs", "seed", "episodes", "judge",
@@ -257,6 +258,7 @@ class TrackingProbe(Probe):
         out = {"tracking_error_lin": self.lin / steps, "tracking_error_yaw": self.yaw / steps}
         if self.terrain:
             out["terrain_level"] = self.levels.double()
+        out |= {name: flag.double() for name, flag in self.task.episode_outcomes.items()}
         for buf in (self.lin, self.yaw, self.steps):
             buf.masked_fill_(done, 0.0)
         return out

@@ -68,6 +68,12 @@ _SHADOW_OPENAI = [("fingertip positions (ff, mf, rf, lf, th) × xyz", 0, 15),
                   ("cube position", 15, 18),
                   ("cube quaternion · conj(goal quaternion) (x, y, z, w)", 18, 22),
                   ("last actions", 22, 42)]
+_G1 = [("base linear velocity, base frame, × linearVelocityScale", 0, 3),
+       ("base angular velocity, base frame, × angularVelocityScale", 3, 6),
+       ("gravity direction in the base frame", 6, 9),
+       ("commands (vx, vy, yaw rate) × (linear, linear, angular velocity scales)", 9, 12),
+       ("joint angles - default joint angles", 12, 41),
+       ("joint velocities × dofVelocityScale", 41, 70), ("last actions", 70, 99)]
 OBSERVATION_LAYOUTS = {
     "Ant": [("torso height", 0, 1), ("torso linear velocity, torso frame", 1, 4),
             ("torso angular velocity, torso frame", 4, 7), ("yaw, roll, angle to target", 7, 10),
@@ -98,6 +104,9 @@ OBSERVATION_LAYOUTS = {
                       ("joint angles", 12, 24), ("joint velocities × 0.05", 24, 36),
                       ("terrain heights: clip(z_base - 0.5 - h, -1, 1) × 5 at 14 × 10 points",
                        36, 176), ("last actions", 176, 188)],
+    "G1Velocity": _G1,
+    "G1Rough": _G1 + [("terrain heights: clip(z_base - 0.5 - h, -1, 1) × 5 at 14 × 10 points",
+                       99, 239)],
     "Ingenuity": [("offset to the target / 3", 0, 3), ("root quaternion (x, y, z, w)", 3, 7),
                   ("linear velocity / 2, world frame", 7, 10),
                   ("angular velocity / π, world frame", 10, 13)],
@@ -117,6 +126,9 @@ _HAND = ("position targets of the actuated joints: target = lower + (action + 1)
                                    "lower": "dof_lower", "upper": "dof_upper"})
 _WALKER = ("joint torques: torque = action × motor gear × powerScale",
            {"gear": "gears", "powerScale": "power_scale"})
+_G1_ACTIONS = ("position-drive targets: target = actionScale × action + defaultJointAngles "
+               "(drive gains per joint group: env.control.gains)",
+               {"actionScale": "action_scale", "defaultJointAngles": "default_dof_pos"})
 ACTIONS = {
     "Ant": _WALKER,
     "Humanoid": _WALKER,
@@ -126,6 +138,7 @@ ACTIONS = {
                       "defaultJointAngles - q) - Kd·q̇, ±torqueLimit)",
                       {"actionScale": "action_scale", "defaultJointAngles": "default_dof_pos",
                        "Kp": "kp", "Kd": "kd", "torqueLimit": "torque_limit"}),
+    "G1Velocity": _G1_ACTIONS, "G1Rough": _G1_ACTIONS,
     "Trifinger": ("joint torques: τ = 0.36 N·m × action, less a safety damping (0.08, 0.08, "
                   "0.04)·q̇ per finger, clamped to ±0.36 N·m", {}),
     "Ingenuity": ("per rotor (lower, upper): lateral thrust fractions x, y (clamped to "

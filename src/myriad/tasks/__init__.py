@@ -13,6 +13,7 @@ from .ant import Ant
 from .anymal import Anymal
 from .anymal_terrain import AnymalTerrain
 from .base import VecTask
+from .g1 import G1Rough, G1Velocity
 from .humanoid import Humanoid
 from .ingenuity import Ingenuity
 from .franka import FrankaCubeStack
@@ -21,6 +22,7 @@ from .humanoid_amp import HumanoidAMP
 from .trifinger import Trifinger
 
 TASKS = {"Ant": Ant, "Anymal": Anymal, "AnymalTerrain": AnymalTerrain, "Humanoid": Humanoid, "Ingenuity": Ingenuity,
+         "G1Velocity": G1Velocity, "G1Rough": G1Rough,
          "ShadowHand": ShadowHand, "ShadowHandOpenAI_FF": ShadowHand,
          "ShadowHandOpenAI_LSTM": ShadowHand, "AllegroHand": AllegroHand,
          "FrankaCubeStack": FrankaCubeStack, "Trifinger": Trifinger, "HumanoidAMP": HumanoidAMP}

@@ -1,0 +1,206 @@
+"""The Unitree G1 (assets.g1_spec) and its velocity task (tasks/g1.py): the capsules that stand
+in for its meshes, the model against MuJoCo, standing on its drives, and the task's
+observation, commands, terminations and reward terms on set states. The smooth dynamics
+against MuJoCo are test_smooth_dynamics.py's (the G1 is one of its models)."""
+
+import importlib.util
+import math
+
+import mujoco
+import numpy as np
+import pytest
+import torch
+
+import myriad
+from myriad.assets import capsule_around, g1_spec, stl_vertices
+
+pytestmark = pytest.mark.skipif(importlib.util.find_spec("cmeel") is None,
+                                reason="the G1 needs example-robot-data (pip install .[anymal])")
+
+
+def make(device, num_envs=4, **overrides):
+    return myriad.make("G1Velocity", num_envs=num_envs, device=device,
+                       **{"env.learn.addNoise": False, **overrides})
+
+
+def test_capsule_around_recovers_a_sampled_capsule():
+    rng = np.random.default_rng(0)
+    axis = np.array([1.0, 2.0, -0.5]) / np.linalg.norm([1.0, 2.0, -0.5])
+    side = np.cross(axis, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)
+    up = np.cross(axis, side)
+    # points on a capsule's surface: radius 0.04, segment half-length 0.1, centre (0.1, 0, 0.2)
+    t = rng.uniform(-0.1, 0.1, 4000)
+    angle = rng.uniform(0, 2 * np.pi, 4000)
+    ring = 0.04 * (np.cos(angle)[:, None] * side + np.sin(angle)[:, None] * up)
+    caps = np.concatenate([[0.14 * axis], [-0.14 * axis]])     # the two tips
+    points = np.concatenate([t[:, None] * axis + ring, caps]) + [0.1, 0.0, 0.2]
+    centre, found_axis, radius, half = capsule_around(points, quantile=0.5)
+    np.testing.assert_allclose(centre, [0.1, 0.0, 0.2], atol=2e-3)
+    assert abs(abs(found_axis @ axis) - 1.0) < 1e-4
+    assert radius == pytest.approx(0.04, abs=1e-3)
+    assert half == pytest.approx(0.1, abs=2e-3)
+
+
+def test_g1_model_capsules_and_masses():
+    spec = g1_spec()
+    model = spec.compile()
+    hinges = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
+    assert len(hinges) == 29 and model.nv == 35
+    assert mujoco.mjtGeom.mjGEOM_MESH not in set(model.geom_type)
+    # the URDF's link masses, fused (33.34 kg in all), and its effort limits as force ranges
+    assert model.body_mass.sum() == pytest.approx(33.341142, abs=1e-5)
+    knee = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "left_knee_joint")
+    np.testing.assert_allclose(model.jnt_actfrcrange[knee], [-139, 139])
+    assert np.all(model.dof_armature[6:] == 0.01)
+    # each fitted capsule holds most of its link's mesh (the 90 % quantile of distances)
+    from myriad.assets import G1, installed_file
+    import os
+    meshes = os.path.join(os.path.dirname(os.path.dirname(installed_file(
+        "example-robot-data", G1, "anymal"))), "meshes")
+    vertices = stl_vertices(os.path.join(meshes, "left_knee_link.STL"))
+    geom = next(g for g in range(model.ngeom) if model.geom_bodyid[g] == mujoco.mj_name2id(
+        model, mujoco.mjtObj.mjOBJ_BODY, "left_knee_link"))
+    assert model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_CAPSULE
+    axis = np.zeros(9)
+    mujoco.mju_quat2Mat(axis, model.geom_quat[geom])
+    axis = axis.reshape(3, 3)[:, 2]
+    rel = vertices - model.geom_pos[geom]
+    along = np.clip(rel @ axis, -model.geom_size[geom, 1], model.geom_size[geom, 1])
+    distance = np.linalg.norm(rel - along[:, None] * axis, axis=1)
+    inside = np.mean(distance <= model.geom_size[geom, 0] + 1e-6)
+    assert 0.85 <= inside < 1.0
+
+
+def test_g1_stands_on_its_drives(device):
+    """Held at the default pose by its drives, the robot settles on its feet at 0.774 m and
+    stays up for a second (it then topples slowly, as a robot with fixed targets must)."""
+    task = make(device, num_envs=2, **{"env.pushInterval_s": 1000})
+    task.commands.zero_()
+    task.envs.set_root_states(task.initial_root_states)     # upright, at rest, facing +x
+    task.envs.set_dof_state(task.default_dof_pos.expand(2, -1).clone(),
+                            torch.zeros(2, 29, device=task.device))
+    for _ in range(50):
+        task.step(torch.zeros(2, 29, device=task.device))
+    base = task.envs.root_states[:, 0]
+    assert torch.all(task.progress_buf == 50)        # no env has fallen or been reset
+    np.testing.assert_allclose(base[:, 2].cpu().numpy(), 0.774, atol=0.02)
+    feet = task.envs.net_contact_force[:, task.feet, 2]
+    weight = 33.341142 * 9.81
+    np.testing.assert_allclose(feet.sum(-1).cpu().numpy(), weight, rtol=0.1)
+
+
+def test_g1_observation_and_terms(device):
+    task = make(device, num_envs=2)
+    assert task.obs_buf.shape == (2, 99) and task.num_actions == 29
+    e = task.envs
+    states = e.root_states.clone()
+    states[:, 0, 7:10] = torch.tensor([0.4, -0.2, 0.0])
+    states[:, 0, 10:13] = torch.tensor([0.0, 0.0, 0.5])
+    e.set_root_states(states)
+    task.commands[:] = torch.tensor([0.4, -0.2, 0.5], device=task.device)
+    task.compute_observations()
+    obs = task.obs_buf
+    yaw = 2 * torch.atan2(states[:, 0, 5], states[:, 0, 6])
+    np.testing.assert_allclose(obs[:, 9:12].cpu().numpy(), [[0.8, -0.4, 0.125]] * 2, atol=1e-6)
+    np.testing.assert_allclose(obs[:, 6:9].cpu().numpy(), [[0, 0, -1]] * 2, atol=1e-5)
+    # the base velocity in the base frame: the world velocity turned by -yaw
+    c, s = torch.cos(yaw), torch.sin(yaw)
+    expected = torch.stack((c * 0.4 - s * 0.2, -s * 0.4 - c * 0.2), -1) * 2
+    np.testing.assert_allclose(obs[:, 0:2].cpu().numpy(), expected.cpu().numpy(), atol=1e-5)
+    # commands met exactly in the yaw frame: both tracking terms at their maximum
+    from myriad.tasks.g1 import compute_g1_reward
+    N = 2
+    zeros = torch.zeros(N, 29, device=task.device)
+    scales = {k: 0.0 for k in task.reward_scales}
+    scales.update(linearVelocityXYRewardScale=1.0, angularVelocityZRewardScale=1.0)
+    base = e.root_states[:, 0].clone()
+    base[:, 7:9] = torch.stack((c * 0.4 + s * 0.2, s * 0.4 - c * 0.2), -1)
+    reward, fell = compute_g1_reward(
+        base, task.commands, zeros, e.dof_pos, zeros, zeros, zeros, zeros,
+        task.default_dof_pos, task.soft_limits, task.deviation_dofs, e.net_contact_force * 0,
+        task.bodies_ending, torch.zeros(N, 2, dtype=torch.bool, device=task.device),
+        torch.zeros(N, 2, device=task.device), torch.zeros(N, 2, device=task.device),
+        torch.zeros(N, 2, 2, device=task.device), task.gravity_dir[:N], task.forward_axis[:N],
+        0.02, 1.0, scales)
+    np.testing.assert_allclose(reward.cpu().numpy(), 2.0, atol=1e-5)
+    assert not fell.any()
+
+
+def test_g1_single_stance_and_tilt(device):
+    """The air-time term pays the single-stance phase's duration (capped at 0.4 s) only with a
+    moving command; a base tilted past maxTilt has fallen and pays the termination term."""
+    from myriad.tasks.g1 import compute_g1_reward
+    task = make(device, num_envs=3)
+    dev, N = task.device, 3
+    scales = {k: 0.0 for k in task.reward_scales}
+    scales.update(feetAirTimeRewardScale=1.0, terminationRewardScale=-10.0)
+    base = task.envs.root_states[:, 0].clone()
+    base[:, 7:13] = 0
+    tilt = 1.2                                      # env 2: tilted about x beyond 1 rad
+    base[2, 3:7] = torch.tensor([math.sin(tilt / 2), 0, 0, math.cos(tilt / 2)])
+    base[:2, 3:7] = torch.tensor([0.0, 0.0, 0.0, 1.0])
+    commands = torch.tensor([[0.5, 0, 0], [0.0, 0, 0], [0.5, 0, 0]], device=dev)
+    contact = torch.tensor([[True, False]] * 3, device=dev)
+    contact_time = torch.tensor([[0.3, 0.0]] * 3, device=dev)
+    air_time = torch.tensor([[0.0, 0.6]] * 3, device=dev)
+    zeros = torch.zeros(N, 29, device=dev)
+    reward, fell = compute_g1_reward(
+        base, commands, zeros, task.default_dof_pos.expand(N, -1), zeros, zeros, zeros,
+        zeros, task.default_dof_pos, task.soft_limits, task.deviation_dofs,
+        task.envs.net_contact_force * 0, task.bodies_ending, contact, air_time, contact_time,
+        torch.zeros(N, 2, 2, device=dev), task.gravity_dir, task.forward_axis, 0.02, 1.0,
+        scales)
+    # env 0: in single stance, the phase's time is min(0.3 in contact, 0.6 in the air) = 0.3
+    np.testing.assert_allclose(reward.cpu().numpy(), [0.3, 0.0, 0.3 - 10.0], atol=1e-6)
+    assert fell.tolist() == [False, False, True]
+
+
+def test_g1_fall_ends_the_episode_and_commands_resample(device):
+    task = make(device, num_envs=2, **{"env.commands.resample_s": 0.1,
+                                       "env.commands.standing": 0.0})
+    states = task.envs.root_states.clone()
+    states[0, 0, 3:7] = torch.tensor([math.sin(0.8), 0.0, 0.0, math.cos(0.8)])  # 1.6 rad
+    task.envs.set_root_states(states)
+    _, _, resets, extras = task.step(torch.zeros(2, 29, device=task.device))
+    assert resets.tolist() == [1, 0] and extras["time_outs"].tolist() == [0, 0]
+    before = task.commands.clone()
+    for _ in range(5):                             # resample_s 0.1: every 5 steps
+        task.step(torch.zeros(2, 29, device=task.device))
+    assert not torch.equal(before[1], task.commands[1])
+    assert torch.all(task.commands[:, 0] >= 0) and torch.all(task.commands[:, 0] <= 1)
+
+
+def test_g1_config_errors_name_the_joint():
+    from myriad.tasks.g1 import by_pattern
+    assert by_pattern(["left_knee_joint", "waist_yaw_joint"],
+                      {".*_knee_joint": 1.0, "waist_.*": 2.0}, "gains") == [1.0, 2.0]
+    with pytest.raises(ValueError, match="env.control.gains: no entry matches joint "
+                                         "'left_hip_pitch_joint'"):
+        by_pattern(["left_hip_pitch_joint"], {".*_knee_joint": [200.0, 5.0]},
+                   "env.control.gains")
+
+
+def test_g1_rough_heights_and_curriculum(device):
+    """G1Rough: the 140 heights read the terrain under the base as AnymalTerrain's do, and a
+    robot that walked off its tile starts its next episode a level up (the shared curriculum)."""
+    task = myriad.make("G1Rough", num_envs=2, device=device, **{"env.learn.addNoise": False})
+    assert task.obs_buf.shape == (2, 239)
+    base = task.envs.root_states[:, 0]
+    expected = torch.clamp(base[:, 2:3] - 0.5 - task.terrain_heights(base), -1, 1) * 5.0
+    np.testing.assert_allclose(task.obs_buf[:, 99:].cpu().numpy(), expected.cpu().numpy(),
+                               atol=1e-6)
+    # at the start every robot stands over its tile's start point
+    np.testing.assert_allclose((base[:, :2] - task.env_origins[:, :2]).abs().max().item(), 0.25,
+                               atol=0.26)
+    states = task.envs.root_states.clone()
+    states[0, 0, :2] = task.env_origins[0, :2] + torch.tensor([5.0, 0.0], device=task.device)
+    task.envs.set_root_states(states)
+    task.move_levels = True
+    done = torch.tensor([True, False], device=task.device)
+    task.commands[:] = torch.tensor([[0.5, 0, 0], [0.5, 0, 0]], device=task.device)
+    task.reset_idx(done)
+    assert task.levels.tolist() == [1, 0]
+    assert task.metrics() == {"terrain_level": 0.5}
+    np.testing.assert_allclose(task.env_origins[0].cpu().numpy(),
+                               task.tile_origins[1, task.kinds[0]].cpu().numpy())
