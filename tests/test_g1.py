@@ -72,27 +72,43 @@ def test_g1_model_capsules_and_masses():
     assert 0.85 <= inside < 1.0
 
 
-def test_g1_stands_on_its_drives(device):
-    """Held at the default pose by its drives, the robot settles on its feet at 0.774 m and
-    stays up for a second (it then topples slowly, as a robot with fixed targets must)."""
+def test_g1_stands_on_its_drives_as_in_mujoco(device):
+    """Held at the default pose by its drives, the robot settles on its feet and stays up for
+    half a second, then topples forward slowly, as a robot with fixed targets must; MuJoCo,
+    stepping the same scene (its soft contacts, 5 ms steps), does the same: the pelvis at the
+    same height and tilting forward at the same pace."""
     task = make(device, num_envs=2, **{"env.pushInterval_s": 1000})
     task.commands.zero_()
     task.envs.set_root_states(task.initial_root_states)     # upright, at rest, facing +x
     task.envs.set_dof_state(task.default_dof_pos.expand(2, -1).clone(),
                             torch.zeros(2, 29, device=task.device))
-    for _ in range(50):
-        task.step(torch.zeros(2, 29, device=task.device))
-    base = task.envs.root_states[:, 0]
-    assert torch.all(task.progress_buf == 50)        # no env has fallen or been reset
-    np.testing.assert_allclose(base[:, 2].cpu().numpy(), 0.774, atol=0.02)
-    feet = task.envs.net_contact_force[:, task.feet, 2]
+    model = task.build_scene().compose()[0].compile()
+    model.opt.timestep, model.opt.integrator = 0.005, mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    data = mujoco.MjData(model)
+    data.qpos[7:] = data.ctrl[:] = task.default_dof_pos.cpu().numpy()
     weight = 33.341142 * 9.81
-    np.testing.assert_allclose(feet.sum(-1).cpu().numpy(), weight, rtol=0.1)
+    for step in range(1, 51):                           # 1 s of 20 ms steps
+        task.step(torch.zeros(2, 29, device=task.device))
+        for _ in range(4):
+            mujoco.mj_step(model, data)
+        base = task.envs.root_states[0, 0].cpu().numpy()
+        pitch = 2 * np.arcsin(base[4])                  # about y; the quaternion is x, y, z, w
+        pitch_mujoco = 2 * np.arcsin(data.qpos[5])
+        if step == 25:                                  # 0.5 s: standing still
+            assert base[2] == pytest.approx(data.qpos[2], abs=0.005)
+            assert base[2] == pytest.approx(0.774, abs=0.005)
+            assert abs(pitch) < 0.03 and abs(pitch_mujoco) < 0.03
+            feet = task.envs.net_contact_force[0, task.feet, 2].sum().item()
+            assert feet == pytest.approx(weight, rel=0.05)
+    # 1 s: both tip forward, by similar angles
+    assert 0.03 < pitch_mujoco and 0.03 < pitch
+    assert pitch == pytest.approx(pitch_mujoco, abs=0.05)    # measured 0.107 and 0.124 rad
+    assert torch.all(task.progress_buf == 50)           # no env has fallen or been reset
 
 
 def test_g1_observation_and_terms(device):
     task = make(device, num_envs=2)
-    assert task.obs_buf.shape == (2, 99) and task.num_actions == 29
+    assert task.obs_buf.shape == (2, 101) and task.num_actions == 29
     e = task.envs
     states = e.root_states.clone()
     states[:, 0, 7:10] = torch.tensor([0.4, -0.2, 0.0])
@@ -104,6 +120,9 @@ def test_g1_observation_and_terms(device):
     yaw = 2 * torch.atan2(states[:, 0, 5], states[:, 0, 6])
     np.testing.assert_allclose(obs[:, 9:12].cpu().numpy(), [[0.8, -0.4, 0.125]] * 2, atol=1e-6)
     np.testing.assert_allclose(obs[:, 6:9].cpu().numpy(), [[0, 0, -1]] * 2, atol=1e-5)
+    np.testing.assert_allclose(obs[:, 99:101].cpu().numpy(), [[0, 1]] * 2, atol=1e-6)  # phase 0
+    task.progress_buf[:] = torch.tensor([10, 30])      # 0.2 s, 0.6 s of the 0.8 s period
+    np.testing.assert_allclose(task.gait_phase().cpu().numpy(), [0.25, 0.75], atol=1e-6)
     # the base velocity in the base frame: the world velocity turned by -yaw
     c, s = torch.cos(yaw), torch.sin(yaw)
     expected = torch.stack((c * 0.4 - s * 0.2, -s * 0.4 - c * 0.2), -1) * 2
@@ -116,25 +135,29 @@ def test_g1_observation_and_terms(device):
     scales.update(linearVelocityXYRewardScale=1.0, angularVelocityZRewardScale=1.0)
     base = e.root_states[:, 0].clone()
     base[:, 7:9] = torch.stack((c * 0.4 + s * 0.2, s * 0.4 - c * 0.2), -1)
+    no_feet = torch.zeros(N, 2, dtype=torch.bool, device=task.device)
     reward, fell = compute_g1_reward(
         base, task.commands, zeros, e.dof_pos, zeros, zeros, zeros, zeros,
         task.default_dof_pos, task.soft_limits, task.deviation_dofs, e.net_contact_force * 0,
         task.bodies_ending, torch.zeros(N, 2, dtype=torch.bool, device=task.device),
         torch.zeros(N, 2, device=task.device), torch.zeros(N, 2, device=task.device),
-        torch.zeros(N, 2, 2, device=task.device), task.gravity_dir[:N], task.forward_axis[:N],
-        0.02, 1.0, scales)
+        torch.zeros(N, 2, 2, device=task.device), no_feet, no_feet.float(),
+        task.gravity_dir[:N], task.forward_axis[:N], 0.02, 1.0, 0.08, scales)
     np.testing.assert_allclose(reward.cpu().numpy(), 2.0, atol=1e-5)
     assert not fell.any()
 
 
-def test_g1_single_stance_and_tilt(device):
+def test_g1_single_stance_gait_clock_and_tilt(device):
     """The air-time term pays the single-stance phase's duration (capped at 0.4 s) only with a
-    moving command; a base tilted past maxTilt has fallen and pays the termination term."""
+    moving command; the gait terms pay each foot whose contact is what the clock wants and
+    charge a foot in the air for missing its swing height; a base tilted past maxTilt has
+    fallen and pays the termination term."""
     from myriad.tasks.g1 import compute_g1_reward
     task = make(device, num_envs=3)
     dev, N = task.device, 3
     scales = {k: 0.0 for k in task.reward_scales}
-    scales.update(feetAirTimeRewardScale=1.0, terminationRewardScale=-10.0)
+    scales.update(feetAirTimeRewardScale=1.0, terminationRewardScale=-10.0,
+                  gaitContactRewardScale=0.5, swingHeightRewardScale=-100.0)
     base = task.envs.root_states[:, 0].clone()
     base[:, 7:13] = 0
     tilt = 1.2                                      # env 2: tilted about x beyond 1 rad
@@ -144,15 +167,20 @@ def test_g1_single_stance_and_tilt(device):
     contact = torch.tensor([[True, False]] * 3, device=dev)
     contact_time = torch.tensor([[0.3, 0.0]] * 3, device=dev)
     air_time = torch.tensor([[0.0, 0.6]] * 3, device=dev)
+    # the clock: env 0 left in stance, right in swing (both as wanted); envs 1, 2 the reverse
+    gait_stance = torch.tensor([[True, False], [False, True], [False, True]], device=dev)
+    foot_z = torch.tensor([[0.03, 0.18]] * 3, device=dev)     # the right foot 0.1 m too high
     zeros = torch.zeros(N, 29, device=dev)
     reward, fell = compute_g1_reward(
         base, commands, zeros, task.default_dof_pos.expand(N, -1), zeros, zeros, zeros,
         zeros, task.default_dof_pos, task.soft_limits, task.deviation_dofs,
         task.envs.net_contact_force * 0, task.bodies_ending, contact, air_time, contact_time,
-        torch.zeros(N, 2, 2, device=dev), task.gravity_dir, task.forward_axis, 0.02, 1.0,
-        scales)
-    # env 0: in single stance, the phase's time is min(0.3 in contact, 0.6 in the air) = 0.3
-    np.testing.assert_allclose(reward.cpu().numpy(), [0.3, 0.0, 0.3 - 10.0], atol=1e-6)
+        torch.zeros(N, 2, 2, device=dev), gait_stance, foot_z, task.gravity_dir,
+        task.forward_axis, 0.02, 1.0, 0.08, scales)
+    # env 0: in single stance, the phase's time is min(0.3 in contact, 0.6 in the air) = 0.3;
+    # both feet as the clock wants (+1.0); the right foot 0.1 m above its swing height (-1.0)
+    np.testing.assert_allclose(reward.cpu().numpy(), [0.3 + 1.0 - 1.0, 0.0 - 1.0,
+                                                      0.3 - 1.0 - 10.0], atol=1e-5)
     assert fell.tolist() == [False, False, True]
 
 
@@ -185,10 +213,10 @@ def test_g1_rough_heights_and_curriculum(device):
     """G1Rough: the 140 heights read the terrain under the base as AnymalTerrain's do, and a
     robot that walked off its tile starts its next episode a level up (the shared curriculum)."""
     task = myriad.make("G1Rough", num_envs=2, device=device, **{"env.learn.addNoise": False})
-    assert task.obs_buf.shape == (2, 239)
+    assert task.obs_buf.shape == (2, 241)
     base = task.envs.root_states[:, 0]
     expected = torch.clamp(base[:, 2:3] - 0.5 - task.terrain_heights(base), -1, 1) * 5.0
-    np.testing.assert_allclose(task.obs_buf[:, 99:].cpu().numpy(), expected.cpu().numpy(),
+    np.testing.assert_allclose(task.obs_buf[:, 101:].cpu().numpy(), expected.cpu().numpy(),
                                atol=1e-6)
     # at the start every robot stands over its tile's start point
     np.testing.assert_allclose((base[:, :2] - task.env_origins[:, :2]).abs().max().item(), 0.25,

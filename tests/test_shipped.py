@@ -1,5 +1,5 @@
-"""Policies that ship with Myriad (issue 42 item 2): the manifest and its files, the shipped Ant
-walking under `myriad eval`, play and eval falling back to it without a run, `checkpoint=shipped`
+"""Policies that ship with Myriad (issue 42 item 2): the manifest and its files, every shipped
+policy doing under `myriad eval` what its manifest says, play and eval falling back to it without a run, `checkpoint=shipped`
 for a task that ships none, fine-tuning from it, and `shipped.ship` making one from a run."""
 
 import json
@@ -36,16 +36,29 @@ def test_every_manifest_entry_has_its_file_its_provenance_and_its_figure():
     assert total <= 30 * MB          # the issue's budget for all tasks together
 
 
-def test_the_shipped_ant_walks_as_its_manifest_says(tmp_path):
-    """4 episodes of 1000 steps: the mean reward is at least half the manifest's 100-episode
-    figure (a fresh policy scores near 0; the bar is loose for 4 episodes' spread)."""
-    out = tmp_path / "ant.json"
-    assert cli.main(["eval", "task=Ant", "device=cpu", "checkpoint=shipped", "episodes=4",
+# how far 4 episodes' figure may fall short of the manifest's 100-episode one: a reward at least
+# half of it, a tracking error at most twice it (a fresh policy scores a reward near 0 and the
+# tracking error of standing still, several times a trained one's)
+LOOSE = {"episode_reward": lambda now, shipped: now > 0.5 * shipped,
+         "tracking_error_lin": lambda now, shipped: now < 2.0 * shipped}
+
+
+@pytest.mark.parametrize("task", sorted(shipped.manifest()))
+def test_every_shipped_policy_does_what_its_manifest_says(task, tmp_path):
+    """`myriad eval` of each shipped policy, 4 episodes on 4 envs, against its manifest's
+    100-episode figure (LOOSE); the extras each task needs must be installed (CI has them)."""
+    entry = shipped.manifest()[task]
+    primary = entry["eval"]["primary"]
+    out = tmp_path / "eval.json"
+    assert cli.main(["eval", f"task={task}", "device=cpu", "checkpoint=shipped", "episodes=4",
                      "num_envs=4", "seed=1", f"output={out}"]) == 0
     report = json.loads(out.read_text())
-    manifest = shipped.manifest()["Ant"]["eval"]["results"]["episode_reward"]["mean"]
-    assert report["results"]["episode_reward"]["mean"] > 0.5 * manifest > 1000
-    assert report["checkpoint"] == os.path.abspath(shipped.checkpoint_for("Ant"))
+    now = report["results"][primary]["mean"]
+    figure = entry["eval"]["results"][primary]["mean"]
+    assert LOOSE[primary](now, figure), (task, primary, now, figure)
+    assert report["checkpoint"] == os.path.abspath(shipped.checkpoint_for(task))
+    if task == "Ant":
+        assert figure > 2000            # the manifest's own figure is a walking ant's
 
 
 def test_play_and_eval_take_the_shipped_policy_when_the_task_has_no_run(tmp_path, capsys):

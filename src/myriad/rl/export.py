@@ -73,7 +73,8 @@ _G1 = [("base linear velocity, base frame, × linearVelocityScale", 0, 3),
        ("gravity direction in the base frame", 6, 9),
        ("commands (vx, vy, yaw rate) × (linear, linear, angular velocity scales)", 9, 12),
        ("joint angles - default joint angles", 12, 41),
-       ("joint velocities × dofVelocityScale", 41, 70), ("last actions", 70, 99)]
+       ("joint velocities × dofVelocityScale", 41, 70), ("last actions", 70, 99),
+       ("gait clock: sin, cos of 2π·phase", 99, 101)]
 OBSERVATION_LAYOUTS = {
     "Ant": [("torso height", 0, 1), ("torso linear velocity, torso frame", 1, 4),
             ("torso angular velocity, torso frame", 4, 7), ("yaw, roll, angle to target", 7, 10),
@@ -106,7 +107,7 @@ OBSERVATION_LAYOUTS = {
                        36, 176), ("last actions", 176, 188)],
     "G1Velocity": _G1,
     "G1Rough": _G1 + [("terrain heights: clip(z_base - 0.5 - h, -1, 1) × 5 at 14 × 10 points",
-                       99, 239)],
+                       101, 241)],
     "Ingenuity": [("offset to the target / 3", 0, 3), ("root quaternion (x, y, z, w)", 3, 7),
                   ("linear velocity / 2, world frame", 7, 10),
                   ("angular velocity / π, world frame", 10, 13)],

@@ -11,7 +11,7 @@ the drives' gains per joint group (`control.gains`: hips 150/5, knees and waist 
 Commands: vx ~ U(commands.linear_x), vy ~ U(commands.linear_y), yaw rate ~ U(commands.yaw),
 drawn at reset and every `commands.resample_s`; a share `commands.standing` of draws is zero.
 
-Observation (99):
+Observation (101):
     [0:3]    base linear velocity, base frame, × linearVelocityScale (2)
     [3:6]    base angular velocity, base frame, × angularVelocityScale (0.25)
     [6:9]    gravity direction in the base frame (unit vector)
@@ -19,6 +19,8 @@ Observation (99):
     [12:41]  joint angles - default angles
     [41:70]  joint velocities × dofVelocityScale (0.05)
     [70:99]  last actions
+    [99:101] the gait clock: sin, cos of 2π·phase, phase = (time in the episode / gait.period_s)
+             mod 1
   plus uniform noise ± the config's noise × the same scales, each step (commands and actions
   have none).
 Reward, each term × dt (0.02 s), scales in `env.learn` (no clipping):
@@ -28,7 +30,13 @@ Reward, each term × dt (0.02 s), scales in `env.learn` (no clipping):
     +0.75·min(time in the current single-stance phase, 0.4 s), when |v*_xy| > 0.1
     −0.1·Σ_feet |v_foot,xy| while the foot touches the ground (sliding)
     −0.1·Σ|q − q0| over hip yaw and roll, waist, arms (stay near the default pose)
-    −200 when the episode ends in a fall.
+    +0.18·Σ_feet [foot touching = the clock has it in stance] (the left foot in stance for the
+      first stanceShare 0.55 of each 0.8 s period, the right half a period later)
+    −20·Σ_feet (z_foot − 0.08 m)² while the foot is in the air (its swing height)
+    +0.15 each step alive; −200 when the episode ends in a fall.
+  The gait clock, its two terms and the alive bonus are Unitree's own G1 task's
+  (unitree_rl_gym): without them the robot learned to stand but not to step within an hour of
+  the CPU (docs/results.md).
 An episode ends in a fall when the pelvis or torso touches the ground (|F| > 1 N) or the base
 tilts more than `env.maxTilt` rad; otherwise after episodeLength_s = 20 s. Every `pushInterval_s`
 (one clock for all envs) every base is pushed: v_xy set to U(−pushVelocity, pushVelocity).
@@ -64,7 +72,7 @@ def by_pattern(names: list[str], table: dict, what: str) -> list:
 
 
 class G1Velocity(VecTask):
-    num_obs = 99
+    num_obs = 101
     num_actions = 29
     checkpointed = ("steps_taken",)     # the push clock
 
@@ -114,6 +122,9 @@ class G1Velocity(VecTask):
         self.forward_axis = torch.tensor([1.0, 0.0, 0.0], device=dev).expand(N, 3)
         self.up_axis = torch.tensor([0.0, 0.0, 1.0], device=dev).expand(N, 3)
         self.noise_scale = self._noise_scale()
+        gait = env["gait"]
+        self.gait_period, self.stance_share = gait["period_s"], gait["stanceShare"]
+        self.leg_offsets = torch.tensor([0.0, gait["rightOffset"]], device=dev)
         self.push_every = max(1, round(env["pushInterval_s"] / self.dt))
         self.steps_taken = torch.zeros((), dtype=torch.int64, device=dev)
         self.initial_root_states = e.root_states.clone()
@@ -132,7 +143,7 @@ class G1Velocity(VecTask):
                  (3, learn["gravityNoise"]), (3, 0.0),
                  (n, learn["dofPositionNoise"]),
                  (n, learn["dofVelocityNoise"] * learn["dofVelocityScale"]),
-                 (n, 0.0)]
+                 (n, 0.0), (2, 0.0)]
         return torch.cat([torch.full((k,), s * level) for k, s in parts]).to(self.device)
 
     def add_floor(self, scene: Scene, env: dict) -> Scene:
@@ -140,6 +151,10 @@ class G1Velocity(VecTask):
                                 restitution=env["plane"]["restitution"])
 
     def create_envs(self):
+        return self.build_scene().build(self.num_envs, self.device, self.sim_params)
+
+    def build_scene(self) -> Scene:
+        """One env: the floor and the G1 with its drives (MuJoCo can compile it too)."""
         env = self.cfg["env"]
         spec = g1_spec()
         names = [j.name for j in spec.joints if j.type != 0]     # 0: the free joint
@@ -148,7 +163,7 @@ class G1Velocity(VecTask):
         scene.add_actor("g1", spec, pos=tuple(env["baseInitState"]["pos"]), quat=(0, 0, 0, 1),
                         self_collisions=False, dof_mode="position",
                         stiffness=[g[0] for g in gains], damping=[g[1] for g in gains])
-        return scene.build(self.num_envs, self.device, self.sim_params)
+        return scene
 
     # ------------------------------------------------------------------ step
     def pre_physics_step(self, actions):
@@ -168,13 +183,17 @@ class G1Velocity(VecTask):
         self.feet_air_time[:] = torch.where(contact, 0.0, self.feet_air_time + self.dt)
         self.feet_contact_time[:] = torch.where(contact, self.feet_contact_time + self.dt, 0.0)
         torques = e.sim.dof_actuator_force[:, e.dof_columns]
+        # each leg's phase; a leg is due on the ground in the first stanceShare of its cycle
+        stance = torch.remainder(self.gait_phase()[:, None] + self.leg_offsets, 1.0) \
+            < self.stance_share
         self.rew_buf[:], terminated = compute_g1_reward(
             e.root_states[:, 0], self.commands, torques, e.dof_pos, e.dof_vel,
             self.last_dof_vel, self.actions, self.last_actions, self.default_dof_pos,
             self.soft_limits, self.deviation_dofs, e.net_contact_force, self.bodies_ending,
             contact, self.feet_air_time, self.feet_contact_time,
-            e.rigid_body_states[:, self.feet, 7:9], self.gravity_dir, self.forward_axis,
-            self.dt, self.cfg["env"]["maxTilt"], self.reward_scales)
+            e.rigid_body_states[:, self.feet, 7:9], stance, e.rigid_body_states[:, self.feet, 2],
+            self.gravity_dir, self.forward_axis, self.dt, self.cfg["env"]["maxTilt"],
+            self.cfg["env"]["gait"]["swingHeight"], self.reward_scales)
         self.reset_buf[:] = terminated.long()
         self.episode_outcomes["fell"] = terminated
         self.last_actions[:] = self.actions
@@ -198,11 +217,15 @@ class G1Velocity(VecTask):
         moving = torch.rand(n, device=dev) >= c["standing"]
         return commands * moving[:, None]
 
+    def gait_phase(self) -> torch.Tensor:
+        """[N] the gait clock, in [0, 1): the share of the period since the episode began."""
+        return torch.remainder(self.progress_buf * (self.dt / self.gait_period), 1.0)
+
     def observations(self) -> torch.Tensor:
         e, learn = self.envs, self.learn
         return compute_g1_observations(
             e.root_states[:, 0], self.commands * self.command_scale, e.dof_pos,
-            self.default_dof_pos, e.dof_vel, self.gravity_dir, self.actions,
+            self.default_dof_pos, e.dof_vel, self.gravity_dir, self.actions, self.gait_phase(),
             learn["linearVelocityScale"], learn["angularVelocityScale"],
             learn["dofVelocityScale"])
 
@@ -234,7 +257,8 @@ class G1Velocity(VecTask):
 
 
 def compute_g1_observations(base_state, commands_scaled, dof_pos, default_dof_pos, dof_vel,
-                            gravity_dir, actions, lin_vel_scale, ang_vel_scale, dof_vel_scale):
+                            gravity_dir, actions, phase, lin_vel_scale, ang_vel_scale,
+                            dof_vel_scale):
     quat = base_state[:, 3:7]
     return torch.cat((
         quat_rotate_inverse(quat, base_state[:, 7:10]) * lin_vel_scale,
@@ -244,15 +268,19 @@ def compute_g1_observations(base_state, commands_scaled, dof_pos, default_dof_po
         dof_pos - default_dof_pos,
         dof_vel * dof_vel_scale,
         actions,
+        torch.sin(2 * math.pi * phase)[:, None],
+        torch.cos(2 * math.pi * phase)[:, None],
     ), dim=-1)
 
 
 def compute_g1_reward(base_state, commands, torques, dof_pos, dof_vel, last_dof_vel, actions,
                       last_actions, default_dof_pos, soft_limits, deviation_dofs,
                       contact_forces, bodies_ending, foot_contact, air_time, contact_time,
-                      foot_vel_xy, gravity_dir, forward_axis, dt, max_tilt, scales):
+                      foot_vel_xy, gait_stance, foot_z, gravity_dir, forward_axis, dt, max_tilt,
+                      swing_height, scales):
     """The module docstring's terms (each scale already × dt); returns (reward, fell).
-    `gravity_dir`, `forward_axis` [N, 3]: world -z and +x."""
+    `gait_stance` [N, 2]: whether the gait clock has each foot on the ground; `foot_z` [N, 2] the
+    ankle roll links' heights; `gravity_dir`, `forward_axis` [N, 3]: world -z and +x."""
     quat = base_state[:, 3:7]
     lin_vel = quat_rotate_inverse(quat, base_state[:, 7:10])
     ang_vel = quat_rotate_inverse(quat, base_state[:, 10:13])
@@ -289,6 +317,10 @@ def compute_g1_reward(base_state, commands, torques, dof_pos, dof_vel, last_dof_
               * scales["feetSlideRewardScale"]
               + torch.sum((dof_pos - default_dof_pos)[:, deviation_dofs].abs(), dim=-1)
               * scales["jointDeviationRewardScale"]
+              + (foot_contact == gait_stance).sum(-1) * scales["gaitContactRewardScale"]
+              + torch.sum((foot_z - swing_height) ** 2 * ~foot_contact, dim=-1)
+              * scales["swingHeightRewardScale"]
+              + scales["aliveRewardScale"]
               + fell * scales["terminationRewardScale"])
     return reward, fell
 
@@ -300,13 +332,13 @@ class G1Rough(TerrainCurriculum, G1Velocity):
     rewards, pushes, friction); a robot starts `baseInitState.height` above its tile's start
     point, x and y ± `baseInitState.xyNoise`.
 
-    Observation (239): G1Velocity's 99, then
-        [99:239]  terrain heights, clip(z_base − 0.5 − h, −1, 1) × heightMeasurementScale (5),
+    Observation (241): G1Velocity's 101, then
+        [101:241]  terrain heights, clip(z_base − 0.5 − h, −1, 1) × heightMeasurementScale (5),
                   at `terrain.height_points()` (14 × 10 points around the base, turned with
                   its yaw), noise ± heightMeasurementNoise × the scale.
     Metric: `terrain_level`, the mean level of the envs.
     """
-    num_obs = 239
+    num_obs = 241
     checkpointed = ("steps_taken", "levels")     # push clock; terrain levels
 
     def __init__(self, cfg: dict, device: str = "cpu"):
