@@ -5,6 +5,7 @@ against MuJoCo are test_smooth_dynamics.py's (the G1 is one of its models)."""
 
 import importlib.util
 import math
+import os
 
 import mujoco
 import numpy as np
@@ -12,7 +13,7 @@ import pytest
 import torch
 
 import myriad
-from myriad.assets import capsule_around, g1_spec, stl_vertices
+from myriad.assets import G1, capsule_around, g1_spec, installed_file, stl_vertices
 
 pytestmark = pytest.mark.skipif(importlib.util.find_spec("cmeel") is None,
                                 reason="the G1 needs example-robot-data (pip install .[anymal])")
@@ -54,8 +55,6 @@ def test_g1_model_capsules_and_masses():
     np.testing.assert_allclose(model.jnt_actfrcrange[knee], [-139, 139])
     assert np.all(model.dof_armature[6:] == 0.01)
     # each fitted capsule holds most of its link's mesh (the 90 % quantile of distances)
-    from myriad.assets import G1, installed_file
-    import os
     meshes = os.path.join(os.path.dirname(os.path.dirname(installed_file(
         "example-robot-data", G1, "anymal"))), "meshes")
     vertices = stl_vertices(os.path.join(meshes, "left_knee_link.STL"))

@@ -7,7 +7,7 @@ replaced by fitted capsules, 5 mm spheres at the sole's corners as the feet, arm
 
 Actions (29): position-drive targets, target = actionScale × action + default joint angle, with
 the drives' gains per joint group (`control.gains`: hips 150/5, knees and waist 200/5, ankles
-20/2, arms 40/10 N·m/rad and N·m·s/rad) and the URDF's effort limits.
+40/2, arms 40/10 N·m/rad and N·m·s/rad) and the URDF's effort limits.
 Commands: vx ~ U(commands.linear_x), vy ~ U(commands.linear_y), yaw rate ~ U(commands.yaw),
 drawn at reset and every `commands.resample_s`; a share `commands.standing` of draws is zero.
 
@@ -296,8 +296,9 @@ def compute_g1_reward(base_state, commands, torques, dof_pos, dof_vel, last_dof_
 
     single_stance = foot_contact.sum(-1) == 1
     in_mode = torch.where(foot_contact, contact_time, air_time)
-    stance = torch.clamp(torch.where(single_stance[:, None], in_mode, 0.0).min(-1).values,
-                         max=0.4) * (torch.norm(commands[:, :2], dim=-1) > 0.1)
+    single_stance_time = torch.clamp(
+        torch.where(single_stance[:, None], in_mode, 0.0).min(-1).values, max=0.4) \
+        * (torch.norm(commands[:, :2], dim=-1) > 0.1)
     beyond = (torch.clamp(dof_pos - soft_limits[:, 1], min=0.0)
               + torch.clamp(soft_limits[:, 0] - dof_pos, min=0.0)).sum(-1)
     fell = torch.any(torch.norm(contact_forces[:, bodies_ending], dim=-1) > 1.0, dim=-1) \
@@ -312,7 +313,7 @@ def compute_g1_reward(base_state, commands, torques, dof_pos, dof_vel, last_dof_
               * scales["jointAccRewardScale"]
               + torch.sum((actions - last_actions) ** 2, dim=-1) * scales["actionRateRewardScale"]
               + beyond * scales["jointLimitRewardScale"]
-              + stance * scales["feetAirTimeRewardScale"]
+              + single_stance_time * scales["feetAirTimeRewardScale"]
               + torch.sum(torch.norm(foot_vel_xy, dim=-1) * foot_contact, dim=-1)
               * scales["feetSlideRewardScale"]
               + torch.sum((dof_pos - default_dof_pos)[:, deviation_dofs].abs(), dim=-1)
