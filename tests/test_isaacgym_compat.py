@@ -283,8 +283,8 @@ def test_errors_name_what_is_missing(cartpole_file):
 
     sim = gym.create_sim(0, 0, gymapi.SIM_PHYSX, cartpole_sim_params())
     options = gymapi.AssetOptions()
-    options.replace_cylinder_with_capsule = True
-    with pytest.raises(NotImplementedError, match="replace_cylinder_with_capsule"):
+    options.override_inertia = True
+    with pytest.raises(NotImplementedError, match="override_inertia"):
         gym.load_asset(sim, str(cartpole_file.parent), cartpole_file.name, options)
     options = gymapi.AssetOptions()
     options.fix_base_link = True
@@ -297,8 +297,13 @@ def test_errors_name_what_is_missing(cartpole_file):
     gym.create_actor(env1, box, gymapi.Transform(), "box", 1, 1)
     with pytest.raises(ValueError, match=r"env 1 actor 0 'box' .*cartpole.*same actors"):
         gym.prepare_sim(sim)
-    with pytest.raises(RuntimeError, match="prepare_sim"):
+    # acquiring a tensor before prepare_sim builds the sim (Isaac Gym allows it), with the
+    # same checks; a sim without envs cannot be built
+    with pytest.raises(ValueError, match=r"env 1 actor 0 'box'"):
         gym.acquire_dof_state_tensor(sim)
+    with pytest.raises(RuntimeError, match="prepare_sim"):
+        gym.acquire_dof_state_tensor(gym.create_sim(0, 0, gymapi.SIM_PHYSX,
+                                                    cartpole_sim_params()))
 
 
 def test_parse_arguments(monkeypatch):

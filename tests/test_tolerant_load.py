@@ -418,13 +418,21 @@ def test_the_base_is_free_unless_fixed(tmp_path):
     ("", True, 0),
     ("<freejoint/>", True, 0),                   # fix_base_link removes the free joint
     ("<freejoint/>", False, 7),
-    ("<joint type='slide' axis='1 0 0'/>", False, 1),   # other joints are the model's own
+    # other joints of the root: a fixed base keeps them; a free base replaces them by a free
+    # joint, as Isaac Gym floats IsaacGymEnvs' Ingenuity (a locked hinge on its chassis, which
+    # its task does not count among the 4 DOFs)
+    ("<joint type='slide' axis='1 0 0'/>", True, 1),
+    ("<joint type='slide' axis='1 0 0'/>", False, 7),
 ])
 def test_mjcf_root_follows_fix_base_link(tmp_path, root, fix_base_link, nq):
     path = _write(tmp_path, "root.xml", f"""<mujoco><worldbody><body name="base" pos="0 0 1">
       {root}<geom size=".1"/><body name="arm"><joint type="hinge"/><geom size=".05"/></body>
       </body></worldbody></mujoco>""")
-    assert myriad.load_asset(path, fix_base_link=fix_base_link).nq == nq + 1
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        assert myriad.load_asset(path, fix_base_link=fix_base_link).nq == nq + 1
+    replaced = [w for w in seen if "replaced by a free joint" in str(w.message)]
+    assert len(replaced) == (1 if "slide" in root and not fix_base_link else 0)
 
 
 # --------------------------------------------------------------------------- 7. unfixable
@@ -444,3 +452,57 @@ def test_what_cannot_be_repaired_stays_a_model_error(tmp_path, name, text, messa
         myriad.load_asset(path)
     with pytest.raises(ModelError, match="nothing.xml: no such model file"):
         myriad.load_asset(tmp_path / "nothing.xml")
+
+
+# --------------------------------------------------------------------------- 8. IsaacGymEnvs'
+def test_repeated_names_and_locked_ranges_of_a_generated_mjcf(tmp_path):
+    """IsaacGymEnvs' Ingenuity writes an MJCF whose rotors' joints share names and are locked
+    (range 0 0): Isaac Gym loads it, MuJoCo refuses both."""
+    path = _write(tmp_path, "rotors.xml", """<mujoco><worldbody><body name="chassis">
+      <freejoint/><geom size=".1"/>
+      <body name="rotor"><joint name="roll" type="hinge" limited="true" range="0 0"/>
+        <geom size=".05"/></body>
+      <body name="dummy"><joint name="roll" type="hinge" limited="true" range="0 0"/>
+        <geom size=".05"/></body></body></worldbody></mujoco>""")
+    model, messages = _load(path)
+    assert model.joint_names[1:] == ["roll", "roll_2"]
+    assert any("second <joint> named 'roll' renamed roll_2" in m for m in messages)
+    assert any("one-value range (locked)" in m for m in messages)
+    assert np.abs(model.jnt_range[1:]).max() <= 1e-6 + 1e-12
+
+
+def test_urdf_density_inertials_duplicates_and_meshes_from_the_asset_root(tmp_path):
+    """IsaacGymEnvs' cube URDFs give a <density> instead of a <mass>; Trifinger's fingertips
+    have two <inertial>s; the Allegro URDF writes mesh paths from the asset root."""
+    for folder in ("meshes", "urdf"):
+        (tmp_path / "robots" / folder).mkdir(parents=True)
+    (tmp_path / "robots" / "meshes" / "tip.obj").write_text(
+        "v 0 0 0\nv 0.02 0 0\nv 0 0.02 0\nv 0 0 0.02\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    path = _write(tmp_path / "robots" / "urdf", "cube.urdf", """<robot name="cube">
+      <link name="cube"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision>
+        <visual><geometry><mesh filename="robots/meshes/tip.obj"/></geometry></visual>
+        <inertial><density value="500.0"/></inertial></link>
+      <joint name="j" type="revolute"><parent link="cube"/><child link="tip"/>
+        <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+      <link name="tip"><collision><geometry><mesh filename="robots/meshes/tip.obj"/></geometry>
+        </collision>
+        <inertial><mass value="0.03"/><inertia ixx="1e-6" iyy="1e-6" izz="1e-6" ixy="0"
+          ixz="0" iyz="0"/></inertial>
+        <inertial><mass value="0.009"/><inertia ixx="2e-6" iyy="2e-6" izz="3e-7" ixy="0"
+          ixz="0" iyz="0"/></inertial></link></robot>""")
+    model, messages = _load(path, package_paths=(str(tmp_path),))
+    assert model.body_mass[model.body_names.index("cube")] == pytest.approx(0.5)  # 500 × 0.001
+    assert model.body_mass[model.body_names.index("tip")] == pytest.approx(0.03)  # the first
+    assert any("<density> (500 kg/m³) and no <mass>" in m for m in messages)
+    assert any("2 <inertial> elements; the first is used" in m for m in messages)
+
+
+def test_a_glb_drawing_mesh_is_converted(tmp_path):
+    trimesh = pytest.importorskip("trimesh")
+    trimesh.creation.box((0.2, 0.2, 0.2)).export(tmp_path / "shell.glb")
+    path = _write(tmp_path, "drawn.xml", """<mujoco><asset><mesh name="shell" file="shell.glb"/>
+      </asset><worldbody><body name="b"><freejoint/><geom size=".1"/>
+      <geom type="mesh" mesh="shell" contype="0" conaffinity="0"/></body></worldbody></mujoco>""")
+    model, messages = _load(path)
+    assert any("read with trimesh" in m for m in messages)
+    assert model.ngeom == 2

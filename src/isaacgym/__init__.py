@@ -4,13 +4,14 @@
     from isaacgym.torch_utils import *
 
 `gymapi` (the Gym object, parameters, math types, enums), `gymtorch` (wrap_tensor /
-unwrap_tensor), `gymutil` (command-line flags) and `torch_utils` (batched quaternion helpers in
-Isaac Gym's conventions) are provided. What is supported, what raises `NotImplementedError` and
+unwrap_tensor), `gymutil` (command-line flags), `torch_utils` (batched quaternion helpers in
+Isaac Gym's conventions) and `terrain_utils` (height-field terrain generators and their mesh)
+are provided; IsaacGymEnvs' own train.py runs on them (benchmarks/isaacgymenvs.sh). What is supported, what raises `NotImplementedError` and
 how the semantics map: docs/isaacgym.md.
 
 Importing `isaacgym` before or after `torch` both work (the original required it first).
 """
 
-from . import gymapi, gymtorch, gymutil, torch_utils  # noqa: F401
+from . import gymapi, gymtorch, gymutil, terrain_utils, torch_utils  # noqa: F401
 
-__all__ = ["gymapi", "gymtorch", "gymutil", "torch_utils"]
+__all__ = ["gymapi", "gymtorch", "gymutil", "terrain_utils", "torch_utils"]

@@ -457,6 +457,32 @@ class RigidBodyProperties(_Struct):
                    flags=RIGID_BODY_NONE)
 
 
+class ForceSensorProperties(_Struct):
+    _fields = dict(enable_forward_dynamics_forces=True, enable_constraint_solver_forces=True,
+                   use_world_frame=False)
+
+
+class HeightFieldParams(_Struct):
+    _fields = dict(column_scale=1.0, row_scale=1.0, vertical_scale=1.0, nbRows=0, nbColumns=0,
+                   transform=Transform(), static_friction=1.0, dynamic_friction=1.0,
+                   restitution=0.0, segmentation_id=0)
+
+
+class TriangleMeshParams(_Struct):
+    _fields = dict(nb_vertices=0, nb_triangles=0, transform=Transform(), static_friction=1.0,
+                   dynamic_friction=1.0, restitution=0.0, segmentation_id=0)
+
+
+class AttractorProperties(_Struct):
+    _fields = dict(axes=0, damping=0.0, offset=Transform(), rigid_handle=-1, stiffness=0.0,
+                   target=Transform())
+
+
+class TendonProperties(_Struct):
+    _fields = dict(damping=0.0, fixed_spring_stiffness=0.0, is_limited=False,
+                   limit_stiffness=0.0, lower_limit=0.0, upper_limit=0.0, num_joints=0)
+
+
 class ActuatorProperties(_Struct):
     _fields = dict(type=0, motor_effort=0.0, kp=0.0, kv=0.0, control_limited=False,
                    lower_control_limit=0.0, upper_control_limit=0.0, force_limited=False,
@@ -509,9 +535,10 @@ class Asset:
     applied, and its structure (bodies, DOFs, shapes) and default properties."""
 
     def __init__(self, spec: mujoco.MjSpec, options: AssetOptions, source: str,
-                 actuators: list | None = None):
+                 actuators: list | None = None, fixed_joints: dict | None = None):
         self.spec, self.options, self.source = spec, copy.deepcopy(options), source
         self.actuators = actuators or []
+        self.force_sensors: list[str] = []     # site names, in create_asset_force_sensor order
         self.fix_base = bool(options.fix_base_link)
         probe = spec.copy()
         probe.compiler.fusestatic = False       # Isaac Gym keeps fixed-joint links apart
@@ -525,7 +552,16 @@ class Asset:
         self.dof_joints = [j for j in range(m.njnt) if int(m.jnt_type[j]) in (
             int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))]
         self.dof_names = [m.joint(j).name for j in self.dof_joints]
-        self.joint_names = [m.joint(j).name for j in range(m.njnt)]
+        # Isaac Gym's joints: each non-root body's joints, in body order, a body without any
+        # counting one fixed joint (named as in a URDF, else after its body); the root's own
+        # joint (free or none) is not one. So joint i of a chain of single joints moves body
+        # i + 1, as IsaacGymEnvs indexes the Jacobian by a joint's index.
+        fixed = self.fixed_joint_names = fixed_joints or {}
+        self.joint_names = []
+        for b in self.body_ids[1:]:
+            own = [m.joint(j).name for j in range(m.body_jntadr[b],
+                                                  m.body_jntadr[b] + m.body_jntnum[b])]
+            self.joint_names += own or [fixed.get(m.body(b).name, m.body(b).name + "_fixed")]
         # collision shapes, in Myriad's geom order (bodies' geoms; the world's are left out)
         self.shape_geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] != 0
                             and (m.geom_contype[g] or m.geom_conaffinity[g])]
@@ -533,6 +569,23 @@ class Asset:
         self.dof_props = self._default_dof_props(m)
         self.shape_props = [RigidShapeProperties(friction=float(m.geom_friction[g, 0]))
                             for g in self.shape_geoms]
+        # fixed tendons: Isaac Gym imports them as PhysX fixed tendons (its semantics:
+        # myriad.assets.physx_tendons), limit stiffness from the options, damping from the file
+        self.tendon_names = [m.tendon(t).name for t in range(m.ntendon)]
+        self.tendon_props = [TendonProperties(
+            damping=float(m.tendon_damping[t, 0] if m.tendon_damping.ndim > 1
+                          else m.tendon_damping[t]),
+            fixed_spring_stiffness=float(np.ravel(m.tendon_stiffness[t])[0]),
+            is_limited=bool(m.tendon_limited[t]),
+            limit_stiffness=float(options.tendon_limit_stiffness),
+            lower_limit=float(m.tendon_range[t, 0]), upper_limit=float(m.tendon_range[t, 1]),
+            num_joints=int(m.tendon_num[t])) for t in range(m.ntendon)]
+        spatial = [self.tendon_names[t] for t in range(m.ntendon)
+                   if any(int(m.wrap_type[w]) != int(mujoco.mjtWrap.mjWRAP_JOINT)
+                          for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]))]
+        if spatial:
+            raise _unsupported(f"{source}: spatial tendons {spatial[:4]}",
+                               "Isaac Gym imports fixed (joint) tendons only")
         self.body_props = []
         for b in self.body_ids:
             mass = float(m.body_mass[b])
@@ -560,6 +613,16 @@ class Asset:
             props[i]["friction"] = m.dof_frictionloss[d]
             props[i]["armature"] = m.dof_armature[d]
         return props
+
+    def start_pose(self, body: int) -> "Transform":
+        """Body `body`'s pose relative to the root body's frame, joints at their defaults."""
+        data = mujoco.MjData(self.mj)
+        mujoco.mj_kinematics(self.mj, data)
+        root, b = self.body_ids[0], self.body_ids[body]
+
+        def pose(i):
+            return Transform(Vec3(*data.xpos[i]), Quat(*_wxyz_to_xyzw(data.xquat[i])))
+        return pose(root).inverse() * pose(b)
 
     @property
     def num_bodies(self): return len(self.body_names)
@@ -601,6 +664,7 @@ class _Actor:
         self.dof_props = asset.dof_props.copy()
         self.shape_props = copy.deepcopy(asset.shape_props)
         self.body_props = copy.deepcopy(asset.body_props)
+        self.scale = 1.0         # set_actor_scale
         self.body_offset = 0     # index of its first body in the env (set by create_actor)
         self.dof_offset = 0
 
@@ -615,6 +679,7 @@ class Env:
         spacing = upper - lower
         self.origin = Vec3(col * spacing.x, row * spacing.y, 0.0)
         self.actors: list[_Actor] = []
+        self.attractors: list[tuple] = []      # (actor index, asset body index, props)
 
     def __repr__(self):
         return f"gymapi.Env({self.index}: {[a.name for a in self.actors]})"
@@ -630,6 +695,7 @@ class Sim:
     def __init__(self, gym, device: str, params: SimParams):
         self.gym, self.device, self.params = gym, device, copy.deepcopy(params)
         self.ground: PlaneParams | None = None
+        self.terrain: dict | None = None        # Scene.add_terrain's arguments
         self.envs: list[Env] = []
         self.assets: list[Asset] = []
         self.myriad = None          # myriad.api.Envs, after prepare_sim
@@ -652,6 +718,7 @@ def _scene_class():
         plane_normal = (0.0, 0.0, 1.0)
         plane_distance = 0.0
         excluded_pairs: list = []       # (actor name, actor name) that must not collide
+        attractors: list = []           # (body's full name, AttractorProperties)
 
         def compose(self):
             spec, drives = super().compose()
@@ -671,6 +738,18 @@ def _scene_class():
                     quat = [math.cos(angle / 2), *(axis * math.sin(angle / 2))]
                 ground.quat = quat
                 ground.pos = (-self.plane_distance * n).tolist()
+            for i, (body, props) in enumerate(self.attractors):
+                o, t = props.offset, props.target
+                ro, rt = o.r.normalize(), t.r.normalize()
+                spec.body(body).add_site(name=f"attractor{i}/offset", pos=[o.p.x, o.p.y, o.p.z],
+                                         quat=[ro.w, ro.x, ro.y, ro.z])
+                spec.worldbody.add_site(name=f"attractor{i}/target", pos=[t.p.x, t.p.y, t.p.z],
+                                        quat=[rt.w, rt.x, rt.y, rt.z])
+                kind = (mujoco.mjtEq.mjEQ_CONNECT if int(props.axes) == AXIS_TRANSLATION
+                        else mujoco.mjtEq.mjEQ_WELD)
+                spec.add_equality(name=f"attractor{i}", type=kind,
+                                  objtype=mujoco.mjtObj.mjOBJ_SITE,
+                                  name1=f"attractor{i}/offset", name2=f"attractor{i}/target")
             for a, b in self.excluded_pairs:
                 bodies_a = [x.name for x in spec.bodies if x.name.startswith(a + "/")]
                 bodies_b = [x.name for x in spec.bodies if x.name.startswith(b + "/")]
@@ -761,6 +840,69 @@ class Gym:
             raise _unsupported("a second gym.add_ground", "a sim has one ground plane")
         sim.ground = copy.deepcopy(params)
 
+    def add_heightfield(self, sim: Sim, heightsamples, params: HeightFieldParams) -> None:
+        """A static height field shared by every env: `heightsamples` (int16, nbColumns ×
+        nbRows values, e.g. terrain_utils' [x, y] grid) scaled by `vertical_scale`; sample
+        (i, j) at (i·row_scale, j·column_scale) moved by `transform.p` (m)."""
+        self._before_prepare(sim, "add_heightfield")
+        raw = np.asarray(heightsamples)
+        rows, cols = int(params.nbColumns), int(params.nbRows)
+        if raw.size != rows * cols or rows < 2 or cols < 2:
+            raise ValueError(f"gym.add_heightfield: {raw.size} height samples for nbRows="
+                             f"{params.nbRows} x nbColumns={params.nbColumns}")
+        if not math.isclose(params.row_scale, params.column_scale, rel_tol=1e-6):
+            raise _unsupported(f"gym.add_heightfield with row_scale={params.row_scale} != "
+                               f"column_scale={params.column_scale}",
+                               "a Myriad height field has one spacing")
+        heights = raw.reshape(rows, cols).astype(np.float64) * float(params.vertical_scale)
+        self._add_terrain(sim, "add_heightfield", heights, float(params.row_scale), params,
+                          riser=0.0)
+
+    def add_triangle_mesh(self, sim: Sim, vertices, triangles,
+                          params: TriangleMeshParams) -> None:
+        """A static triangle mesh shared by every env. Provided for the meshes height-field
+        terrains are turned into (terrain_utils.convert_heightfield_to_trimesh: one vertex per
+        grid sample, steps steeper than its slope threshold made vertical walls): Myriad
+        simulates such a mesh as that height field with those walls. Any other mesh raises
+        NotImplementedError (general static meshes are not in the engine yet)."""
+        self._before_prepare(sim, "add_triangle_mesh")
+        v = np.asarray(vertices, dtype=np.float64).reshape(-1)
+        t = np.asarray(triangles).reshape(-1)
+        nv, nt = int(params.nb_vertices), int(params.nb_triangles)
+        if v.size != 3 * nv or t.size != 3 * nt:
+            raise ValueError(f"gym.add_triangle_mesh: {v.size} vertex and {t.size} triangle "
+                             f"values for nb_vertices={nv}, nb_triangles={nt} (3 values each)")
+        grid = _height_grid(v.reshape(-1, 3), t.reshape(-1, 3).astype(np.int64))
+        if grid is None:
+            raise _unsupported("gym.add_triangle_mesh with a mesh that is not a height-field "
+                               "grid", "general static triangle meshes are not in Myriad's "
+                               "engine yet; grid meshes from terrain_utils."
+                               "convert_heightfield_to_trimesh are, as are gym.add_heightfield "
+                               "and gym.add_ground")
+        heights, spacing, origin, riser = grid
+        self._add_terrain(sim, "add_triangle_mesh", heights, spacing, params, riser=riser,
+                          origin=origin)
+
+    def _add_terrain(self, sim, call, heights, spacing, params, riser, origin=(0.0, 0.0)):
+        if sim.terrain is not None:
+            raise _unsupported(f"a second gym.{call}", "a Myriad sim has one height field")
+        pose = params.transform
+        r = pose.r.normalize()
+        if abs(abs(r.w) - 1.0) > 1e-6:
+            raise _unsupported(f"gym.{call} with a rotated transform",
+                               "terrain is placed by transform.p only")
+        if not math.isclose(params.static_friction, params.dynamic_friction, rel_tol=1e-6,
+                            abs_tol=1e-9):
+            raise _unsupported(f"gym.{call} with static_friction={params.static_friction} != "
+                               f"dynamic_friction={params.dynamic_friction}",
+                               "Myriad's contacts have one Coulomb coefficient")
+        if float(params.restitution) != 0.0:
+            raise _unsupported(f"gym.{call} with restitution={params.restitution}",
+                               "Myriad's terrain does not bounce")
+        sim.terrain = dict(heights=heights + pose.p.z, horizontal_scale=spacing,
+                           origin=(origin[0] + pose.p.x, origin[1] + pose.p.y),
+                           friction=float(params.static_friction), riser=float(riser))
+
     def prepare_sim(self, sim: Sim) -> bool:
         if sim.myriad is not None:
             return True
@@ -847,9 +989,12 @@ class Gym:
         options = AssetOptions() if options is None else options
         _check_asset_options(options)
         path = os.path.join(rootpath, filename)
-        spec = asset_spec(path, fix_base_link=bool(options.fix_base_link))
+        spec = asset_spec(path, fix_base_link=bool(options.fix_base_link),
+                          package_paths=(rootpath,))
+        for sensor in list(spec.sensors):   # Isaac Gym imports no sensors from a file: its
+            spec.delete(sensor)             # force sensors come from create_asset_force_sensor
         actuators = _take_actuators(spec)
-        asset = _finish_asset(spec, options, path, actuators)
+        asset = _finish_asset(spec, options, path, actuators, _urdf_fixed_joints(path))
         sim.assets.append(asset)
         return asset
 
@@ -964,6 +1109,146 @@ class Gym:
         names = [a["name"] for a in asset.actuators]
         return names.index(name) if name in names else INVALID_HANDLE
 
+    def create_asset_force_sensor(self, asset: Asset, body_idx: int, local_pose: Transform,
+                                  props: ForceSensorProperties | None = None) -> int:
+        """A force sensor on the asset's body `body_idx` at `local_pose`: in every actor made
+        from the asset afterwards, it reads the force and torque the body receives through its
+        incoming joint, in the sensor's frame (MuJoCo's force/torque sensors at a site); returns
+        its index within the asset. Only the default properties are provided."""
+        if not isinstance(asset, Asset):
+            raise TypeError(f"gym.create_asset_force_sensor: expected an Asset, got "
+                            f"{type(asset).__name__}")
+        if not 0 <= int(body_idx) < asset.num_bodies:
+            raise ValueError(f"gym.create_asset_force_sensor: body_idx={body_idx} is not a body "
+                             f"of {asset.source} ({asset.num_bodies} bodies)")
+        props = ForceSensorProperties() if props is None else props
+        d = ForceSensorProperties()
+        changed = [f"{k}={getattr(props, k)}" for k in d._fields
+                   if bool(getattr(props, k)) != bool(getattr(d, k))]
+        if changed:
+            raise _unsupported(f"gym.create_asset_force_sensor with {', '.join(changed)}",
+                               "force sensors read the whole joint wrench (dynamics and "
+                               "constraint forces) in the sensor's own frame")
+        body = asset.spec.body(asset.body_names[int(body_idx)])
+        name = f"force_sensor_{len(asset.force_sensors)}"
+        p, r = local_pose.p, local_pose.r.normalize()
+        body.add_site(name=name, pos=[p.x, p.y, p.z], quat=[r.w, r.x, r.y, r.z])
+        asset.spec.add_sensor(name=f"{name}_force", type=mujoco.mjtSensor.mjSENS_FORCE,
+                              objtype=mujoco.mjtObj.mjOBJ_SITE, objname=name)
+        asset.spec.add_sensor(name=f"{name}_torque", type=mujoco.mjtSensor.mjSENS_TORQUE,
+                              objtype=mujoco.mjtObj.mjOBJ_SITE, objname=name)
+        asset.force_sensors.append(name)
+        return len(asset.force_sensors) - 1
+
+    def create_rigid_body_attractor(self, env: Env, props: AttractorProperties) -> int:
+        """Holds the point `offset` of the body `rigid_handle` (an env-domain body handle) at
+        `target` (the env's frame): on all translation axes (AXIS_TRANSLATION) a ball joint to
+        the world, on all axes (AXIS_ALL) a weld. Myriad holds it as a hard constraint (Isaac
+        Gym's stiffness and damping are springs); every env must hold the same attractors."""
+        if not isinstance(env, Env):
+            raise TypeError(f"gym.create_rigid_body_attractor: expected an Env, got "
+                            f"{type(env).__name__}")
+        self._before_prepare(env.sim, "create_rigid_body_attractor")
+        axes = int(props.axes)
+        if axes not in (AXIS_TRANSLATION, AXIS_ALL):
+            raise _unsupported(f"gym.create_rigid_body_attractor with axes={axes}",
+                               "AXIS_TRANSLATION (a ball joint) and AXIS_ALL (a weld) are")
+        handle = int(props.rigid_handle)
+        for k, actor in enumerate(env.actors):
+            if actor.body_offset <= handle < actor.body_offset + actor.asset.num_bodies:
+                break
+        else:
+            raise ValueError(f"gym.create_rigid_body_attractor: rigid_handle={handle} is not a "
+                             f"body of env {env.index}")
+        if float(props.stiffness) < 1e6:
+            _warn_once(f"an attractor of stiffness {props.stiffness:g} N/m is held as a hard "
+                       "constraint (Myriad has no attractor springs)")
+        env.attractors.append((k, handle - actor.body_offset, copy.deepcopy(props)))
+        return len(env.attractors) - 1
+
+    def begin_aggregate(self, env: Env, max_bodies: int, max_shapes: int,
+                        self_collisions: bool) -> bool:
+        """PhysX's broad-phase grouping of an env's actors: no effect on the motion, none here
+        (collisions between the actors follow their collision groups and filters)."""
+        if not isinstance(env, Env):
+            raise TypeError(f"gym.begin_aggregate: expected an Env, got {type(env).__name__}")
+        return True
+
+    def end_aggregate(self, env: Env) -> bool:
+        if not isinstance(env, Env):
+            raise TypeError(f"gym.end_aggregate: expected an Env, got {type(env).__name__}")
+        return True
+
+    def enable_actor_dof_force_sensors(self, env: Env, handle: int) -> bool:
+        """Isaac Gym computes the DOF force tensor only for actors enabled here; Myriad computes
+        it for every actor, so this only checks the handle."""
+        self._actor(env, handle)
+        return True
+
+    def get_asset_tendon_count(self, asset: Asset) -> int:
+        return len(asset.tendon_names)
+
+    def get_asset_tendon_name(self, asset: Asset, index: int) -> str:
+        return asset.tendon_names[int(index)]
+
+    def find_asset_tendon_index(self, asset: Asset, name: str) -> int:
+        return asset.tendon_names.index(name) if name in asset.tendon_names else INVALID_HANDLE
+
+    def get_asset_tendon_properties(self, asset: Asset) -> list:
+        return copy.deepcopy(asset.tendon_props)
+
+    def set_asset_tendon_properties(self, asset: Asset, props: list) -> bool:
+        """Each tendon's limit stiffness and damping (PhysX's semantics); its limits, spring and
+        joints stay the file's."""
+        if len(props) != len(asset.tendon_props):
+            raise ValueError(f"gym.set_asset_tendon_properties: {len(props)} entries for "
+                             f"{len(asset.tendon_props)} tendons of {asset.source}")
+        for i, (new, old) in enumerate(zip(props, asset.tendon_props)):
+            for name in ("fixed_spring_stiffness", "is_limited", "lower_limit", "upper_limit",
+                         "num_joints"):
+                if getattr(new, name) != getattr(old, name):
+                    raise _unsupported(f"gym.set_asset_tendon_properties changing {name} of "
+                                       f"tendon {asset.tendon_names[i]!r}",
+                                       "limit_stiffness and damping can change")
+            if not (new.limit_stiffness >= 0 and new.damping >= 0):
+                raise ValueError(f"gym.set_asset_tendon_properties: tendon "
+                                 f"{asset.tendon_names[i]!r}: limit_stiffness and damping must "
+                                 f"be >= 0")
+        asset.tendon_props = copy.deepcopy(list(props))
+        return True
+
+    def get_actor_tendon_properties(self, env: Env, handle: int) -> list:
+        return copy.deepcopy(self._actor(env, handle).asset.tendon_props)
+
+    def set_actor_tendon_properties(self, env: Env, handle: int, props: list) -> bool:
+        """Tendon properties are one set per asset in Myriad: the asset's own values are
+        accepted, others raise NotImplementedError."""
+        asset = self._actor(env, handle).asset
+        if [repr(p) for p in props] != [repr(p) for p in asset.tendon_props]:
+            raise _unsupported("gym.set_actor_tendon_properties with values other than the "
+                               "asset's", "tendon properties are the same in every env "
+                               "(gym.set_asset_tendon_properties before creating actors)")
+        return True
+
+    def get_asset_force_sensor_count(self, asset: Asset) -> int:
+        return len(asset.force_sensors)
+
+    def get_actor_force_sensor_count(self, env: Env, handle: int) -> int:
+        return len(self._actor(env, handle).asset.force_sensors)
+
+    def get_sim_force_sensor_count(self, sim: Sim) -> int:
+        return sum(len(a.asset.force_sensors) for env in sim.envs for a in env.actors)
+
+    def acquire_force_sensor_tensor(self, sim: Sim) -> Tensor:
+        """[envs · sensors per env, 6]: force then torque, env by env, actor by actor, each
+        actor's sensors in creation order."""
+        envs = self._envs(sim, "acquire_force_sensor_tensor")
+        return Tensor(sim.myriad_views("force_sensor", envs))
+
+    def refresh_force_sensor_tensor(self, sim: Sim) -> bool:
+        self._envs(sim, "refresh_force_sensor_tensor")      # a view of the simulator's
+        return True
+
     def get_asset_rigid_body_shape_indices(self, asset: Asset) -> list:
         out = []
         for b in asset.body_ids:
@@ -1077,6 +1362,52 @@ class Gym:
 
     def get_actor_dof_dict(self, env: Env, handle: int) -> dict:
         return self.get_asset_dof_dict(self._actor(env, handle).asset)
+
+    def set_actor_scale(self, env: Env, handle: int, scale: float) -> bool:
+        """Scales a single-body actor (an object) in this env before prepare_sim: its shapes'
+        sizes and positions × scale, its mass × scale³ and inertia × scale⁵. Primitive shapes
+        only (Myriad cannot scale a mesh or a height field per env)."""
+        actor = self._actor(env, handle)
+        self._before_prepare(env.sim, "set_actor_scale")
+        scale = float(scale)
+        if not scale > 0:
+            raise ValueError(f"gym.set_actor_scale: scale={scale} must be > 0")
+        if scale != 1.0:
+            if actor.asset.num_bodies != 1:
+                raise _unsupported(f"gym.set_actor_scale on actor {actor.name!r} with "
+                                   f"{actor.asset.num_bodies} bodies", "single-body actors "
+                                   "(objects) can be scaled")
+            m = actor.asset.mj
+            meshes = [m.geom(g).name or str(g) for g in actor.asset.shape_geoms
+                      if int(m.geom_type[g]) in (int(mujoco.mjtGeom.mjGEOM_MESH),
+                                                  int(mujoco.mjtGeom.mjGEOM_HFIELD),
+                                                  int(mujoco.mjtGeom.mjGEOM_PLANE))]
+            if meshes:
+                raise _unsupported(f"gym.set_actor_scale on actor {actor.name!r}, whose shapes "
+                                   f"{meshes} are meshes", "primitive shapes can be scaled")
+        actor.scale = scale
+        return True
+
+    def get_actor_scale(self, env: Env, handle: int) -> float:
+        return self._actor(env, handle).scale
+
+    def get_actor_joint_dict(self, env: Env, handle: int) -> dict:
+        return self.get_asset_joint_dict(self._actor(env, handle).asset)
+
+    def get_rigid_transform(self, env: Env, handle: int) -> Transform:
+        """The pose of the env's body `handle` (env-domain), in the env's frame: from the
+        simulated state once the sim is prepared; before, the pose it starts in (its actor's
+        pose, the asset's joints at their defaults)."""
+        actor = next((a for a in env.actors
+                      if a.body_offset <= int(handle) < a.body_offset + a.asset.num_bodies), None)
+        if actor is None:
+            raise ValueError(f"gym.get_rigid_transform: {handle} is not a body handle of env "
+                             f"{env.index}")
+        if env.sim.myriad is not None:
+            s = env.sim.myriad.rigid_body_states.view(env.sim.myriad.num_envs, -1, 13)
+            x = s[env.index, int(handle)].tolist()
+            return Transform(Vec3(*x[:3]), Quat(*x[3:7]))
+        return actor.pose * actor.asset.start_pose(int(handle) - actor.body_offset)
 
     def get_actor_rigid_body_dict(self, env: Env, handle: int) -> dict:
         return self.get_asset_rigid_body_dict(self._actor(env, handle).asset)
@@ -1217,6 +1548,12 @@ class Gym:
         if not isinstance(sim, Sim):
             raise TypeError(f"gym.{call}: expected a Sim (from gym.create_sim), got "
                             f"{type(sim).__name__}")
+        if sim.myriad is None and call.startswith("acquire_") and sim.envs \
+                and sim.envs[0].actors and not sim.closed:
+            # Isaac Gym hands out tensors before prepare_sim (valid after it); Myriad's
+            # buffers exist once the sim is built, so acquiring one builds it now: every env
+            # and actor must exist by then, as prepare_sim would need
+            _prepare(sim)
         if sim.myriad is None:
             raise RuntimeError(f"gym.{call}: call gym.prepare_sim(sim) first, after creating "
                                "the envs and actors")
@@ -1307,9 +1644,6 @@ class Gym:
             if held == kind:
                 tensor.copy_(_actor_algebra(sim, envs, held, k))
         return True
-
-    def refresh_force_sensor_tensor(self, sim: Sim) -> bool:
-        raise _not_provided("isaacgym.gymapi.Gym.refresh_force_sensor_tensor")
 
     def _values(self, sim: Sim, call: str, desc, per_env_shape: tuple) -> torch.Tensor:
         """The tensor behind `desc` as [num_envs, *per_env_shape], float32 on the sim's
@@ -1482,7 +1816,7 @@ def _myriad_params(params: SimParams):
 
 # options honoured, accepted because they only draw or import, and refused when not default
 _DRAWING_OPTIONS = ("flip_visual_attachments", "use_mesh_materials", "mesh_normal_mode",
-                    "slices_per_cylinder", "min_particle_mass", "tendon_limit_stiffness",
+                    "slices_per_cylinder", "min_particle_mass",
                     "vhacd_params")
 
 
@@ -1490,24 +1824,32 @@ def _check_asset_options(o: AssetOptions) -> None:
     """Refuse options that would change the physics and that Myriad does not honour."""
     d = AssetOptions()
     refused = []
-    for name in ("replace_cylinder_with_capsule", "override_com", "override_inertia",
-                 "vhacd_enabled", "convex_decomposition_from_submeshes"):
+    for name in ("override_com", "override_inertia", "convex_decomposition_from_submeshes"):
         if bool(getattr(o, name)) != bool(getattr(d, name)):
             refused.append(f"{name}={getattr(o, name)!r}")
     if not o.enable_gyroscopic_forces:
         refused.append("enable_gyroscopic_forces=False (Myriad's dynamics always include them)")
-    # body velocity damping: Myriad has none, which is the value 0 exactly; PhysX's default
-    # is accepted (documented), other values are refused
+    # body velocity damping: Myriad has none, which is the value 0 exactly. Rates up to PhysX's
+    # default angular one (0.5 /s: under 1 % of a body's speed per 20 ms step) are accepted with
+    # a warning; larger ones, which would shape the motion, are refused
     for name in ("linear_damping", "angular_damping"):
         v = float(getattr(o, name))
-        if v != 0.0 and v != getattr(d, name):
-            refused.append(f"{name}={v} (Myriad applies no body velocity damping; 0 is exact)")
-    # body speed caps: not applied; the defaults and larger values are accepted (documented)
+        if v > _DAMPING_ACCEPTED or v < 0:
+            refused.append(f"{name}={v} (Myriad applies no body velocity damping; 0 is exact, "
+                           f"rates up to {_DAMPING_ACCEPTED} /s are accepted unapplied)")
+        elif v != 0.0 and v != getattr(d, name):
+            _warn_once(f"AssetOptions.{name}={v} is not applied (Myriad has no body velocity "
+                       "damping: bodies keep their speed where PhysX would lose "
+                       f"{100 * v:.3g} % of it per second)")
+    # body speed caps: not applied. The defaults and larger values are exact for any motion
+    # slower than the default; a smaller cap is accepted with a warning
     for name in ("max_linear_velocity", "max_angular_velocity"):
         v = float(getattr(o, name))
-        if v < getattr(d, name):
-            refused.append(f"{name}={v} (Myriad applies no body speed cap; values >= the "
-                           f"default {getattr(d, name)} are accepted)")
+        if not v > 0:
+            refused.append(f"{name}={v} (must be > 0)")
+        elif v < getattr(d, name):
+            _warn_once(f"AssetOptions.{name}={v:.4g} is not applied (Myriad has no body speed "
+                       "cap): a body may move faster than PhysX would let it")
     if not (o.density > 0):
         refused.append(f"density={o.density} (must be > 0)")
     if int(o.default_dof_drive_mode) not in _MODES:
@@ -1519,6 +1861,17 @@ def _check_asset_options(o: AssetOptions) -> None:
         warnings.warn(f"isaacgym on Myriad: AssetOptions.thickness={o.thickness} is not applied "
                       "(contacts use SimParams.physx.contact_offset / rest_offset)",
                       RuntimeWarning, stacklevel=3)
+
+
+_DAMPING_ACCEPTED = 0.5
+_warned: set = set()
+
+
+def _warn_once(message: str) -> None:
+    if message not in _warned:
+        _warned.add(message)
+        warnings.warn(f"isaacgym on Myriad: {message}; {_DOCS}", RuntimeWarning,
+                      stacklevel=4)
 
 
 def _take_actuators(spec: mujoco.MjSpec) -> list:
@@ -1538,8 +1891,79 @@ def _take_actuators(spec: mujoco.MjSpec) -> list:
     return out
 
 
+def _decompose_meshes(spec: mujoco.MjSpec, params: VhacdParams, source: str) -> None:
+    """Isaac Gym's vhacd_enabled: every colliding mesh geom replaced by the convex pieces V-HACD
+    cuts its mesh into (MuJoCo would collide the mesh as its one convex hull), each piece a mesh
+    geom of the same body, pose, contact settings and material. V-HACD 4 (`vhacdx`): of
+    `VhacdParams` it reads resolution, max_convex_hulls and max_num_vertices_per_ch (the
+    older V-HACD's concavity, alpha, beta, ... have no counterpart). Pieces are cached per mesh
+    and parameters in ~/.cache/myriad/vhacd."""
+    from myriad.physics.convex import convex_pieces
+    base = os.path.join(spec.modelfiledir or "", spec.meshdir or "")
+    meshes = {m.name: m for m in spec.meshes}
+    for geom in [g for g in spec.geoms if g.type == mujoco.mjtGeom.mjGEOM_MESH
+                 and (g.contype or g.conaffinity)]:
+        mesh = meshes.get(geom.meshname)
+        if mesh is None or not mesh.file:
+            continue
+        file = mesh.file if os.path.isabs(mesh.file) else os.path.join(base, mesh.file)
+        try:
+            pieces = convex_pieces(file, tuple(float(x) for x in mesh.scale),
+                                   max_hulls=int(params.max_convex_hulls),
+                                   resolution=int(params.resolution),
+                                   max_vertices=int(params.max_num_vertices_per_ch))
+        except ImportError as err:
+            raise _unsupported(f"AssetOptions.vhacd_enabled=True on {source}",
+                               f"it needs vhacdx and trimesh (pip install vhacdx trimesh): {err}")
+        body = geom.parent
+        for k, piece in enumerate(pieces):
+            name = f"{mesh.name}__vhacd{k}"
+            if name not in meshes:
+                meshes[name] = spec.add_mesh(name=name, file=piece)
+            body.add_geom(name=f"{geom.name}__vhacd{k}" if geom.name else "", type=geom.type,
+                          meshname=name, pos=list(geom.pos), quat=list(geom.quat),
+                          contype=geom.contype, conaffinity=geom.conaffinity,
+                          condim=geom.condim, friction=list(geom.friction),
+                          priority=geom.priority, margin=geom.margin, gap=geom.gap,
+                          density=geom.density, group=geom.group)
+        spec.delete(geom)
+
+
+def _urdf_fixed_joints(path: str) -> dict:
+    """{child link: joint name} of a URDF's fixed joints (MuJoCo's model keeps no name for
+    them); {} for other files."""
+    if not path.lower().endswith(".urdf"):
+        return {}
+    import xml.etree.ElementTree as ET
+    try:
+        robot = ET.parse(path).getroot()
+    except (ET.ParseError, OSError):
+        return {}
+    return {j.find("child").get("link"): j.get("name") for j in robot.iter("joint")
+            if j.get("type") == "fixed" and j.find("child") is not None}
+
+
+def _collapse_fixed_joints(spec: mujoco.MjSpec, source: str) -> None:
+    """Isaac Gym's collapse_fixed_joints: every link on a fixed joint (a body without joints,
+    other than the root) merged into its parent: its shapes and sites move there, its mass and
+    inertia are added to the parent's (MuJoCo's fusestatic, which turns the spec's fused bodies
+    into frames). The root stays a body, fixed base or not."""
+    root = spec.worldbody.bodies[0]
+    anchor = root.add_freejoint(name="__collapse_anchor") if not list(root.joints) else None
+    spec.compiler.fusestatic = True
+    try:
+        spec.compile()
+    except Exception as err:
+        raise _model_error(f"{source}: collapse_fixed_joints: MuJoCo rejected the merged "
+                           f"model: {err}") from err
+    finally:
+        spec.compiler.fusestatic = False
+        if anchor is not None:
+            spec.delete(anchor)
+
+
 def _finish_asset(spec: mujoco.MjSpec, options: AssetOptions, source: str,
-                  actuators: list) -> Asset:
+                  actuators: list, fixed_joints: dict | None = None) -> Asset:
     """Apply density, armature and collapse_fixed_joints to a spec; make the Asset."""
     roots = spec.worldbody.bodies
     if len(roots) != 1:
@@ -1552,11 +1976,14 @@ def _finish_asset(spec: mujoco.MjSpec, options: AssetOptions, source: str,
                 if not (g.mass > 0) and float(options.density) != 1000.0:
                     g.density = float(options.density)
     if options.collapse_fixed_joints:
-        fixed = [b.name for b in bodies if b is not roots[0] and not list(b.joints)]
-        if fixed:
-            raise _unsupported(f"AssetOptions.collapse_fixed_joints=True on {source} (links "
-                               f"on fixed joints: {fixed[:6]})",
-                               "fixed-joint links stay separate bodies")
+        _collapse_fixed_joints(spec, source)
+        bodies = [b for b in spec.bodies if b.name != "world"]
+    if options.vhacd_enabled:
+        _decompose_meshes(spec, options.vhacd_params, source)
+    if options.replace_cylinder_with_capsule:
+        for g in spec.geoms:        # same radius and half-length: rounded ends added
+            if g.type == mujoco.mjtGeom.mjGEOM_CYLINDER:
+                g.type = mujoco.mjtGeom.mjGEOM_CAPSULE
     armature = float(options.armature)
     if armature:
         if options.use_physx_armature:
@@ -1575,7 +2002,77 @@ def _finish_asset(spec: mujoco.MjSpec, options: AssetOptions, source: str,
                 b.iquat = m.body_iquat[i].tolist()
                 b.inertia = (m.body_inertia[i] + armature).tolist()
                 b.fullinertia = [np.nan] * 6
-    return Asset(spec, options, source, actuators)
+    return Asset(spec, options, source, actuators, fixed_joints)
+
+
+def _height_grid(vertices: np.ndarray, triangles: np.ndarray):
+    """(heights [rows, cols] m, spacing m, origin (x, y) m, riser m) when the mesh is a height
+    field's grid as terrain_utils.convert_heightfield_to_trimesh makes it (vertex i·cols + j
+    at sample (i, j), two triangles per cell, any vertex possibly moved one sample along x
+    and/or y under a higher neighbour); None for any other mesh."""
+    n, m = len(vertices), len(triangles)
+    total = n - m // 2 + 1                  # rows + cols, from n = rows·cols, m = 2(rows-1)(cols-1)
+    disc = total * total - 4 * n
+    if m % 2 or disc < 0 or triangles.min(initial=0) < 0 or triangles.max(initial=0) >= n:
+        return None
+    root = int(round(math.sqrt(disc)))
+    if root * root != disc:
+        return None
+    for rows in {(total + root) // 2, (total - root) // 2}:
+        cols = total - rows
+        if rows < 2 or cols < 2 or rows * cols != n:
+            continue
+        i, j = np.divmod(triangles, cols)
+        # every triangle inside one cell: its samples span one row and one column step
+        if not ((np.ptp(i, axis=1) == 1) & (np.ptp(j, axis=1) == 1)).all():
+            continue
+        x = vertices[:, 0].reshape(rows, cols)
+        y = vertices[:, 1].reshape(rows, cols)
+        z = vertices[:, 2].reshape(rows, cols)
+        # the spacing over long runs (float32 vertices far out round each step by ~1e-5 m):
+        # the median over the far half of the rows (columns), moved vertices being rare
+        far_i, far_j = np.arange(rows // 2, rows), np.arange(cols // 2, cols)
+        spacing = float(np.median((x[far_i] - x[:1]) / far_i[:, None]))
+        spacing_y = float(np.median((y[:, far_j] - y[:, :1]) / far_j[None, :]))
+        if not spacing > 0 or not math.isclose(spacing_y, spacing, rel_tol=1e-4):
+            continue
+        x0, y0 = float(np.median(x - np.arange(rows)[:, None] * spacing)), \
+            float(np.median(y - np.arange(cols)[None, :] * spacing))
+        move_x = (x - x0) / spacing - np.arange(rows)[:, None]
+        move_y = (y - y0) / spacing - np.arange(cols)[None, :]
+        if not (np.allclose(move_x, np.rint(move_x), atol=1e-3)
+                and np.allclose(move_y, np.rint(move_y), atol=1e-3)):
+            continue
+        move_x, move_y = np.rint(move_x), np.rint(move_y)
+        if np.abs(move_x).max() > 1 or np.abs(move_y).max() > 1:
+            continue
+        return z.copy(), spacing, (x0, y0), _riser(z, move_x, move_y)
+    return None
+
+
+def _riser(z: np.ndarray, move_x: np.ndarray, move_y: np.ndarray) -> float:
+    """The wall height the mesh's moved vertices imply: every step a vertex moved under is
+    higher than it, every step an unambiguous vertex (one higher neighbour along the axis) did
+    not move under is not; 0 (no walls) when no vertex moved."""
+    walls, slopes = [], []
+    for h, move in ((z, move_x), (z.T, move_y.T)):
+        up = h[1:] - h[:-1]                             # step to the next sample along the axis
+        lower_first, lower_next = move[:-1], move[1:]
+        walls += [up[(up > 0) & (lower_first == 1)], -up[(up < 0) & (lower_next == -1)]]
+        # a vertex whose one higher neighbour along the axis it did not move under
+        higher_prev = np.zeros_like(h, dtype=bool)
+        higher_prev[1:] = h[:-1] > h[1:]
+        higher_next = np.zeros_like(h, dtype=bool)
+        higher_next[:-1] = h[1:] > h[:-1]
+        alone_next = higher_next[:-1] & ~higher_prev[:-1] & (lower_first == 0)
+        alone_prev = higher_prev[1:] & ~higher_next[1:] & (lower_next == 0)
+        slopes += [up[alone_next], -up[alone_prev]]
+    wall = np.concatenate(walls)
+    if wall.size == 0:
+        return 0.0
+    slope = np.concatenate(slopes)
+    low, high = (float(slope.max()) if slope.size else 0.0), float(wall.min())
+    return (low + high) / 2 if low < high else high * (1 - 1e-6)
 
 
 def _check_shape_props(props, count: int, call: str) -> None:
@@ -1586,10 +2083,13 @@ def _check_shape_props(props, count: int, call: str) -> None:
         if not (p.friction >= 0 and 0 <= p.restitution <= 1):
             raise ValueError(f"{call}: shape {i}: friction {p.friction} must be >= 0 and "
                              f"restitution {p.restitution} in [0, 1]")
-        for name in ("rolling_friction", "torsion_friction", "compliance"):
+        if getattr(p, "compliance") != d.compliance:
+            raise _unsupported(f"{call}: shape {i}: compliance={p.compliance}",
+                               "Myriad honours friction and restitution per shape")
+        for name in ("rolling_friction", "torsion_friction"):
             if getattr(p, name) != getattr(d, name):
-                raise _unsupported(f"{call}: shape {i}: {name}={getattr(p, name)}",
-                                   "Myriad honours friction and restitution per shape")
+                _warn_once(f"{call}: {name} is not applied (Myriad's contacts have sliding "
+                           "friction only, no torsional or rolling friction)")
 
 
 # ---------------------------------------------------------------------------------- prepare
@@ -1644,12 +2144,15 @@ def _prepare(sim: Sim) -> None:
             elif self_collide[k] != sc:
                 raise _unsupported(f"gym.prepare_sim: actor {a.name!r}: self-collisions on in "
                                    f"one env and off in another (filter)")
+    if sim.terrain is not None:
+        scene.add_terrain(**sim.terrain)
     if sim.ground is not None:
         g = sim.ground
         scene.add_ground(friction=float(g.static_friction), restitution=float(g.restitution))
         scene.plane_normal = (g.normal.x, g.normal.y, g.normal.z)
         scene.plane_distance = float(g.distance)
     scene.excluded_pairs = [(names[i], names[j]) for (i, j), c in pairs.items() if not c]
+    scene.attractors = _attractors(envs, names)
     for k, a in enumerate(first.actors):
         modes = [_MODES[int(m)] for m in a.dof_props["driveMode"]]
         p, r = a.pose.p, a.pose.r.normalize()
@@ -1664,6 +2167,11 @@ def _prepare(sim: Sim) -> None:
         for j, (limited, value) in efforts.items():
             model.jnt_actfrclimited[j] = limited
             model.jnt_actfrcrange[j] = (-value, value) if limited else (0.0, 0.0)
+        from myriad.assets import physx_tendons
+        for k, a in enumerate(first.actors):
+            for name, props in zip(a.asset.tendon_names, a.asset.tendon_props):
+                physx_tendons(model, [f"{names[k]}/{name}"], float(props.limit_stiffness),
+                              float(props.damping))
 
     built = scene.build(len(envs), device=sim.device, params=params, fix_model=fix_model)
     sim.myriad = built
@@ -1680,7 +2188,27 @@ def _prepare(sim: Sim) -> None:
     _apply_dof_props(sim, all_actors)
     _apply_shape_props(sim, all_actors)
     _apply_body_props(sim, all_actors)
+    _apply_scales(sim)
     built.forward()
+
+
+def _apply_scales(sim: Sim) -> None:
+    """`set_actor_scale` values into Myriad's per-env geometry and mass: each geom's size and
+    position in its body × s, the body's mass × s³ and inertia × s⁵ (uniform density)."""
+    built, m = sim.myriad, sim.myriad.model
+    for k, first in enumerate(sim.envs[0].actors):
+        scale = torch.tensor([env.actors[k].scale for env in sim.envs], dtype=torch.float32)
+        if bool((scale == 1.0).all()):
+            continue
+        bodies = built.actor_bodies(f"a{k}")
+        geoms = [g for g in range(m.ngeom) if m.geom_body[g] in bodies
+                 and int(m.geom_type[g]) != int(mujoco.mjtGeom.mjGEOM_MESH)]   # drawn only
+        s = scale.to(built.device)
+        cols = torch.as_tensor(geoms, dtype=torch.long, device=built.device)
+        built.sim.geom_size[:, cols] *= s[:, None, None]
+        built.sim.geom_pos[:, cols] *= s[:, None, None]
+        built.sim.body_mass[:, bodies[0]] *= s**3
+        built.sim.body_inertia[:, bodies[0]] *= (s**5)[:, None]
 
 
 def _actor_algebra(sim: Sim, envs, kind: str, k: int) -> torch.Tensor:
@@ -1749,13 +2277,28 @@ def _index_maps(sim: Sim) -> None:
         if kind not in sim._views:
             source = {"root": envs.root_states, "dof": envs.dof_state,
                       "body": envs.rigid_body_states, "contact": envs.net_contact_force,
-                      "dof_force": envs.dof_forces}[kind]
-            width = {"root": 13, "dof": 2, "body": 13, "contact": 3, "dof_force": None}[kind]
+                      "dof_force": envs.dof_forces, "force_sensor": envs.force_sensors}[kind]
+            width = {"root": 13, "dof": 2, "body": 13, "contact": 3, "dof_force": None,
+                     "force_sensor": 6}[kind]
             sim._views[kind] = (source.view(-1, width) if width else source.view(-1))
         return sim._views[kind]
 
     sim._views = {}
     sim.myriad_views = views
+
+
+def _attractors(envs: list, names: list) -> list:
+    """(body's full name, props) of env 0's attractors, which every env must repeat."""
+    def key(env):
+        return [(k, b, int(p.axes), repr(p.offset), repr(p.target)) for k, b, p in env.attractors]
+    for env in envs[1:]:
+        if key(env) != key(envs[0]):
+            raise _unsupported(f"gym.prepare_sim: env {env.index}'s attractors differ from env "
+                               "0's", "every env must hold the same attractors (bodies, axes, "
+                               "offsets and targets in its own frame)")
+    first = envs[0]
+    return [(f"{names[k]}/{first.actors[k].asset.body_names[b]}", p)
+            for k, b, p in first.attractors]
 
 
 def _check_efforts(sim: Sim, built: bool) -> dict:

@@ -127,10 +127,60 @@ def parse_sim_params(args, cfg=None, cfg_sim=None):
     return params
 
 
+def _indent_xml(elem, level: int = 0) -> None:
+    """Indents an `xml.etree.ElementTree` element in place, two spaces per level (Isaac Gym's
+    private helper, which tasks that write MJCF files call before saving them)."""
+    pad = "\n" + "  " * level
+    children = list(elem)
+    if children:
+        if not (elem.text or "").strip():
+            elem.text = pad + "  "
+        for child in children:
+            _indent_xml(child, level + 1)
+        if not (children[-1].tail or "").strip():
+            children[-1].tail = pad
+    if level and not (elem.tail or "").strip():
+        elem.tail = pad
+
+
+class LineGeometry:
+    """A shape drawn as lines in the viewer (Isaac Gym's `gymutil` geometries). Myriad's
+    `isaacgym` runs headless (`create_viewer` returns None), so a geometry only holds its
+    parameters; `draw_lines` into no viewer draws nothing."""
+
+    def __init__(self, *args, **kwargs):
+        self.args, self.kwargs = args, kwargs
+
+
+class AxesGeometry(LineGeometry):
+    pass
+
+
+class WireframeBoxGeometry(LineGeometry):
+    pass
+
+
+class WireframeSphereGeometry(LineGeometry):
+    pass
+
+
+class WireframeBBoxGeometry(LineGeometry):
+    pass
+
+
+def draw_lines(geom, gym, viewer, env, pose) -> None:
+    """Draws `geom` at `pose` in `viewer`: nothing without a viewer (headless runs)."""
+    if viewer is not None:
+        raise NotImplementedError("isaacgym.gymutil.draw_lines into a viewer is not provided "
+                                  "by Myriad yet (its isaacgym viewer calls run headless)")
+
+
 def __getattr__(name):
     if name.startswith("__"):
         raise AttributeError(name)
     raise gymapi._not_provided(f"isaacgym.gymutil.{name}")
 
 
-__all__ = ["parse_arguments", "parse_device_str", "parse_sim_params"]
+__all__ = ["parse_arguments", "parse_device_str", "parse_sim_params", "AxesGeometry",
+           "WireframeBoxGeometry", "WireframeSphereGeometry", "WireframeBBoxGeometry",
+           "draw_lines"]

@@ -197,6 +197,11 @@ class Scene:
             quat = [w, x, y, z]
         root.pos, root.quat = [0, 0, 0], [1, 0, 0, 0]
         root.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT    # not the file's euler etc.
+        if not actor.self_collisions:
+            # an explicit <contact><pair> collides whatever <exclude> says: the actor's go too
+            # (deleted from the actor's own copy: deleting an attached one can fail in MuJoCo)
+            for pair in list(child.pairs):
+                child.delete(pair)
         frame = spec.worldbody.add_frame(pos=pos, quat=quat)
         prefix = actor.name + "/"
         frame.attach_body(root, prefix, "")
@@ -209,10 +214,6 @@ class Scene:
             for i, b1 in enumerate(bodies):
                 for b2 in bodies[i + 1:]:
                     spec.add_exclude(bodyname1=b1.name, bodyname2=b2.name)
-            # an explicit <contact><pair> collides whatever <exclude> says: the actor's go too
-            for pair in [p for p in spec.pairs if p.geomname1.startswith(prefix)
-                         and p.geomname2.startswith(prefix)]:
-                spec.delete(pair)
         joints = [j for b in bodies for j in b.joints
                   if j.type in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)]
         modes = actor.dof_mode

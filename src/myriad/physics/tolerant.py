@@ -12,6 +12,9 @@ MJCF
   file is parsed, the one attribute removed, and parsed again (a bounded number of times).
   An unknown attribute anywhere else (a geom, a joint, the compiler) stays a `ModelError`.
 URDF
+- a link with several `<inertial>` elements keeps the first (as URDF readers do);
+- an `<inertial>` with a `<density>` (Isaac Gym's extension) and no `<mass>` gets the mass of
+  that density filling its link's collision primitives;
 - an `<inertial>` without `<inertia>` gets the inertia of its link's collision primitives
   (box, cylinder, sphere: closed forms, the mass shared by volume, moved to the inertial frame
   by the parallel-axis theorem); without primitive collision geometry, that of a uniform 0.1 m
@@ -21,6 +24,10 @@ URDF
 - a visual mesh MuJoCo cannot read (`.dae`) or cannot find is dropped (visuals only draw); a
   collision mesh in such a format is replaced by a same-named `.stl`/`.obj` next to it, else it
   is a `ModelError`.
+- a mesh in a format MuJoCo cannot read (`.glb`, ...) is replaced by a same-named `.stl`/`.obj`
+  next to it, else converted to `.obj` with trimesh where installed; failing both, if only
+  non-colliding geoms (contype = conaffinity = 0) use it, the
+  mesh and those geoms are dropped (they only draw); else it is a `ModelError`.
 Both
 - a reference to a material or texture that is not defined (or a texture whose image file is
   missing) is dropped: materials and textures only draw;
@@ -35,7 +42,9 @@ Both
 - Isaac Gym's base: the root body is free-floating unless `fix_base_link` (MuJoCo welds a URDF's
   root link to the world). A root body without joints gets a free joint; with
   `fix_base_link=True`, a root's free joint is removed. This is an option, not a repair: no
-  warning.
+  warning. A root with other joints and no `fix_base_link` has them replaced by a free joint
+  (Isaac Gym floats it; one warning).
+- a limited joint whose range is a single value (locked) gets a range 1e-6 wide around it.
 Anything else MuJoCo refuses stays a `ModelError` naming the file and the element.
 """
 
@@ -58,6 +67,7 @@ _MAX_REPAIRS = 100
 _OPTION_ELEMENTS = {"option", "flag", "size", "statistic", "visual", "global", "quality",
                     "headlight", "map", "scale", "rgba"}
 _FLAG_SUCCESSORS = {"passive": ("spring", "damper")}  # MuJoCo 3.0 split this flag in two
+_REPEATED_NAME = re.compile(r"repeated name '([^']+)' in (\w+)")
 _UNKNOWN_ATTRIBUTE = re.compile(r"unrecognized attribute: '([^']+)'\s*Element '([^']+)'")
 _MESH_FORMATS = (".stl", ".obj", ".msh")  # what MuJoCo's compiler reads
 _MOMENT_FLOOR = 1e-3  # the smallest principal moment kept, as a share of the largest
@@ -99,8 +109,11 @@ def asset_spec(path, *, fix_base_link: bool = False, package_paths=()) -> mujoco
         spec = _parse_mjcf(path, text, folder)
     spec.modelfiledir = os.path.join(folder, "")  # assets resolve as if read from the file
     _drop_missing_drawing_assets(spec, path)
+    if not urdf:
+        _drop_unreadable_visual_meshes(spec, path, folder)
     _balance_inertias(spec, path, "link" if urdf else "body")
     _set_base(spec, fix_base_link)
+    _open_locked_ranges(spec, path)
     return spec
 
 
@@ -142,10 +155,39 @@ def _parse_mjcf(path: str, text: str, folder: str) -> mujoco.MjSpec:
                 k: v.encode() for k, v in texts.items() if k != path})
         except Exception as err:
             found = _UNKNOWN_ATTRIBUTE.search(str(err))
+            repeated = _REPEATED_NAME.search(str(err))
+            if repeated and _rename_repeated(texts, path, folder, repeated.group(2),
+                                             repeated.group(1)):
+                continue
             if not (found and found.group(2) in _OPTION_ELEMENTS
                     and _remove_attribute(texts, path, folder, found.group(2), found.group(1))):
                 raise ModelError(f"{path}: MuJoCo rejected the model: {err}") from err
     raise ModelError(f"{path}: more than {_MAX_REPAIRS} unknown attributes; not repaired")
+
+
+def _rename_repeated(texts: dict, path: str, folder: str, tag: str, name: str) -> bool:
+    """Give the second `<tag name="name">` in the model's files a unique name (`name_2`, ...;
+    references by name still mean the first); warn with the file and the line. False if there
+    is no second one (the name is repeated across kinds MuJoCo keeps apart, or in a form this
+    does not read)."""
+    named = re.compile(rf"<{re.escape(tag)}\b[^>]*?\sname\s*=\s*([\"'])({re.escape(name)})\1")
+    taken = set(re.findall(r"\sname\s*=\s*[\"']([^\"']+)", "".join(texts.values())))
+    seen = 0
+    for file, text in texts.items():
+        for match in named.finditer(_blank_comments(text)):
+            seen += 1
+            if seen < 2:
+                continue
+            k = 2
+            while f"{name}_{k}" in taken:
+                k += 1
+            texts[file] = text[:match.start(2)] + f"{name}_{k}" + text[match.end(2):]
+            line = text.count("\n", 0, match.start()) + 1
+            _warn(f"{file if file == path else os.path.join(folder, file)}: line {line}: a "
+                  f"second <{tag}> named {name!r} renamed {name}_{k} (MuJoCo needs unique "
+                  f"names; references by name mean the first)")
+            return True
+    return False
 
 
 def _remove_attribute(texts: dict, path: str, folder: str, tag: str, attr: str) -> bool:
@@ -193,7 +235,14 @@ def _repair_urdf(path: str, text: str, folder: str, package_paths) -> str:
     dropped = []
     for link in robot.iter("link"):
         name = link.get("name", "")
+        extra = link.findall("inertial")[1:]
+        for inertial in extra:      # URDF readers (urdfdom, Isaac Gym's) take the first
+            link.remove(inertial)
+        if extra:
+            _warn(f"{path}: link {name!r} has {len(extra) + 1} <inertial> elements; the first "
+                  "is used, as URDF readers do")
         for inertial in link.findall("inertial"):
+            _mass_from_density(path, name, link, inertial)
             if inertial.find("inertia") is None:
                 _complete_inertia(path, name, link, inertial)
         for kind in ("visual", "collision"):
@@ -230,12 +279,24 @@ def _repair_urdf(path: str, text: str, folder: str, package_paths) -> str:
 def _resolve(uri: str, base: str, folder: str, roots) -> str | None:
     """The absolute path of a URDF mesh `filename`, None where it is not found. `package://pkg/
     rest` is looked for in a folder named `pkg` upward from the file, then in each of `roots`
-    (a folder `pkg` directly inside it, or the root itself if so named; not recursively)."""
+    (a folder `pkg` directly inside it, or the root itself if so named; not recursively).
+    A relative path is looked for from the file's mesh base, then from each folder upward of
+    the file and from each of `roots` (Isaac Gym resolves IsaacGymEnvs' Allegro meshes,
+    written from the asset root, that way)."""
     if uri.startswith("file://"):
         uri = uri[len("file://"):]
     if not uri.startswith("package://"):
-        file = os.path.join(base, uri)
-        return file if os.path.isfile(file) else None
+        if os.path.isabs(uri):
+            return uri if os.path.isfile(uri) else None
+        up, candidates = folder, [base]
+        while os.path.dirname(up) != up:
+            candidates.append(up)
+            up = os.path.dirname(up)
+        for candidate in candidates + [os.fspath(r) for r in roots]:
+            file = os.path.join(candidate, uri)
+            if os.path.isfile(file):
+                return os.path.abspath(file)
+        return None
     package, _, rest = uri[len("package://"):].partition("/")
     candidates, up = [], folder
     while True:
@@ -285,6 +346,28 @@ def _primitive(geometry) -> tuple[float, np.ndarray] | None:
         r = float(shape.get("radius", 0))
         return 4 / 3 * np.pi * r ** 3, np.eye(3) * 0.4 * r * r
     return None
+
+
+def _mass_from_density(path: str, link_name: str, link, inertial) -> None:
+    """An `<inertial>` that gives a `<density>` (Isaac Gym's extension) instead of a `<mass>`:
+    the mass is that density times the volume of the link's collision primitives; the
+    `<density>` element, which MuJoCo does not know, is removed either way."""
+    density = inertial.find("density")
+    if density is None:
+        return
+    inertial.remove(density)
+    if inertial.find("mass") is not None:
+        return
+    value = float(density.get("value", "nan"))
+    parts = [_primitive(c.find("geometry")) for c in link.findall("collision")]
+    if not (value > 0) or not parts or any(p is None for p in parts):
+        raise ModelError(f"{path}: link {link_name!r}: <inertial> gives <density "
+                         f"value={density.get('value')!r}> and no <mass>; a mass from a density "
+                         "needs a positive density and box, cylinder or sphere collisions")
+    mass = value * sum(p[0] for p in parts)
+    ET.SubElement(inertial, "mass", {"value": repr(float(mass))})
+    _warn(f"{path}: link {link_name!r}: <inertial> has a <density> ({value:g} kg/m³) and no "
+          f"<mass>: mass {mass:.6g} kg from the volume of its collision primitives")
 
 
 def _complete_inertia(path: str, link_name: str, link, inertial) -> None:
@@ -350,6 +433,66 @@ def _drop_missing_drawing_assets(spec: mujoco.MjSpec, path: str) -> None:
               f"({kind}s only draw)")
 
 
+def _drop_unreadable_visual_meshes(spec: mujoco.MjSpec, path: str, folder: str) -> None:
+    """MJCF meshes in a format MuJoCo cannot read (`.glb`, `.dae`, ...): replaced by a
+    same-named `.stl`/`.obj` next to them if there is one; else, when only drawing geoms
+    (contype = conaffinity = 0) use them, the mesh and those geoms are dropped (Isaac Gym draws
+    them and gives them no mass); used by a colliding geom, a `ModelError`."""
+    dropped = []
+    for mesh in list(spec.meshes):
+        stem, ext = os.path.splitext(mesh.file)
+        if not mesh.file or ext.lower() in _MESH_FORMATS:
+            continue
+        base = os.path.join(folder, spec.meshdir or "")
+        twin = next((stem + e for e in (".stl", ".obj")
+                     if os.path.isfile(os.path.join(base, stem + e))), None)
+        if twin is not None:
+            mesh.file = twin
+            continue
+        converted = _converted_mesh(os.path.join(base, mesh.file))
+        if converted is not None:
+            mesh.file = converted
+            _warn(f"{path}: mesh {mesh.name!r} ({os.path.basename(stem + ext)}) is in a format "
+                  f"MuJoCo cannot read; read with trimesh and written as {converted}")
+            continue
+        users = [g for g in spec.geoms if g.meshname == mesh.name]
+        colliding = [g.name or "(unnamed)" for g in users if g.contype or g.conaffinity]
+        if colliding:
+            raise ModelError(f"{path}: mesh {mesh.name!r} ({mesh.file}) is in a format MuJoCo "
+                             f"cannot read and collides (geoms {_some(colliding)}); give an "
+                             ".stl or .obj of it")
+        for g in users:
+            spec.delete(g)
+        spec.delete(mesh)
+        dropped.append(f"{mesh.name} ({mesh.file}, {len(users)} geom(s))")
+    if dropped:
+        _warn(f"{path}: {len(dropped)} drawing mesh(es) in a format MuJoCo cannot read dropped "
+              f"with their non-colliding geoms: {_some(dropped)}")
+
+
+def _converted_mesh(file: str) -> str | None:
+    """`file` (a `.glb`, `.gltf`, `.dae`, `.ply`, ...) read with trimesh, when installed, and
+    written as an `.obj` in ~/.cache/myriad/meshes (once per content); None when it cannot be
+    read that way."""
+    try:
+        import hashlib
+        import trimesh
+        with open(file, "rb") as f:
+            digest = hashlib.sha1(f.read()).hexdigest()[:16]
+        folder = os.path.join(os.path.expanduser("~"), ".cache", "myriad", "meshes")
+        out = os.path.join(folder, f"{os.path.splitext(os.path.basename(file))[0]}-{digest}.obj")
+        if not os.path.isfile(out):
+            mesh = trimesh.load(file, force="mesh")
+            if len(mesh.faces) == 0:
+                return None
+            os.makedirs(folder, exist_ok=True)
+            mesh.export(out + ".part", file_type="obj")
+            os.replace(out + ".part", out)
+        return out
+    except Exception:       # no trimesh, or a file it cannot read either
+        return None
+
+
 def _balance_inertias(spec: mujoco.MjSpec, path: str, kind: str) -> None:
     """Balance each explicit inertia that breaks the triangle inequality (rule: module's
     docstring); warn naming the body and the principal moments before and after."""
@@ -388,12 +531,37 @@ def _balance_inertias(spec: mujoco.MjSpec, path: str, kind: str) -> None:
               f"({new[0]:.6g}, {new[1]:.6g}, {c:.6g}) by raising the two smallest moments")
 
 
+def _open_locked_ranges(spec: mujoco.MjSpec, path: str) -> None:
+    """A limited joint whose range is one value (lower = upper: locked, which Isaac Gym
+    accepts and MuJoCo refuses) gets a range 1e-6 rad (or m) wide around it."""
+    locked = []
+    for j in spec.joints:
+        if j.limited == mujoco.mjtLimited.mjLIMITED_TRUE and j.range[0] == j.range[1]:
+            half = 1e-6 * (180 / np.pi if spec.compiler.degree
+                           and j.type == mujoco.mjtJoint.mjJNT_HINGE else 1.0)
+            j.range = [j.range[0] - half, j.range[1] + half]
+            locked.append(j.name or "(unnamed)")
+    if locked:
+        _warn(f"{path}: joints {_some(locked)} have a one-value range (locked); given a range "
+              "1e-6 wide, which MuJoCo accepts")
+
+
 def _set_base(spec: mujoco.MjSpec, fix_base_link: bool) -> None:
     """Isaac Gym's base: free unless `fix_base_link` (the first body of the world is the root)."""
     root = spec.worldbody.first_body()
     if root is None or root.mocap:  # a mocap body is moved by the user, never by joints
         return
     joints = list(root.joints)
+    free = len(joints) == 1 and joints[0].type == mujoco.mjtJoint.mjJNT_FREE
+    if joints and not free and not fix_base_link:
+        # Isaac Gym floats the root whatever joints the file gives it (IsaacGymEnvs'
+        # Ingenuity: a locked hinge on its chassis, not among its DOFs)
+        names = [j.name or "(unnamed)" for j in joints]
+        for j in joints:
+            spec.delete(j)
+        _warn(f"root body {root.name!r}: joints {names} replaced by a free joint (Isaac Gym's "
+              "base is free unless fix_base_link)")
+        joints = []
     if not joints and not fix_base_link:
         root.add_freejoint()
     elif fix_base_link and len(joints) == 1 and joints[0].type == mujoco.mjtJoint.mjJNT_FREE:

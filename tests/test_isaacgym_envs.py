@@ -1,0 +1,427 @@
+"""What IsaacGymEnvs' tasks call beyond the basic API (issue 41, item 2), in the original's
+style: terrain_utils and triangle-mesh terrain (AnymalTerrain), force sensors (Ant, Humanoid,
+the hands, BallBalance), collapse_fixed_joints and fixed-joint indices (Franka, the hands,
+ANYmal), attractors (BallBalance), tendons (ShadowHand), actor scale (Trifinger's object),
+tensors acquired before prepare_sim (FrankaCubeStack), start poses (FrankaCabinet), V-HACD
+(Trifinger). Physics is checked against closed forms or Myriad's own API on the same scene.
+"""
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+import torch
+
+from isaacgym import gymapi, gymtorch, gymutil
+from isaacgym import terrain_utils as tu
+from isaacgym.gymapi import _myriad_params
+from myriad.api import Scene
+
+G = 9.81
+
+
+def z_up_sim(dt=1 / 100, substeps=1):
+    gym = gymapi.acquire_gym()
+    p = gymapi.SimParams()
+    p.up_axis = gymapi.UP_AXIS_Z
+    p.gravity = gymapi.Vec3(0.0, 0.0, -G)
+    p.dt, p.substeps = dt, substeps
+    return gym, gym.create_sim(-1, -1, gymapi.SIM_PHYSX, p)
+
+
+def envs_with(gym, sim, asset, poses, name="actor"):
+    envs = []
+    for i, pose in enumerate(poses):
+        env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 2)
+        gym.create_actor(env, asset, pose, name, i, 0, 0)
+        envs.append(env)
+    return envs
+
+
+def fixed_base_asset(folder, name, text, **options):
+    """A new z-up sim and the asset `text` written to folder/name, its base fixed, `options`
+    (AssetOptions attributes) set: (gym, sim, asset, the AssetOptions)."""
+    (folder / name).write_text(text)
+    gym, sim = z_up_sim()
+    asset_options = gymapi.AssetOptions()
+    asset_options.fix_base_link = True
+    for key, value in options.items():
+        setattr(asset_options, key, value)
+    return gym, sim, gym.load_asset(sim, str(folder), name, asset_options), asset_options
+
+
+def settle(gym, sim, steps):
+    for _ in range(steps):
+        gym.simulate(sim)
+        gym.fetch_results(sim, True)
+    gym.refresh_actor_root_state_tensor(sim)
+
+
+# ------------------------------------------------------------------ terrain_utils
+def tile(width=40, length=30):
+    return tu.SubTerrain("t", width=width, length=length, vertical_scale=0.005,
+                         horizontal_scale=0.1)
+
+
+def test_terrain_generators_build_the_shapes_they_name():
+    t = tu.sloped_terrain(tile(), slope=0.5)
+    # 0.5 m per m: 0.05 m per 0.1 m sample, 10 raw units of 5 mm
+    assert t.height_field_raw.dtype == np.int16 and t.height_field_raw.shape == (40, 30)
+    assert (t.height_field_raw[:, 0] == 10 * np.arange(40)).all()
+    assert (t.height_field_raw == t.height_field_raw[:, :1]).all()
+
+    t = tu.pyramid_sloped_terrain(tile(), slope=0.2, platform_size=1.0)
+    h = t.height_field_raw
+    assert h[0].max() == 0 and h[:, 0].max() == 0               # 0 at the edges
+    top = h.max()
+    assert top > 0 and (h[20 - 5:20 + 5, 15 - 5:15 + 5] == top).all()   # a flat platform
+    assert (np.diff(h[:20, 15]) >= 0).all()                      # rising to it
+
+    t = tu.pyramid_stairs_terrain(tile(), step_width=0.3, step_height=-0.1, platform_size=1.0)
+    h = t.height_field_raw
+    levels = np.unique(h)
+    assert levels.max() == 0 and (levels % 20 == 0).all()        # 0.1 m steps down, from 0
+    assert h[20, 15] == levels.min() and h[0, 0] == 0
+
+    np.random.seed(0)
+    t = tu.discrete_obstacles_terrain(tile(), 0.2, 0.5, 1.0, 20, platform_size=1.0)
+    assert set(np.unique(t.height_field_raw)) <= {-40, -20, 0, 20, 40}
+    assert (t.height_field_raw[15:25, 10:20] == 0).all()         # the central platform
+
+    t = tu.random_uniform_terrain(tile(), -0.05, 0.05, step=0.01, downsampled_scale=0.5)
+    assert -10 <= t.height_field_raw.min() and t.height_field_raw.max() <= 10
+    assert np.unique(t.height_field_raw).size > 3
+
+    t = tu.stairs_terrain(tile(), step_width=0.5, step_height=0.05)
+    assert (t.height_field_raw[:, 0] == 10 * (np.arange(40) // 5)).all()
+
+    t = tu.wave_terrain(tile(), num_waves=2, amplitude=0.1)
+    assert np.abs(t.height_field_raw).max() <= 40
+
+    t = tu.stepping_stones_terrain(tile(), stone_size=0.5, stone_distance=0.2, max_height=0.05,
+                                   platform_size=1.0, depth=-1.0)
+    h = t.height_field_raw
+    assert h.min() == -200 and (h[15:25, 10:20] == 0).all()
+    assert ((h > -200) & ((h < -10) | (h > 10))).sum() == 0     # stones within ±0.05 m
+
+
+def test_trimesh_of_a_height_field():
+    raw = np.zeros((4, 3), np.int16)
+    raw[2:, :] = 40                          # a 0.2 m step between rows 1 and 2
+    v, t = tu.convert_heightfield_to_trimesh(raw, 0.1, 0.005)
+    assert v.shape == (12, 3) and t.shape == (12, 3) and t.dtype == np.uint32
+    np.testing.assert_allclose(v[:, 2], raw.ravel() * 0.005, atol=1e-7)
+    a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
+    assert (np.cross(b - a, c - a)[:, 2] > 0).all()               # every triangle faces up
+    # steeper than the threshold: the lower row's vertices move under the higher row
+    v, _ = tu.convert_heightfield_to_trimesh(raw, 0.1, 0.005, slope_threshold=0.75)
+    np.testing.assert_allclose(v.reshape(4, 3, 3)[1, :, 0], 0.2, atol=1e-6)
+    np.testing.assert_allclose(v.reshape(4, 3, 3)[[0, 2, 3], 0, 0], [0.0, 0.2, 0.3], atol=1e-6)
+
+
+def stairs_mesh():
+    """A stepped pyramid of 0.1 m steps, 0.5 m deep, as AnymalTerrain makes its mesh."""
+    t = tu.SubTerrain("stairs", width=60, length=60, vertical_scale=0.005, horizontal_scale=0.1)
+    tu.pyramid_stairs_terrain(t, step_width=0.5, step_height=0.1, platform_size=1.0)
+    vertices, triangles = tu.convert_heightfield_to_trimesh(t.height_field_raw, 0.1, 0.005,
+                                                            slope_threshold=0.75)
+    return t, vertices, triangles
+
+
+def test_a_box_rests_on_each_step_of_a_triangle_mesh_terrain():
+    t, vertices, triangles = stairs_mesh()
+    gym, sim = z_up_sim()
+    params = gymapi.TriangleMeshParams()
+    params.nb_vertices, params.nb_triangles = len(vertices), len(triangles)
+    params.transform.p = gymapi.Vec3(-3.0, -3.0, 0.0)
+    gym.add_triangle_mesh(sim, vertices.flatten(order="C"), triangles.flatten(order="C"),
+                          params)
+    # every 0.1 m step became a wall, and there is no smaller step: any riser below 0.1 m
+    # makes the same walls (the slope threshold × spacing, 0.075 m, among them)
+    assert 0.0 < sim.terrain["riser"] < 0.1
+    box = gym.create_box(sim, 0.2, 0.2, 0.2)
+    # world x = -3 + 0.1 i: samples 2 (edge), 7 (first step), 27 (platform)
+    xs = [-2.8, -2.25, -0.25]
+    heights = [t.height_field_raw[round((x + 3) / 0.1), 30] * 0.005 for x in xs]
+    assert heights == pytest.approx([0.0, 0.1, 0.5])
+    envs_with(gym, sim, box, [gymapi.Transform(gymapi.Vec3(x, 0.0, h + 0.3))
+                              for x, h in zip(xs, heights)])
+    gym.prepare_sim(sim)
+    root = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim))
+    settle(gym, sim, 150)
+    np.testing.assert_allclose(root[:, 2].numpy(), np.array(heights) + 0.1, atol=5e-3)
+    assert root[:, 7:].abs().max() < 0.05
+
+
+def test_a_mesh_that_is_not_a_grid_is_refused_and_a_heightfield_is_simple():
+    gym, sim = z_up_sim()
+    params = gymapi.TriangleMeshParams()
+    params.nb_vertices, params.nb_triangles = 4, 2
+    tetra = np.array([0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1], np.float32)
+    with pytest.raises(NotImplementedError, match="add_triangle_mesh.*not a height-field grid"):
+        gym.add_triangle_mesh(sim, tetra, np.array([0, 1, 2, 0, 1, 3], np.uint32), params)
+    # a flat height field 100 raw units (0.5 m) high, 2 m across
+    hf = gymapi.HeightFieldParams()
+    hf.nbRows = hf.nbColumns = 21
+    hf.row_scale = hf.column_scale = 0.1
+    hf.vertical_scale = 0.005
+    hf.transform.p = gymapi.Vec3(-1.0, -1.0, 0.0)
+    gym.add_heightfield(sim, np.full((21, 21), 100, np.int16), hf)
+    box = gym.create_box(sim, 0.2, 0.2, 0.2)
+    envs_with(gym, sim, box, [gymapi.Transform(gymapi.Vec3(0.0, 0.0, 0.8))])
+    gym.prepare_sim(sim)
+    root = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim))
+    settle(gym, sim, 120)
+    assert root[0, 2].item() == pytest.approx(0.6, abs=5e-3)
+
+
+# ------------------------------------------------------------------ force sensors
+PENDULUM = """<mujoco><worldbody>
+  <body name="mount" pos="0 0 1">
+    <geom type="box" size=".05 .05 .05" contype="0" conaffinity="0"/>
+    <body name="bob" pos="0 0 -0.1">
+      <joint name="swing" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.02" contype="0" conaffinity="0"/>
+      <site name="foot"/>
+    </body>
+  </body></worldbody>
+  <sensor><force site="foot"/><torque site="foot"/></sensor>
+</mujoco>"""
+
+
+def test_a_force_sensor_reads_the_joint_force_as_myriads_own_sensor(tmp_path):
+    gym, sim, asset, _ = fixed_base_asset(tmp_path, "pendulum.xml", PENDULUM,
+                                          default_dof_drive_mode=gymapi.DOF_MODE_NONE)
+    assert gym.get_asset_force_sensor_count(asset) == 0      # the file's sensors: not imported
+    bob = gym.find_asset_rigid_body_index(asset, "bob")
+    assert gym.create_asset_force_sensor(asset, bob, gymapi.Transform()) == 0
+    bad = gymapi.ForceSensorProperties()
+    bad.enable_forward_dynamics_forces = False
+    with pytest.raises(NotImplementedError, match="enable_forward_dynamics_forces=False"):
+        gym.create_asset_force_sensor(asset, bob, gymapi.Transform(), bad)
+    envs = envs_with(gym, sim, asset, [gymapi.Transform()] * 3)
+    assert gym.get_sim_force_sensor_count(sim) == 3
+    assert gym.get_actor_force_sensor_count(envs[0], 0) == 1
+    gym.prepare_sim(sim)
+    sensors = gymtorch.wrap_tensor(gym.acquire_force_sensor_tensor(sim))
+    dofs = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim))
+    dofs[:, 0] = torch.tensor([0.0, 0.5, -1.0])
+    gym.set_dof_state_tensor(sim, gymtorch.unwrap_tensor(dofs))
+    # the same scene on Myriad's own API, its file's sensor at the same site
+    own = Scene().add_actor("p", str(tmp_path / "pendulum.xml"), fix_base=True).build(
+        3, params=_myriad_params(sim.params))
+    own.set_dof_state(dofs[:, 0].reshape(3, 1).clone(), torch.zeros(3, 1))
+    for _ in range(30):
+        gym.simulate(sim)
+        own.step()
+    gym.refresh_force_sensor_tensor(sim)
+    assert sensors.shape == (3, 6)
+    torch.testing.assert_close(sensors, own.force_sensors[:, 0], atol=1e-4, rtol=1e-4)
+    # at rest hanging straight down the joint carries the bob's weight: |F| = m g
+    mass = gym.get_actor_rigid_body_properties(envs[0], 0)[bob].mass
+    assert sensors[0, :3].norm().item() == pytest.approx(mass * G, rel=1e-3)
+    assert sensors[0, 3:].norm().item() < 1e-3 * mass * G
+
+
+# ------------------------------------------------------------------ fixed joints
+ARM_URDF = """<?xml version="1.0"?>
+<robot name="arm">
+  <link name="base"><inertial><mass value="2"/><inertia ixx=".01" iyy=".01" izz=".01"
+    ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><box size=".1 .1 .1"/></geometry></collision></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
+    <origin xyz="0 0 0.1"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="10"
+    velocity="5"/></joint>
+  <link name="upper"><inertial><origin xyz="0 0 0.15"/><mass value="1"/><inertia ixx=".01"
+    iyy=".01" izz=".001" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 0.15"/><geometry><box size=".04 .04 .3"/></geometry>
+    </collision></link>
+  <joint name="hand_joint" type="fixed"><parent link="upper"/><child link="hand"/>
+    <origin xyz="0 0 0.3"/></joint>
+  <link name="hand"><inertial><mass value="0.5"/><inertia ixx=".001" iyy=".001" izz=".001"
+    ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><sphere radius="0.04"/></geometry></collision></link>
+</robot>"""
+
+
+def test_fixed_joints_count_as_isaac_gym_counts_them_and_collapse_into_their_parent(tmp_path):
+    gym, sim, arm, options = fixed_base_asset(tmp_path, "arm.urdf", ARM_URDF)
+    # joint i moves body i + 1, the fixed one too (FrankaCubeStack indexes the Jacobian so)
+    assert gym.get_asset_joint_dict(arm) == {"shoulder": 0, "hand_joint": 1}
+    assert gym.get_asset_rigid_body_dict(arm) == {"base": 0, "upper": 1, "hand": 2}
+    options.collapse_fixed_joints = True
+    collapsed = gym.load_asset(sim, str(tmp_path), "arm.urdf", options)
+    assert gym.get_asset_rigid_body_names(collapsed) == ["base", "upper"]
+    assert gym.get_asset_rigid_shape_count(collapsed) == 3          # the hand's sphere moved
+    upper = collapsed.body_props[1]
+    assert upper.mass == pytest.approx(1.5)
+    assert upper.com.z == pytest.approx((1.0 * 0.15 + 0.5 * 0.3) / 1.5)
+    # the start pose of a body, before prepare_sim (FrankaCabinet reads it to place props)
+    env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 1)
+    gym.create_actor(env, arm, gymapi.Transform(gymapi.Vec3(0.5, 0.0, 1.0)), "arm", 0, 0, 0)
+    hand = gym.find_actor_rigid_body_handle(env, 0, "hand")
+    before = gym.get_rigid_transform(env, hand)
+    assert (before.p.x, before.p.y, before.p.z) == pytest.approx((0.5, 0.0, 1.4))
+    gym.prepare_sim(sim)
+    after = gym.get_rigid_transform(env, hand)
+    assert (after.p.x, after.p.y, after.p.z) == pytest.approx((0.5, 0.0, 1.4), abs=1e-5)
+
+
+def test_acquiring_a_tensor_before_prepare_sim_builds_the_sim(tmp_path):
+    gym, sim, arm, _ = fixed_base_asset(tmp_path, "arm.urdf", ARM_URDF)
+    envs = envs_with(gym, sim, arm, [gymapi.Transform()] * 2)
+    dofs = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim))    # as FrankaCubeStack
+    assert dofs.shape == (2, 2) and sim.myriad is not None
+    assert gym.prepare_sim(sim)                                      # then a no-op
+    assert gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim)) is dofs
+    with pytest.raises(NotImplementedError, match="create_actor after prepare_sim"):
+        gym.create_actor(envs[0], arm, gymapi.Transform(), "late", 0, 0, 0)
+
+
+# ------------------------------------------------------------------ attractors, scale
+def test_an_attractor_holds_a_box_corner_at_its_target():
+    gym, sim = z_up_sim()
+    box = gym.create_box(sim, 0.2, 0.2, 0.2)
+    env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 1)
+    gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(0.1, 0.0, 0.9)), "box", 0, 0, 0)
+    props = gymapi.AttractorProperties()
+    props.stiffness, props.damping = 5e7, 5e3
+    props.axes = gymapi.AXIS_TRANSLATION
+    props.rigid_handle = 0
+    props.offset.p = gymapi.Vec3(-0.1, 0.0, 0.1)            # the top of one face's edge
+    props.target.p = gymapi.Vec3(0.0, 0.0, 1.0)             # where it is at the start
+    gym.create_rigid_body_attractor(env, props)
+    gym.prepare_sim(sim)
+    bodies = gymtorch.wrap_tensor(gym.acquire_rigid_body_state_tensor(sim))
+    for _ in range(300):                   # 3 s: it swings about the point and damps nowhere
+        gym.simulate(sim)
+    gym.refresh_rigid_body_state_tensor(sim)
+    p, q = bodies[0, :3], bodies[0, 3:7]
+    held = p + rotate(q, torch.tensor([-0.1, 0.0, 0.1]))
+    torch.testing.assert_close(held, torch.tensor([0.0, 0.0, 1.0]), atol=2e-3, rtol=0)
+    assert p[2].item() < 0.95            # the box hangs below the point (it swung)
+    props.axes = gymapi.AXIS_ROTATION
+    with pytest.raises(NotImplementedError, match="axes"):
+        gym.create_rigid_body_attractor(gym.create_env(z_up_sim()[1], gymapi.Vec3(),
+                                                       gymapi.Vec3(1, 1, 1), 1), props)
+
+
+def rotate(q, v):
+    """v turned by the quaternion q (x, y, z, w)."""
+    u, w = q[:3], q[3]
+    return v + 2 * w * torch.cross(u, v, dim=0) + 2 * torch.cross(u, torch.cross(u, v, dim=0),
+                                                                  dim=0)
+
+
+def test_set_actor_scale_scales_an_object_per_env():
+    gym, sim = z_up_sim()
+    plane = gymapi.PlaneParams()
+    plane.normal = gymapi.Vec3(0, 0, 1)
+    gym.add_ground(sim, plane)
+    box = gym.create_box(sim, 0.1, 0.1, 0.1)
+    envs = envs_with(gym, sim, box, [gymapi.Transform(gymapi.Vec3(0, 0, 0.3))] * 2)
+    assert gym.set_actor_scale(envs[1], 0, 2.0) and gym.get_actor_scale(envs[1], 0) == 2.0
+    gym.prepare_sim(sim)
+    root = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim))
+    settle(gym, sim, 120)
+    torch.testing.assert_close(root[:, 2], torch.tensor([0.05, 0.1]), atol=3e-3, rtol=0)
+    mass = sim.myriad.sim.body_mass[:, sim.myriad.actor_bodies("a0")[0]]
+    torch.testing.assert_close(mass, torch.tensor([1.0, 8.0]), rtol=1e-5, atol=0)
+
+
+# ------------------------------------------------------------------ tendons
+TENDON_HAND = """<mujoco><worldbody><body name="palm">
+  <geom type="box" size=".05 .05 .01"/>
+  <body name="proximal" pos="0 0 .02"><joint name="j1" type="hinge" axis="1 0 0"/>
+    <geom type="capsule" fromto="0 0 0 0 0 .04" size=".01"/>
+    <body name="distal" pos="0 0 .04"><joint name="j2" type="hinge" axis="1 0 0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 .03" size=".01"/></body></body></body>
+  </worldbody>
+  <tendon><fixed name="couple" limited="true" range="-0.001 0.001">
+    <joint joint="j1" coef="0.007"/><joint joint="j2" coef="-0.007"/></fixed></tendon>
+</mujoco>"""
+
+
+def test_tendon_properties_take_physx_semantics(tmp_path):
+    gym, sim, asset, _ = fixed_base_asset(tmp_path, "finger.xml", TENDON_HAND)
+    assert gym.get_asset_tendon_count(asset) == 1
+    assert gym.get_asset_tendon_name(asset, 0) == "couple"
+    props = gym.get_asset_tendon_properties(asset)
+    assert props[0].limit_stiffness == 1.0 and props[0].is_limited     # the options' default
+    props[0].limit_stiffness, props[0].damping = 30.0, 0.1             # as ShadowHand sets them
+    assert gym.set_asset_tendon_properties(asset, props)
+    props[0].upper_limit = 0.5
+    with pytest.raises(NotImplementedError, match="upper_limit"):
+        gym.set_asset_tendon_properties(asset, props)
+    envs_with(gym, sim, asset, [gymapi.Transform()])
+    gym.prepare_sim(sim)
+    m = sim.myriad.model
+    t = m.tendon_names.index("a0/couple")
+    assert m.tendon_limit_stiffness[t] == pytest.approx(30.0)
+    assert m.tendon_damping[t] == pytest.approx(0.1)
+
+
+# ------------------------------------------------------------------ convex decomposition
+def bowl_obj(path):
+    """A square bowl 0.4 m wide and 0.1 m deep with 0.02 m walls, closed, as an .obj."""
+    import trimesh
+    outer = trimesh.creation.box((0.4, 0.4, 0.1))
+    inner = trimesh.creation.box((0.36, 0.36, 0.1))
+    inner.apply_translation((0, 0, 0.02))
+    bowl = outer.difference(inner) if trimesh.boolean.engines_available else None
+    if bowl is None:            # no boolean engine: five boxes, one watertight mesh each side
+        parts = [trimesh.creation.box((0.4, 0.4, 0.02), trimesh.transformations
+                                      .translation_matrix((0, 0, -0.04)))]
+        for x, y, sx, sy in ((0.19, 0, 0.02, 0.4), (-0.19, 0, 0.02, 0.4),
+                             (0, 0.19, 0.4, 0.02), (0, -0.19, 0.4, 0.02)):
+            parts.append(trimesh.creation.box((sx, sy, 0.1), trimesh.transformations
+                                              .translation_matrix((x, y, 0))))
+        bowl = trimesh.util.concatenate(parts)
+    bowl.export(path)
+
+
+def test_vhacd_lets_a_ball_fall_into_a_bowl(tmp_path):
+    pytest.importorskip("vhacdx", reason="V-HACD needs vhacdx (pip install -e '.[isaacgym]')")
+    pytest.importorskip("trimesh")
+    bowl_obj(tmp_path / "bowl.obj")
+    (tmp_path / "bowl.urdf").write_text("""<robot name="bowl"><link name="bowl">
+      <inertial><mass value="1"/><inertia ixx=".01" iyy=".01" izz=".01" ixy="0" ixz="0"
+      iyz="0"/></inertial><collision><geometry><mesh filename="bowl.obj"/></geometry>
+      </collision></link></robot>""")
+    rests = {}
+    for vhacd in (False, True):
+        gym, sim = z_up_sim()
+        options = gymapi.AssetOptions()
+        options.fix_base_link = True
+        options.vhacd_enabled = vhacd
+        options.vhacd_params.max_convex_hulls = 16
+        bowl = gym.load_asset(sim, str(tmp_path), "bowl.urdf", options)
+        ball = gym.create_sphere(sim, 0.03)
+        env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 1)
+        gym.create_actor(env, bowl, gymapi.Transform(gymapi.Vec3(0, 0, 0.05)), "bowl", 0, 0, 0)
+        gym.create_actor(env, ball, gymapi.Transform(gymapi.Vec3(0, 0, 0.3)), "ball", 0, 0, 0)
+        if vhacd:
+            assert gym.get_asset_rigid_shape_count(bowl) > 1            # cut into pieces
+        gym.prepare_sim(sim)
+        root = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim))
+        settle(gym, sim, 100)
+        rests[vhacd] = root[1, 2].item()
+    # the bowl's convex hull holds the ball at its rim (0.1 + 0.03); its pieces let it onto the
+    # floor (0.02 + 0.03)
+    assert rests[False] == pytest.approx(0.13, abs=5e-3)
+    assert rests[True] == pytest.approx(0.05, abs=5e-3)
+
+
+# ------------------------------------------------------------------ small helpers
+def test_helpers_tasks_call_while_building():
+    import xml.etree.ElementTree as ET
+    root = ET.Element("mujoco")
+    ET.SubElement(ET.SubElement(root, "worldbody"), "body")
+    gymutil._indent_xml(root)                      # Ingenuity and Quadcopter write MJCF so
+    assert ET.tostring(root).decode() == "<mujoco>\n  <worldbody>\n    <body />\n  </worldbody>\n</mujoco>"
+    axes = gymutil.AxesGeometry(0.2)               # drawn into no viewer: nothing happens
+    gymutil.draw_lines(axes, gymapi.acquire_gym(), None, None, gymapi.Transform())
+    gym, sim = z_up_sim()
+    env = gym.create_env(sim, gymapi.Vec3(), gymapi.Vec3(1, 1, 1), 1)
+    assert gym.begin_aggregate(env, 10, 10, True) and gym.end_aggregate(env)
