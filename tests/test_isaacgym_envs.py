@@ -425,3 +425,30 @@ def test_helpers_tasks_call_while_building():
     gym, sim = z_up_sim()
     env = gym.create_env(sim, gymapi.Vec3(), gymapi.Vec3(1, 1, 1), 1)
     assert gym.begin_aggregate(env, 10, 10, True) and gym.end_aggregate(env)
+
+
+def test_refresh_recomputes_only_what_could_have_changed(tmp_path, monkeypatch):
+    """simulate refreshes the state tensors already: the refresh_* calls a task makes after it
+    recompute nothing, unless the tensors were edited (an edit not passed to a set_* call is
+    overwritten, as in Isaac Gym) or the state was set."""
+    gym, sim, arm, _ = fixed_base_asset(tmp_path, "arm.urdf", ARM_URDF)
+    envs_with(gym, sim, arm, [gymapi.Transform()] * 2)
+    gym.prepare_sim(sim)
+    dofs = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim))
+    calls = []
+    refresh = type(sim.myriad).refresh
+    monkeypatch.setattr(type(sim.myriad), "refresh",
+                        lambda self: (calls.append(1), refresh(self))[1])
+    gym.simulate(sim)
+    calls.clear()
+    gym.refresh_dof_state_tensor(sim)
+    gym.refresh_actor_root_state_tensor(sim)
+    assert calls == []
+    truth = dofs.clone()
+    dofs[0, 0] = 1.0                                   # an edit not passed to set_*
+    gym.refresh_dof_state_tensor(sim)
+    assert calls == [1] and torch.equal(dofs, truth)
+    dofs[0, 0] = 0.5
+    gym.set_dof_state_tensor(sim, gymtorch.unwrap_tensor(dofs))
+    gym.refresh_dof_state_tensor(sim)
+    assert len(calls) > 1 and dofs[0, 0].item() == pytest.approx(0.5)

@@ -701,6 +701,7 @@ class Sim:
         self.myriad = None          # myriad.api.Envs, after prepare_sim
         self.algebra = {}           # ("jacobian" | "mass_matrix", actor slot) -> its tensor
         self.time, self.frames = 0.0, 0
+        self.fresh = None           # the state tensors' versions when last refreshed (_refresh)
         self.closed = False
 
     def __repr__(self):
@@ -911,7 +912,8 @@ class Gym:
 
     def simulate(self, sim: Sim) -> None:
         envs = self._envs(sim, "simulate")
-        envs.step()
+        envs.step()                     # refreshes the state tensors
+        sim.fresh = _versions(envs)
         sim.time += sim.params.dt
         sim.frames += 1
 
@@ -1557,7 +1559,21 @@ class Gym:
         if sim.myriad is None:
             raise RuntimeError(f"gym.{call}: call gym.prepare_sim(sim) first, after creating "
                                "the envs and actors")
+        if call.startswith(("set_", "apply_")):
+            sim.fresh = None            # the state may change: the next refresh_* recomputes
         return sim.myriad
+
+    def _refresh(self, sim: Sim, call: str) -> bool:
+        """Recompute the state tensors from the simulator, unless nothing could have changed
+        them since the last time: no call that writes the state, no simulate, and no edit of
+        the tensors themselves (torch's version counters), which Isaac Gym's refresh would
+        overwrite. `simulate` refreshes them already, so the refresh_* calls tasks make after
+        it cost nothing."""
+        envs = self._envs(sim, call)
+        if sim.fresh != _versions(envs):
+            envs.refresh()
+            sim.fresh = _versions(envs)
+        return True
 
     def _before_prepare(self, sim: Sim, call: str) -> None:
         if sim.closed:
@@ -1587,20 +1603,16 @@ class Gym:
         return Tensor(sim.myriad_views("dof_force", envs))
 
     def refresh_actor_root_state_tensor(self, sim: Sim) -> bool:
-        self._envs(sim, "refresh_actor_root_state_tensor").refresh()
-        return True
+        return self._refresh(sim, "refresh_actor_root_state_tensor")
 
     def refresh_dof_state_tensor(self, sim: Sim) -> bool:
-        self._envs(sim, "refresh_dof_state_tensor").refresh()
-        return True
+        return self._refresh(sim, "refresh_dof_state_tensor")
 
     def refresh_rigid_body_state_tensor(self, sim: Sim) -> bool:
-        self._envs(sim, "refresh_rigid_body_state_tensor").refresh()
-        return True
+        return self._refresh(sim, "refresh_rigid_body_state_tensor")
 
     def refresh_dof_force_tensor(self, sim: Sim) -> bool:
-        self._envs(sim, "refresh_dof_force_tensor").refresh()
-        return True
+        return self._refresh(sim, "refresh_dof_force_tensor")
 
     def refresh_net_contact_force_tensor(self, sim: Sim) -> bool:
         self._envs(sim, "refresh_net_contact_force_tensor")   # a view of the simulator's
@@ -2299,6 +2311,12 @@ def _attractors(envs: list, names: list) -> list:
     first = envs[0]
     return [(f"{names[k]}/{first.actors[k].asset.body_names[b]}", p)
             for k, b, p in first.attractors]
+
+
+def _versions(envs) -> tuple:
+    """The version counters of the state tensors `refresh` writes (views share theirs)."""
+    return (envs.root_states._version, envs.dof_state._version,
+            envs.rigid_body_states._version, envs.dof_forces._version)
 
 
 def _check_efforts(sim: Sim, built: bool) -> dict:
