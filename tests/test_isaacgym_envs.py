@@ -452,3 +452,35 @@ def test_refresh_recomputes_only_what_could_have_changed(tmp_path, monkeypatch):
     gym.set_dof_state_tensor(sim, gymtorch.unwrap_tensor(dofs))
     gym.refresh_dof_state_tensor(sim)
     assert len(calls) > 1 and dofs[0, 0].item() == pytest.approx(0.5)
+
+
+def test_per_actor_calls_read_and_write_the_tensors(tmp_path):
+    """Isaac Gym's older numpy calls, one actor at a time, as its examples use them."""
+    gym, sim, arm, _ = fixed_base_asset(tmp_path, "arm.urdf", ARM_URDF,
+                                        default_dof_drive_mode=gymapi.DOF_MODE_POS)
+    envs = envs_with(gym, sim, arm, [gymapi.Transform()] * 3)
+    gym.prepare_sim(sim)
+    dofs = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim))
+    bodies = gymtorch.wrap_tensor(gym.acquire_rigid_body_state_tensor(sim)).view(3, -1, 13)
+    states = gym.get_actor_dof_states(envs[1], 0, gymapi.STATE_ALL)
+    assert states.dtype == gymapi.DofState and states.shape == (1,)
+    states["pos"] = 0.4
+    assert gym.set_actor_dof_states(envs[1], 0, states, gymapi.STATE_POS)
+    gym.refresh_dof_state_tensor(sim)
+    assert dofs[:, 0].tolist() == pytest.approx([0.0, 0.4, 0.0])      # env 1 only
+    hand = gym.get_actor_rigid_body_states(envs[1], 0, gymapi.STATE_ALL)[2]
+    gym.refresh_rigid_body_state_tensor(sim)
+    assert [hand["pose"]["p"][k] for k in "xyz"] == pytest.approx(bodies[1, 2, :3].tolist())
+    assert gym.get_env_rigid_body_states(envs[1], gymapi.STATE_POS).shape == (3,)
+    assert gym.set_actor_dof_position_targets(envs[2], 0, np.array([0.3], np.float32))
+    assert gym.get_actor_dof_position_targets(envs[2], 0).tolist() == pytest.approx([0.3])
+    assert gym.get_actor_dof_position_targets(envs[0], 0).tolist() == [0.0]
+    props = gym.get_actor_dof_properties(envs[2], 0)
+    props["stiffness"], props["damping"] = 100.0, 10.0
+    gym.set_actor_dof_properties(envs[2], 0, props)
+    for _ in range(200):
+        gym.simulate(sim)
+    gym.refresh_dof_state_tensor(sim)
+    assert dofs[2, 0].item() == pytest.approx(0.3, abs=0.05)          # driven to its target
+    forces = gym.get_actor_dof_forces(envs[2], 0)
+    assert forces.dtype == np.float32 and forces.shape == (1,)

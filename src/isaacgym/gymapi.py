@@ -1365,6 +1365,105 @@ class Gym:
     def get_actor_dof_dict(self, env: Env, handle: int) -> dict:
         return self.get_asset_dof_dict(self._actor(env, handle).asset)
 
+    # ------------------------------------------------------------------ per-actor state
+    # Isaac Gym's older, non-tensor calls (its examples use them): numpy in and out, one actor
+    # at a time, on top of the tensor calls (each set_* here is one indexed tensor write)
+    def _actor_slice(self, env: Env, handle: int, call: str):
+        actor = self._actor(env, handle)
+        envs = self._envs(env.sim, call)
+        return envs, actor, slice(actor.dof_offset, actor.dof_offset + actor.asset.num_dofs)
+
+    def _sim_index(self, env: Env, actor) -> Tensor:
+        index = env.index * len(env.actors) + actor.index
+        return Tensor(torch.tensor([index], dtype=torch.int32, device=env.sim.myriad.device))
+
+    def get_actor_dof_states(self, env: Env, handle: int, flags: int = STATE_ALL) -> np.ndarray:
+        envs, actor, dofs = self._actor_slice(env, handle, "get_actor_dof_states")
+        self._refresh(env.sim, "get_actor_dof_states")
+        out = np.zeros(actor.asset.num_dofs, dtype=DofState)
+        values = envs.dof_state[env.index, dofs].cpu().numpy()
+        if int(flags) & STATE_POS:
+            out["pos"] = values[:, 0]
+        if int(flags) & STATE_VEL:
+            out["vel"] = values[:, 1]
+        return out
+
+    def set_actor_dof_states(self, env: Env, handle: int, dof_states,
+                             flags: int = STATE_ALL) -> bool:
+        envs, actor, dofs = self._actor_slice(env, handle, "set_actor_dof_states")
+        states = np.asarray(dof_states)
+        if states.shape != (actor.asset.num_dofs,):
+            raise ValueError(f"gym.set_actor_dof_states: {states.shape} states for actor "
+                             f"{actor.name!r}'s {actor.asset.num_dofs} DOFs")
+        self._refresh(env.sim, "set_actor_dof_states")
+        values = envs.dof_state.clone()
+        for bit, field, column in ((STATE_POS, "pos", 0), (STATE_VEL, "vel", 1)):
+            if int(flags) & bit:
+                values[env.index, dofs, column] = torch.as_tensor(
+                    np.asarray(states[field], np.float32), device=envs.device)
+        return self.set_dof_state_tensor_indexed(env.sim, Tensor(values.view(-1, 2)),
+                                                 self._sim_index(env, actor), 1)
+
+    def get_actor_rigid_body_states(self, env: Env, handle: int,
+                                    flags: int = STATE_ALL) -> np.ndarray:
+        actor = self._actor(env, handle)
+        return self._body_states(env, slice(actor.body_offset,
+                                            actor.body_offset + actor.asset.num_bodies), flags)
+
+    def get_env_rigid_body_states(self, env: Env, flags: int = STATE_ALL) -> np.ndarray:
+        return self._body_states(env, slice(None), flags)
+
+    def _body_states(self, env: Env, bodies: slice, flags: int) -> np.ndarray:
+        envs = self._envs(env.sim, "get_actor_rigid_body_states")
+        self._refresh(env.sim, "get_actor_rigid_body_states")
+        rows = envs.rigid_body_states.view(envs.num_envs, -1, 13)[env.index, bodies].cpu()
+        out = np.zeros(len(rows), dtype=RigidBodyState)
+        x = rows.numpy()
+        if int(flags) & STATE_POS:
+            for k, name in enumerate("xyz"):
+                out["pose"]["p"][name] = x[:, k]
+            for k, name in enumerate("xyzw"):
+                out["pose"]["r"][name] = x[:, 3 + k]
+        if int(flags) & STATE_VEL:
+            for k, name in enumerate("xyz"):
+                out["vel"]["linear"][name] = x[:, 7 + k]
+                out["vel"]["angular"][name] = x[:, 10 + k]
+        return out
+
+    def get_actor_dof_forces(self, env: Env, handle: int) -> np.ndarray:
+        envs, actor, dofs = self._actor_slice(env, handle, "get_actor_dof_forces")
+        self._refresh(env.sim, "get_actor_dof_forces")
+        return envs.dof_forces[env.index, dofs].cpu().numpy().astype(np.float32)
+
+    def apply_actor_dof_efforts(self, env: Env, handle: int, efforts) -> bool:
+        envs, actor, dofs = self._actor_slice(env, handle, "apply_actor_dof_efforts")
+        values = envs.sim.joint_force[:, envs.dof_columns].clone()
+        values[env.index, dofs] = torch.as_tensor(np.asarray(efforts, np.float32),
+                                                  device=envs.device)
+        return self.set_dof_actuation_force_tensor(env.sim, Tensor(values.reshape(-1)))
+
+    def _actor_targets(self, env, handle, targets, kind, call) -> bool:
+        envs, actor, dofs = self._actor_slice(env, handle, call)
+        store = env.sim.position_targets if kind == "pos" else env.sim.velocity_targets
+        values = store.clone()
+        values[env.index, dofs] = torch.as_tensor(np.asarray(targets, np.float32),
+                                                  device=envs.device)
+        return self._set_targets(env.sim, call, Tensor(values.reshape(-1)), kind)
+
+    def set_actor_dof_position_targets(self, env: Env, handle: int, targets) -> bool:
+        return self._actor_targets(env, handle, targets, "pos", "set_actor_dof_position_targets")
+
+    def set_actor_dof_velocity_targets(self, env: Env, handle: int, targets) -> bool:
+        return self._actor_targets(env, handle, targets, "vel", "set_actor_dof_velocity_targets")
+
+    def get_actor_dof_position_targets(self, env: Env, handle: int) -> np.ndarray:
+        envs, actor, dofs = self._actor_slice(env, handle, "get_actor_dof_position_targets")
+        return env.sim.position_targets[env.index, dofs].cpu().numpy().astype(np.float32)
+
+    def get_actor_dof_velocity_targets(self, env: Env, handle: int) -> np.ndarray:
+        envs, actor, dofs = self._actor_slice(env, handle, "get_actor_dof_velocity_targets")
+        return env.sim.velocity_targets[env.index, dofs].cpu().numpy().astype(np.float32)
+
     def set_actor_scale(self, env: Env, handle: int, scale: float) -> bool:
         """Scales a single-body actor (an object) in this env before prepare_sim: its shapes'
         sizes and positions × scale, its mass × scale³ and inertia × scale⁵. Primitive shapes
