@@ -285,3 +285,45 @@ def test_training_in_a_real_browser_shows_progress_and_says_when_it_ended(tmp_pa
     browser.join(timeout=90)
     assert seen.get("env-steps/s") is True, f"no progress line on the page: {seen}"
     assert seen.get("training ended") is True, f"the page froze instead: {seen}"
+
+
+def test_isaacgym_viewer_calls_drive_the_page(monkeypatch):
+    """Isaac Gym's viewer calls (issue 41) on Myriad's page: created before prepare_sim as
+    IsaacGymEnvs' examples do, served once the sim is built, keys subscribed as buttons whose
+    clicks come back as action events, the camera placed, the page closed by destroy_viewer."""
+    from isaacgym import gymapi
+    port = free_port()
+    monkeypatch.setenv("MYRIAD_VIEWER_PORT", str(port))
+    gym = gymapi.acquire_gym()
+    params = gymapi.SimParams()
+    params.up_axis, params.gravity = gymapi.UP_AXIS_Z, gymapi.Vec3(0.0, 0.0, -9.81)
+    sim = gym.create_sim(-1, -1, gymapi.SIM_PHYSX, params)
+    plane = gymapi.PlaneParams()
+    plane.normal = gymapi.Vec3(0, 0, 1)
+    gym.add_ground(sim, plane)
+    viewer = gym.create_viewer(sim, gymapi.CameraProperties())
+    assert viewer is not None and viewer.web is None          # nothing to draw yet
+    gym.subscribe_viewer_keyboard_event(viewer, gymapi.KEY_V, "toggle_viewer_sync")
+    box = gym.create_box(sim, 0.2, 0.2, 0.2)
+    for i in range(2):
+        env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 2)
+        gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(0, 0, 1)), "box", i, 0, 0)
+    gym.prepare_sim(sim)
+    gym.viewer_camera_look_at(viewer, None, gymapi.Vec3(2, 2, 2), gymapi.Vec3(0, 0, 0))
+    try:
+        assert viewer.web is not None and viewer.web.url.endswith(f":{port}")
+        with urllib.request.urlopen(viewer.web.url, timeout=10) as reply:
+            assert reply.status == 200
+        for _ in range(3):
+            gym.simulate(sim)
+            gym.step_graphics(sim)
+            gym.draw_viewer(viewer, sim, True)
+            gym.sync_frame_time(sim)
+        assert gym.query_viewer_action_events(viewer) == []
+        viewer.web._ask("toggle_viewer_sync")                 # what a click on its button does
+        events = gym.query_viewer_action_events(viewer)
+        assert [(e.action, e.value) for e in events] == [("toggle_viewer_sync", 1.0)]
+        assert not gym.query_viewer_has_closed(viewer)
+    finally:
+        gym.destroy_viewer(viewer)
+    assert gym.query_viewer_has_closed(viewer)

@@ -35,6 +35,7 @@ import copy
 import enum
 import math
 import os
+import time
 import warnings
 
 import mujoco
@@ -685,8 +686,39 @@ class Env:
         return f"gymapi.Env({self.index}: {[a.name for a in self.actors]})"
 
 
+class ActionEvent:
+    """A subscribed key's action (`query_viewer_action_events`): `action`, `value` (1: pressed)."""
+
+    def __init__(self, action: str, value: float = 1.0):
+        self.action, self.value = action, float(value)
+
+    def __repr__(self):
+        return f"ActionEvent({self.action!r}, {self.value})"
+
+
 class Viewer:
-    """Not made by Myriad (`create_viewer` returns None); kept for type references."""
+    """What `create_viewer` returns: Myriad's page in the browser (`myriad.viewer`), served
+    once the sim is prepared (at `create_viewer` if it is already, else at the first viewer
+    call after `prepare_sim`). Subscribed keys are buttons on the page."""
+
+    def __init__(self, sim, props):
+        self.sim, self.props = sim, props
+        self.web = None                  # myriad.viewer.web.Viewer, once served
+        self.buttons: dict = {}          # action -> key, subscribed (buttons once served)
+        self.camera = None               # (target, eye) asked before serving
+        self.last_sync = None            # sync_frame_time's clock
+
+    def serve(self):
+        """The page, served now if the sim is prepared (else None for now)."""
+        if self.web is None and self.sim.myriad is not None and not self.sim.closed:
+            from myriad.viewer import serve
+            port = int(os.environ.get("MYRIAD_VIEWER_PORT", "8080"))
+            self.web = serve(self.sim.myriad, port=port, spacing=0.0)
+            for action, key in self.buttons.items():
+                self.web.add_button(f"{action} ({key})", action)
+            if self.camera is not None:
+                self.web.look_at(*self.camera)
+        return self.web
 
 
 class Sim:
@@ -932,43 +964,80 @@ class Gym:
     def destroy_sim(self, sim: Sim) -> None:
         sim.myriad, sim.envs, sim.closed = None, [], True
 
-    # ------------------------------------------------------------------ viewer (headless)
+    # ------------------------------------------------------------------ viewer
     def create_viewer(self, sim: Sim, props: CameraProperties | None = None):
-        """Myriad has no interactive viewer in this layer: returns None, so code written for
-        headless runs (`if self.viewer:`) goes on. Videos: `myriad play` (docs)."""
-        warnings.warn("isaacgym on Myriad: gym.create_viewer returns None (no interactive "
-                      "viewer in this layer; run headless)", RuntimeWarning, stacklevel=2)
-        return None
+        """Myriad's viewer is a page in the browser (`myriad.viewer`, needs `.[viewer]`): the
+        URL is printed once the sim is prepared; `MYRIAD_VIEWER_PORT` picks the port (8080).
+        Without viser installed: a warning and None, so code written for headless runs
+        (`if self.viewer:`) goes on. The envs are drawn where they are (each in its own frame,
+        so side by side only where their actors stand apart)."""
+        from myriad.viewer.web import INSTALL
+        try:
+            import viser  # noqa: F401
+        except ImportError:
+            warnings.warn(f"isaacgym on Myriad: gym.create_viewer returns None: Myriad's viewer "
+                          f"is a page in the browser and needs viser ({INSTALL}); or run "
+                          f"headless", RuntimeWarning, stacklevel=2)
+            return None
+        viewer = Viewer(sim, props)
+        viewer.serve()
+        return viewer
 
     def destroy_viewer(self, viewer) -> None:
-        pass
+        if isinstance(viewer, Viewer) and viewer.web is not None:
+            viewer.web.close()
 
     def step_graphics(self, sim: Sim) -> None:
-        pass
+        pass                    # the page draws itself at its own frame rate
 
     def draw_viewer(self, viewer, sim: Sim, render_collision: bool = True) -> None:
-        pass
+        """Nothing per step: the page's own thread draws the shown envs while a page is open
+        (no per-step host read); this only serves it once the sim is prepared."""
+        if isinstance(viewer, Viewer):
+            viewer.serve()
 
     def sync_frame_time(self, sim: Sim) -> None:
-        pass
+        """Waits until `dt` of real time has passed since the last call (Isaac Gym's)."""
+        viewer_clock = getattr(sim, "sync_clock", None)
+        now = time.perf_counter()
+        if viewer_clock is not None:
+            wait = float(sim.params.dt) - (now - viewer_clock)
+            if wait > 0:
+                time.sleep(wait)
+        sim.sync_clock = time.perf_counter()
 
     def poll_viewer_events(self, viewer) -> None:
-        pass
+        if isinstance(viewer, Viewer):
+            viewer.serve()
 
     def query_viewer_has_closed(self, viewer) -> bool:
-        return False
+        return isinstance(viewer, Viewer) and viewer.web is not None and viewer.web.closed
 
     def query_viewer_action_events(self, viewer) -> list:
-        return []
+        """The subscribed keys' actions since the last call: their buttons' clicks."""
+        if not isinstance(viewer, Viewer) or viewer.serve() is None:
+            return []
+        return [ActionEvent(value) for kind, value in viewer.web.events()
+                if kind == "button" and value in viewer.buttons]
 
     def subscribe_viewer_keyboard_event(self, viewer, key, action: str) -> None:
-        pass
+        """A button on the page, labelled with the action and the key (a page has no keys)."""
+        if isinstance(viewer, Viewer) and action not in viewer.buttons:
+            name = getattr(key, "name", str(key))
+            viewer.buttons[action] = name
+            if viewer.web is not None:
+                viewer.web.add_button(f"{action} ({name})", action)
 
     def subscribe_viewer_mouse_event(self, viewer, button, action: str) -> None:
-        pass
+        pass                    # the page's mouse moves its camera
 
     def viewer_camera_look_at(self, viewer, env, pos: Vec3, target: Vec3) -> None:
-        pass
+        """The page's camera at `pos` looking at `target` (world; an env's frame is the
+        world's in Myriad)."""
+        if isinstance(viewer, Viewer):
+            viewer.camera = ((target.x, target.y, target.z), (pos.x, pos.y, pos.z))
+            if viewer.serve() is not None:
+                viewer.web.look_at(*viewer.camera)
 
     def clear_lines(self, viewer) -> None:
         pass

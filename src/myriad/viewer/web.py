@@ -13,8 +13,8 @@ with MuJoCo's kinematics on the host. With no page connected it does nothing at 
 never touches the step itself (no per-step host read comes back with it).
 
 The small interface other front ends drive (the Isaac Gym layer's viewer calls map onto it):
-`draw()`, `look_at(target, eye)`, `events()` (key and button events since the last call),
-`closed`, `close()`; for `myriad play`, `paused`, `take("step" | "reset")`, `speed`; for
+`draw()`, `look_at(target, eye)`, `add_button(label, event)`, `events()` (button events since
+the last call), `closed`, `close()`; for `myriad play`, `paused`, `take("step" | "reset")`, `speed`; for
 training, `show_progress(text)`.
 """
 
@@ -98,6 +98,7 @@ class Viewer:
         self.paused, self.speed = False, 1.0
         self._asked: set[str] = set()    # the page's requests not yet taken (`take`)
         self._stream = None              # on a GPU, the stream of the viewer's copies
+        self._camera = None              # (target, eye) of the last look_at
 
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.url = f"http://{host}:{self.server.get_port()}"
@@ -180,8 +181,18 @@ class Viewer:
         self._event("button", what)
 
     def _on_connect(self, client) -> None:
+        if self._camera is not None:                 # the last look_at, for a late page too
+            target, eye = self._camera
+            client.camera.look_at = target
+            if eye is not None:
+                client.camera.position = eye
         self._connected.set()
         self._event("connect", client.client_id)
+
+    def add_button(self, label: str, event: str) -> None:
+        """A button on the page; a click is the event ("button", `event`), also for `take`."""
+        button = self.server.gui.add_button(label)
+        button.on_click(lambda _: self._ask(event))
 
     def _on_disconnect(self, client) -> None:
         if not self.server.get_clients():
@@ -225,7 +236,10 @@ class Viewer:
         self.server.flush()              # else the last line can wait for the next message
 
     def look_at(self, target, eye=None) -> None:
-        """Every connected page's camera toward `target` (world, m), from `eye` if given."""
+        """Every page's camera toward `target` (world, m), from `eye` if given (pages that
+        connect later too)."""
+        self._camera = (np.asarray(target, dtype=np.float64),
+                        None if eye is None else np.asarray(eye, dtype=np.float64))
         for client in self.server.get_clients().values():
             client.camera.look_at = np.asarray(target, dtype=np.float64)
             if eye is not None:
