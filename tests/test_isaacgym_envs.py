@@ -154,13 +154,13 @@ def test_a_box_rests_on_each_step_of_a_triangle_mesh_terrain():
     assert root[:, 7:].abs().max() < 0.05
 
 
-def test_a_mesh_that_is_not_a_grid_is_refused_and_a_heightfield_is_simple():
+def test_a_heightfield_holds_a_box_at_its_height():
     gym, sim = z_up_sim()
     params = gymapi.TriangleMeshParams()
-    params.nb_vertices, params.nb_triangles = 4, 2
-    tetra = np.array([0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1], np.float32)
-    with pytest.raises(NotImplementedError, match="add_triangle_mesh.*not a height-field grid"):
-        gym.add_triangle_mesh(sim, tetra, np.array([0, 1, 2, 0, 1, 3], np.uint32), params)
+    params.nb_vertices, params.nb_triangles = 4, 1
+    with pytest.raises(ValueError, match="triangle indices"):
+        gym.add_triangle_mesh(sim, np.zeros(12, np.float32), np.array([0, 1, 7], np.uint32),
+                              params)
     # a flat height field 100 raw units (0.5 m) high, 2 m across
     hf = gymapi.HeightFieldParams()
     hf.nbRows = hf.nbColumns = 21
@@ -411,6 +411,27 @@ def test_vhacd_lets_a_ball_fall_into_a_bowl(tmp_path):
     # floor (0.02 + 0.03)
     assert rests[False] == pytest.approx(0.13, abs=5e-3)
     assert rests[True] == pytest.approx(0.05, abs=5e-3)
+
+
+def test_a_static_mesh_that_is_not_a_grid_holds_a_ball_inside_it(tmp_path):
+    """A bin given as a triangle mesh (not a height field's grid): cut into convex pieces, it
+    holds a ball on its floor, not on the rim its convex hull would have."""
+    pytest.importorskip("vhacdx", reason="V-HACD needs vhacdx (pip install -e '.[isaacgym]')")
+    trimesh = pytest.importorskip("trimesh")
+    bowl_obj(tmp_path / "bowl.obj")
+    bowl = trimesh.load(tmp_path / "bowl.obj", force="mesh")
+    gym, sim = z_up_sim()
+    params = gymapi.TriangleMeshParams()
+    params.nb_vertices, params.nb_triangles = len(bowl.vertices), len(bowl.faces)
+    params.transform.p = gymapi.Vec3(0.0, 0.0, 0.05)
+    gym.add_triangle_mesh(sim, np.asarray(bowl.vertices, np.float32).ravel(),
+                          np.asarray(bowl.faces, np.uint32).ravel(), params)
+    ball = gym.create_sphere(sim, 0.03)
+    envs_with(gym, sim, ball, [gymapi.Transform(gymapi.Vec3(0.05, 0.0, 0.3))] * 2)
+    gym.prepare_sim(sim)
+    root = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim))
+    settle(gym, sim, 100)
+    torch.testing.assert_close(root[:, 2], torch.full((2,), 0.05), atol=5e-3, rtol=0)
 
 
 # ------------------------------------------------------------------ small helpers

@@ -43,8 +43,9 @@ def convex_pieces(file: str, scale=(1.0, 1.0, 1.0), max_hulls: int = 10,
     os.makedirs(folder, exist_ok=True)
     names = []
     for k, (points, faces) in enumerate(hulls):
-        if len(faces) < 4:
-            continue
+        centred = np.asarray(points) - np.mean(points, axis=0)
+        if len(faces) < 4 or np.linalg.svd(centred, compute_uv=False)[-1] < 1e-7:
+            continue                # flat: no volume, and MuJoCo cannot make its hull
         name = f"piece{k}.obj"
         trimesh.Trimesh(points, faces, process=False).export(os.path.join(folder, name),
                                                             file_type="obj")
@@ -55,3 +56,21 @@ def convex_pieces(file: str, scale=(1.0, 1.0, 1.0), max_hulls: int = 10,
         json.dump(names, f)
     os.replace(done + ".part", done)
     return [os.path.join(folder, name) for name in names]
+
+
+def convex_pieces_of(vertices: np.ndarray, triangles: np.ndarray, **settings) -> list[str]:
+    """`convex_pieces` of a mesh given as arrays (vertices [n, 3] m, triangles [m, 3]): written
+    once as an `.obj` in the cache, then cut as a file is."""
+    import trimesh
+
+    vertices = np.ascontiguousarray(vertices, dtype=np.float64).reshape(-1, 3)
+    triangles = np.ascontiguousarray(triangles, dtype=np.int64).reshape(-1, 3)
+    key = hashlib.sha1(vertices.tobytes() + triangles.tobytes()).hexdigest()[:16]
+    file = os.path.join(_CACHE, f"mesh-{key}.obj")
+    if not os.path.isfile(file):
+        os.makedirs(_CACHE, exist_ok=True)
+        trimesh.Trimesh(vertices, triangles, process=False).export(file + ".part.obj",
+                                                                   file_type="obj")
+        os.replace(file + ".part.obj", file)
+    return convex_pieces(file, **settings)
+
