@@ -662,6 +662,7 @@ class _Actor:
         self.pose = Transform(pose.p, pose.r)
         self.name, self.group, self.filter = name, int(group), int(filter)
         self.segmentation_id = segmentation_id
+        self.body_segmentation: dict = {}   # body index -> segmentation id (camera images)
         self.dof_props = asset.dof_props.copy()
         self.shape_props = copy.deepcopy(asset.shape_props)
         self.body_props = copy.deepcopy(asset.body_props)
@@ -729,6 +730,8 @@ class Sim:
         self.ground: PlaneParams | None = None
         self.terrain: dict | None = None        # Scene.add_terrain's arguments
         self.static_meshes: list = []           # (convex piece files, Transform, friction)
+        from ._cameras import Cameras
+        self.cameras = Cameras(self)            # camera sensors
         self.envs: list[Env] = []
         self.assets: list[Asset] = []
         self.myriad = None          # myriad.api.Envs, after prepare_sim
@@ -1078,7 +1081,115 @@ class Gym:
         pass    # drawing only
 
     def set_rigid_body_segmentation_id(self, env, actor_handle, rigid_body_index, sid):
-        pass    # drawing only
+        """The id camera sensors' segmentation images show for this body (else its actor's)."""
+        self._actor(env, actor_handle).body_segmentation[int(rigid_body_index)] = int(sid)
+
+    # ------------------------------------------------------------------ camera sensors
+    def create_camera_sensor(self, env: Env, props: CameraProperties) -> int:
+        """A camera of `env` (docs/isaacgym.md, "Camera sensors"): MuJoCo's offscreen renderer
+        draws it at `render_all_camera_sensors`. Returns its handle within the env."""
+        if not isinstance(env, Env):
+            raise TypeError(f"gym.create_camera_sensor: expected an Env, got "
+                            f"{type(env).__name__}")
+        return env.sim.cameras.create(env, copy.deepcopy(props)).handle
+
+    def set_camera_location(self, camera_handle: int, env: Env, position: Vec3,
+                            target: Vec3) -> None:
+        camera = env.sim.cameras.find(env, camera_handle)
+        up = (0.0, 1.0, 0.0) if int(env.sim.params.up_axis) == UpAxis.UP_AXIS_Y \
+            else (0.0, 0.0, 1.0)
+        camera.body = None
+        camera.look((position.x, position.y, position.z), (target.x, target.y, target.z), up)
+
+    def set_camera_transform(self, camera_handle: int, env: Env, transform: Transform) -> None:
+        """The camera at `transform` in the env's frame (it looks along the transform's +x)."""
+        camera = env.sim.cameras.find(env, camera_handle)
+        from ._cameras import _rotation
+        r = transform.r.normalize()
+        camera.body = None
+        camera.position = np.array([transform.p.x, transform.p.y, transform.p.z])
+        camera.rotation = _rotation([r.x, r.y, r.z, r.w])
+
+    def attach_camera_to_body(self, camera_handle: int, env: Env, body_handle: int,
+                              transform: Transform, follow_mode) -> None:
+        """The camera rides on the env's body `body_handle` (env domain) at `transform`
+        (FOLLOW_TRANSFORM), or at its position plus `transform.p` facing `transform.r`
+        (FOLLOW_POSITION)."""
+        camera = env.sim.cameras.find(env, camera_handle)
+        count = sum(a.asset.num_bodies for a in env.actors)
+        if not 0 <= int(body_handle) < count:
+            raise ValueError(f"gym.attach_camera_to_body: {body_handle} is not a body of env "
+                             f"{env.index} ({count} bodies)")
+        camera.body = (int(body_handle), copy.deepcopy(transform), int(follow_mode))
+
+    def render_all_camera_sensors(self, sim: Sim) -> None:
+        self._envs(sim, "render_all_camera_sensors")
+        sim.cameras.render_all()
+
+    def start_access_image_tensors(self, sim: Sim) -> None:
+        pass            # the tensors are written by render_all_camera_sensors
+
+    def end_access_image_tensors(self, sim: Sim) -> None:
+        pass
+
+    def get_camera_image(self, sim: Sim, env: Env, camera_handle: int, image_type):
+        """The camera's last image: IMAGE_COLOR uint8 [height, width * 4] (RGBA), IMAGE_DEPTH
+        float32 [height, width], IMAGE_SEGMENTATION int32 [height, width]."""
+        camera = sim.cameras.find(env, camera_handle)
+        image = self._image(camera, image_type, "get_camera_image")
+        return image.reshape(image.shape[0], -1) if int(image_type) == IMAGE_COLOR else image
+
+    def get_camera_image_gpu_tensor(self, sim: Sim, env: Env, camera_handle: int,
+                                    image_type) -> Tensor:
+        """A tensor on the sim's device that `render_all_camera_sensors` rewrites in place:
+        colour [height, width, 4] uint8, depth [height, width] float32, segmentation int32."""
+        camera = sim.cameras.find(env, camera_handle)
+        if not camera.props.enable_tensors:
+            raise ValueError("gym.get_camera_image_gpu_tensor: the camera was made without "
+                             "CameraProperties.enable_tensors = True")
+        kind = int(image_type)
+        if kind not in camera.tensors:
+            image = self._image(camera, kind, "get_camera_image_gpu_tensor", render_first=True)
+            camera.tensors[kind] = torch.from_numpy(image.copy()).to(sim.myriad.device)
+        return Tensor(camera.tensors[kind])
+
+    def _image(self, camera, image_type, call: str, render_first: bool = False) -> np.ndarray:
+        kind = int(image_type)
+        if kind not in (IMAGE_COLOR, IMAGE_DEPTH, IMAGE_SEGMENTATION):
+            raise _unsupported(f"gym.{call} with image type {image_type}",
+                               "IMAGE_COLOR, IMAGE_DEPTH and IMAGE_SEGMENTATION are")
+        if kind not in camera.images:
+            if not render_first:
+                raise RuntimeError(f"gym.{call}: call gym.render_all_camera_sensors(sim) first")
+            camera.env.sim.cameras.render_all()
+        return camera.images[kind]
+
+    def get_camera_view_matrix(self, sim: Sim, env: Env, camera_handle: int) -> np.ndarray:
+        return sim.cameras.find(env, camera_handle).matrices(
+            self._envs(sim, "get_camera_view_matrix").rigid_body_states)[0]
+
+    def get_camera_proj_matrix(self, sim: Sim, env: Env, camera_handle: int) -> np.ndarray:
+        return sim.cameras.find(env, camera_handle).matrices(
+            self._envs(sim, "get_camera_proj_matrix").rigid_body_states)[1]
+
+    def get_camera_transform(self, sim: Sim, env: Env, camera_handle: int) -> Transform:
+        camera = sim.cameras.find(env, camera_handle)
+        position, rotation = camera.pose(self._envs(sim, "get_camera_transform")
+                                         .rigid_body_states)
+        q = np.zeros(4)
+        mujoco.mju_mat2Quat(q, np.ascontiguousarray(rotation, dtype=np.float64).ravel())
+        return Transform(Vec3(*position), Quat(q[1], q[2], q[3], q[0]))
+
+    def write_camera_image_to_file(self, sim: Sim, env: Env, camera_handle: int, image_type,
+                                   filename: str) -> None:
+        import imageio.v2 as imageio
+        camera = sim.cameras.find(env, camera_handle)
+        image = self._image(camera, image_type, "write_camera_image_to_file")
+        if int(image_type) != IMAGE_COLOR:
+            raise _unsupported("gym.write_camera_image_to_file of a depth or segmentation "
+                               "image", "colour images are written; read the others with "
+                               "get_camera_image")
+        imageio.imwrite(filename, image)
 
     # ------------------------------------------------------------------ assets
     def load_asset(self, sim: Sim, rootpath: str, filename: str,

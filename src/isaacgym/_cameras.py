@@ -1,0 +1,214 @@
+"""Isaac Gym's camera sensors on Myriad: each env's cameras drawn by MuJoCo's offscreen
+renderer from the simulated state (`gym.create_camera_sensor`, `render_all_camera_sensors`,
+`get_camera_image`, `get_camera_image_gpu_tensor`, ...; docs/isaacgym.md).
+
+Conventions, as Isaac Gym's: a camera's pose is in its env's frame and it looks along its +x
+axis with +z up; colour images are RGBA uint8 ([height, width * 4] from `get_camera_image`,
+[height, width, 4] as a tensor), depth images float32 [height, width], the negative distance
+along the view axis (-inf where nothing is hit), segmentation images int32 [height, width],
+each pixel the segmentation id of the actor (or of the body, `set_rigid_body_segmentation_id`)
+it shows, 0 for the ground and the background. The view matrix maps a row vector [x, y, z, 1]
+of the env's frame to OpenGL camera coordinates (looking along -z, y up), the projection
+matrix is OpenGL's perspective one, both transposed for row vectors.
+
+Rendering is per camera on the host (one MuJoCo scene per env state); it costs what the
+pixels cost and never runs inside a step.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+import torch
+
+IMAGE_COLOR, IMAGE_DEPTH, IMAGE_SEGMENTATION = 0, 1, 2
+FOLLOW_POSITION, FOLLOW_TRANSFORM = 0, 1
+
+
+def _rotation(q) -> np.ndarray:
+    """3x3 rotation of a quaternion (x, y, z, w)."""
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+class Camera:
+    """One camera sensor of one env: its properties, its pose or the body it rides on, its
+    last images."""
+
+    def __init__(self, env, handle: int, props):
+        self.env, self.handle, self.props = env, handle, props
+        self.position = np.array([1.0, 0.0, 1.0])
+        self.rotation = np.eye(3)               # columns: its x (view), y, z (up) axes
+        self.body = None                        # (env body handle, offset pose, follow mode)
+        self.images: dict[int, np.ndarray] = {}
+        self.tensors: dict[int, torch.Tensor] = {}
+
+    def look(self, position, target, up) -> None:
+        forward = np.asarray(target, float) - np.asarray(position, float)
+        if np.linalg.norm(forward) < 1e-9:
+            raise ValueError("set_camera_location: the target is the camera's own position")
+        forward /= np.linalg.norm(forward)
+        side = np.cross(np.asarray(up, float), forward)
+        if np.linalg.norm(side) < 1e-9:                 # looking straight along up
+            side = np.cross([1.0, 0.0, 0.0], forward)
+        side /= np.linalg.norm(side)
+        self.position = np.asarray(position, float)
+        self.rotation = np.stack([forward, side, np.cross(forward, side)], axis=1)
+
+    def pose(self, body_states: torch.Tensor):
+        """(position, rotation) in the env's frame now (following its body if attached)."""
+        if self.body is None:
+            return self.position, self.rotation
+        handle, offset, mode = self.body
+        state = body_states[self.env.index, handle].detach().cpu().double().numpy()
+        r_body = _rotation(state[3:7])
+        r_off = _rotation([offset.r.x, offset.r.y, offset.r.z, offset.r.w])
+        p_off = np.array([offset.p.x, offset.p.y, offset.p.z])
+        if int(mode) == FOLLOW_TRANSFORM:
+            return state[:3] + r_body @ p_off, r_body @ r_off
+        return state[:3] + p_off, r_off
+
+    def vertical_fov(self) -> float:
+        """Degrees, from the horizontal field of view and the aspect ratio."""
+        h = math.radians(float(self.props.horizontal_fov))
+        return math.degrees(2 * math.atan(math.tan(h / 2) * self.props.height
+                                          / self.props.width))
+
+    def matrices(self, body_states) -> tuple[np.ndarray, np.ndarray]:
+        """(view, projection), 4x4, for row vectors (see the module's docstring)."""
+        position, rotation = self.pose(body_states)
+        # OpenGL camera axes in the env's frame: x right, y up, z backwards
+        gl = np.stack([-rotation[:, 1], rotation[:, 2], -rotation[:, 0]], axis=1)
+        view = np.eye(4)
+        view[:3, :3] = gl.T
+        view[:3, 3] = -gl.T @ position
+        near, far = float(self.props.near_plane), float(self.props.far_plane)
+        f = 1.0 / math.tan(math.radians(self.vertical_fov()) / 2)
+        aspect = self.props.width / self.props.height
+        proj = np.zeros((4, 4))
+        proj[0, 0], proj[1, 1] = f / aspect, f
+        proj[2, 2], proj[2, 3] = (far + near) / (near - far), 2 * far * near / (near - far)
+        proj[3, 2] = -1.0
+        return view.T.astype(np.float32), proj.T.astype(np.float32)
+
+
+class Cameras:
+    """A sim's camera sensors and the renderers that draw them."""
+
+    def __init__(self, sim):
+        self.sim = sim
+        self.cameras: list[Camera] = []
+        self._renderers: dict[tuple[int, int], object] = {}
+        self._data = None
+        self._segment = None                   # geom id -> segmentation id
+
+    def create(self, env, props) -> Camera:
+        if not (int(props.width) >= 1 and int(props.height) >= 1
+                and 0 < float(props.horizontal_fov) < 180
+                and 0 < float(props.near_plane) < float(props.far_plane)):
+            raise ValueError(f"create_camera_sensor: width {props.width}, height "
+                             f"{props.height} must be >= 1, horizontal_fov "
+                             f"{props.horizontal_fov} in (0, 180) degrees and 0 < near_plane "
+                             f"{props.near_plane} < far_plane {props.far_plane}")
+        handle = sum(1 for c in self.cameras if c.env is env)
+        camera = Camera(env, handle, props)
+        self.cameras.append(camera)
+        return camera
+
+    def find(self, env, handle: int) -> Camera:
+        for c in self.cameras:
+            if c.env is env and c.handle == int(handle):
+                return c
+        raise ValueError(f"camera handle {handle} is not a camera sensor of env {env.index}")
+
+    # ------------------------------------------------------------------ rendering
+    def _renderer(self, mj, width: int, height: int):
+        import mujoco
+        key = (width, height)
+        if key not in self._renderers:
+            mj.vis.global_.offwidth = max(mj.vis.global_.offwidth, width)
+            mj.vis.global_.offheight = max(mj.vis.global_.offheight, height)
+            try:
+                self._renderers[key] = mujoco.Renderer(mj, height=height, width=width)
+            except Exception as err:
+                raise RuntimeError(
+                    f"camera sensors: MuJoCo could not open an offscreen OpenGL context "
+                    f"(MUJOCO_GL={os.environ.get('MUJOCO_GL', 'unset')}): {err}. On a headless "
+                    "Linux machine install Mesa's EGL (apt install libegl1) or OSMesa (apt "
+                    "install libosmesa6) and set MUJOCO_GL=egl or MUJOCO_GL=osmesa") from err
+        return self._renderers[key]
+
+    def _segmentation_ids(self, built) -> np.ndarray:
+        m = built.model
+        ids = np.zeros(m.ngeom + 1, np.int32)            # the last: background (-1)
+        first = self.sim.envs[0].actors
+        for k, actor in enumerate(first):
+            bodies = built.actor_bodies(f"a{k}")
+            for b_local, b in enumerate(bodies):
+                sid = actor.body_segmentation.get(b_local, actor.segmentation_id)
+                ids[:-1][np.asarray(m.geom_body) == b] = sid
+        return ids
+
+    def render_all(self) -> None:
+        import mujoco
+
+        built = self.sim.myriad
+        mj = built.model.mj_model
+        if self._data is None:
+            self._data = mujoco.MjData(mj)
+            self._segment = self._segmentation_ids(built)
+        extent = max(float(mj.stat.extent), 1e-9)
+        bodies = built.rigid_body_states
+        by_env: dict[int, list[Camera]] = {}
+        for c in self.cameras:
+            by_env.setdefault(c.env.index, []).append(c)
+        for e, cameras in by_env.items():
+            q = built.sim.q[e].detach().cpu().numpy().astype(np.float64)
+            self._data.qpos[:] = built.model.qpos_to_mujoco(q)
+            mujoco.mj_kinematics(mj, self._data)
+            for c in cameras:
+                self._render(c, mj, extent, bodies)
+
+    def _render(self, camera: Camera, mj, extent: float, bodies) -> None:
+        import mujoco
+
+        props = camera.props
+        width, height = int(props.width), int(props.height)
+        renderer = self._renderer(mj, width, height)
+        mj.vis.global_.fovy = camera.vertical_fov()
+        mj.vis.map.znear = float(props.near_plane) / extent
+        mj.vis.map.zfar = float(props.far_plane) / extent
+        position, rotation = camera.pose(bodies)
+        images = {}
+        for kind in (IMAGE_COLOR, IMAGE_DEPTH, IMAGE_SEGMENTATION):
+            if kind == IMAGE_DEPTH:
+                renderer.enable_depth_rendering()
+            elif kind == IMAGE_SEGMENTATION:
+                renderer.enable_segmentation_rendering()
+            renderer.update_scene(self._data)
+            for gl in renderer.scene.camera:
+                gl.pos[:] = position
+                gl.forward[:] = rotation[:, 0]
+                gl.up[:] = rotation[:, 2]
+            pixels = renderer.render()
+            renderer.disable_depth_rendering()
+            renderer.disable_segmentation_rendering()
+            if kind == IMAGE_COLOR:
+                rgba = np.empty((height, width, 4), np.uint8)
+                rgba[..., :3], rgba[..., 3] = pixels, 255
+                images[kind] = rgba
+            elif kind == IMAGE_DEPTH:
+                depth = -np.asarray(pixels, np.float32)
+                depth[depth <= -0.999 * float(props.far_plane)] = -np.inf
+                images[kind] = depth
+            else:
+                objid, objtype = pixels[..., 0], pixels[..., 1]
+                geom = np.where(objtype == int(mujoco.mjtObj.mjOBJ_GEOM), objid, -1)
+                images[kind] = self._segment[geom].astype(np.int32)
+        camera.images = images
+        for kind, tensor in camera.tensors.items():
+            tensor.copy_(torch.from_numpy(images[kind]))
