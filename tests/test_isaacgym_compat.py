@@ -272,8 +272,10 @@ def test_falling_box_lands_on_y_up_ground():
 
 def test_errors_name_what_is_missing(cartpole_file):
     gym = gymapi.acquire_gym()
-    with pytest.raises(NotImplementedError, match=r"isaacgym\.gymapi\.Gym\.get_camera_image "
-                                                  r"is not provided by Myriad"):
+    with pytest.raises(NotImplementedError, match=r"isaacgym\.gymapi\.Gym\."
+                                                  r"write_viewer_image_to_file is not provided"):
+        gym.write_viewer_image_to_file(None, "frame.png")
+    with pytest.raises(TypeError, match="expected a Sim and an Env"):
         gym.get_camera_image(None, None, 0, gymapi.IMAGE_COLOR)
     assert not hasattr(gym, "create_cloth_grid")    # still an AttributeError for hasattr
     with pytest.raises(NotImplementedError, match="gymapi.SoftMaterial"):

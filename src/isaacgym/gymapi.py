@@ -1122,6 +1122,12 @@ class Gym:
                              f"{env.index} ({count} bodies)")
         camera.body = (int(body_handle), copy.deepcopy(transform), int(follow_mode))
 
+    def _camera(self, sim: Sim, env: Env, handle: int):
+        if not isinstance(sim, Sim) or not isinstance(env, Env):
+            raise TypeError(f"gym camera call: expected a Sim and an Env, got "
+                            f"{type(sim).__name__} and {type(env).__name__}")
+        return sim.cameras.find(env, handle)
+
     def render_all_camera_sensors(self, sim: Sim) -> None:
         self._envs(sim, "render_all_camera_sensors")
         sim.cameras.render_all()
@@ -1135,7 +1141,7 @@ class Gym:
     def get_camera_image(self, sim: Sim, env: Env, camera_handle: int, image_type):
         """The camera's last image: IMAGE_COLOR uint8 [height, width * 4] (RGBA), IMAGE_DEPTH
         float32 [height, width], IMAGE_SEGMENTATION int32 [height, width]."""
-        camera = sim.cameras.find(env, camera_handle)
+        camera = self._camera(sim, env, camera_handle)
         image = self._image(camera, image_type, "get_camera_image")
         return image.reshape(image.shape[0], -1) if int(image_type) == IMAGE_COLOR else image
 
@@ -1143,7 +1149,7 @@ class Gym:
                                     image_type) -> Tensor:
         """A tensor on the sim's device that `render_all_camera_sensors` rewrites in place:
         colour [height, width, 4] uint8, depth [height, width] float32, segmentation int32."""
-        camera = sim.cameras.find(env, camera_handle)
+        camera = self._camera(sim, env, camera_handle)
         if not camera.props.enable_tensors:
             raise ValueError("gym.get_camera_image_gpu_tensor: the camera was made without "
                              "CameraProperties.enable_tensors = True")
@@ -1165,15 +1171,15 @@ class Gym:
         return camera.images[kind]
 
     def get_camera_view_matrix(self, sim: Sim, env: Env, camera_handle: int) -> np.ndarray:
-        return sim.cameras.find(env, camera_handle).matrices(
+        return self._camera(sim, env, camera_handle).matrices(
             self._envs(sim, "get_camera_view_matrix").rigid_body_states)[0]
 
     def get_camera_proj_matrix(self, sim: Sim, env: Env, camera_handle: int) -> np.ndarray:
-        return sim.cameras.find(env, camera_handle).matrices(
+        return self._camera(sim, env, camera_handle).matrices(
             self._envs(sim, "get_camera_proj_matrix").rigid_body_states)[1]
 
     def get_camera_transform(self, sim: Sim, env: Env, camera_handle: int) -> Transform:
-        camera = sim.cameras.find(env, camera_handle)
+        camera = self._camera(sim, env, camera_handle)
         position, rotation = camera.pose(self._envs(sim, "get_camera_transform")
                                          .rigid_body_states)
         q = np.zeros(4)
@@ -1183,7 +1189,7 @@ class Gym:
     def write_camera_image_to_file(self, sim: Sim, env: Env, camera_handle: int, image_type,
                                    filename: str) -> None:
         import imageio.v2 as imageio
-        camera = sim.cameras.find(env, camera_handle)
+        camera = self._camera(sim, env, camera_handle)
         image = self._image(camera, image_type, "write_camera_image_to_file")
         if int(image_type) != IMAGE_COLOR:
             raise _unsupported("gym.write_camera_image_to_file of a depth or segmentation "
