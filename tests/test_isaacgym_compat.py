@@ -466,3 +466,18 @@ def test_jacobian_and_mass_matrix_of_a_floating_base_use_world_axes(tmp_path):
     own = sim.myriad.sim
     expected = 0.5 * torch.einsum("ei,eij,ej->e", own.qd, own.mass_matrix, own.qd)
     torch.testing.assert_close(energy, expected, atol=1e-4, rtol=1e-4)
+
+
+def test_parse_sim_config_writes_legged_gyms_sim_dict():
+    """legged_gym hands its sim config to gymutil.parse_sim_config as a nested dict."""
+    params = gymapi.SimParams()
+    gymutil.parse_sim_config({"dt": 0.005, "substeps": 1, "gravity": [0.0, 0.0, -9.81],
+                              "up_axis": 1, "physx": {"num_position_iterations": 4,
+                                                      "contact_offset": 0.01,
+                                                      "contact_collection": 2}}, params)
+    assert params.dt == 0.005 and params.substeps == 1 and params.up_axis == gymapi.UP_AXIS_Z
+    assert (params.gravity.x, params.gravity.y, params.gravity.z) == (0.0, 0.0, -9.81)
+    assert params.physx.contact_offset == 0.01
+    assert params.physx.contact_collection == gymapi.ContactCollection(2)
+    with pytest.raises(AttributeError, match="no attribute 'dtt'"):
+        gymutil.parse_sim_config({"dtt": 0.01}, params)

@@ -6,8 +6,9 @@
 `gymapi` (the Gym object, parameters, math types, enums), `gymtorch` (wrap_tensor /
 unwrap_tensor), `gymutil` (command-line flags), `torch_utils` (batched quaternion helpers in
 Isaac Gym's conventions) and `terrain_utils` (height-field terrain generators and their mesh)
-are provided; IsaacGymEnvs' own train.py runs on them (benchmarks/isaacgymenvs.sh). What is supported, what raises `NotImplementedError` and
-how the semantics map: docs/isaacgym.md.
+are provided; IsaacGymEnvs' and legged_gym's own train.py run on them unmodified
+(benchmarks/isaacgym_projects.sh). What is supported, what raises `NotImplementedError` and how
+the semantics map: docs/isaacgym.md.
 
 Importing `isaacgym` before or after `torch` both work (the original required it first).
 """

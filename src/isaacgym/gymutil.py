@@ -108,23 +108,32 @@ def parse_sim_params(args, cfg=None, cfg_sim=None):
     params.use_gpu_pipeline = args.use_gpu_pipeline
     section = cfg_sim if cfg_sim is not None else (cfg or {}).get("sim")
     if section:
-        for key, value in section.items():
-            if key == "up_axis":
-                value = {"y": gymapi.UP_AXIS_Y, "z": gymapi.UP_AXIS_Z}.get(value, value)
-                params.up_axis = gymapi.UpAxis(int(value))
-            elif key == "gravity":
-                params.gravity = gymapi.Vec3(*value)
-            elif key in ("physx", "flex"):
-                target = getattr(params, key)
-                for k, v in value.items():
-                    if k == "contact_collection":
-                        v = gymapi.ContactCollection(int(v))
-                    setattr(target, k, v)
-            elif key in gymapi.SimParams._fields:
-                setattr(params, key, value)
+        parse_sim_config({k: v for k, v in section.items()
+                          if k in gymapi.SimParams._fields}, params)
     if args.physics_engine == gymapi.SIM_PHYSX and args.num_threads > 0:
         params.physx.num_threads = args.num_threads
     return params
+
+
+def parse_sim_config(cfg: dict, params) -> None:
+    """Writes a dict of SimParams values into `params` (legged_gym's sim config): dt, substeps,
+    up_axis (0/1, "y"/"z" or the enum), gravity (a list), use_gpu_pipeline, and the "physx" /
+    "flex" sub-dicts attribute by attribute (contact_collection as its enum). An unknown key
+    raises AttributeError naming it."""
+    for key, value in cfg.items():
+        if key == "up_axis":
+            value = {"y": gymapi.UP_AXIS_Y, "z": gymapi.UP_AXIS_Z}.get(value, value)
+            params.up_axis = gymapi.UpAxis(int(value))
+        elif key == "gravity":
+            params.gravity = gymapi.Vec3(*value)
+        elif key in ("physx", "flex"):
+            target = getattr(params, key)
+            for k, v in value.items():
+                if k == "contact_collection":
+                    v = gymapi.ContactCollection(int(v))
+                setattr(target, k, v)
+        else:
+            setattr(params, key, value)
 
 
 def _indent_xml(elem, level: int = 0) -> None:
@@ -181,6 +190,6 @@ def __getattr__(name):
     raise gymapi._not_provided(f"isaacgym.gymutil.{name}")
 
 
-__all__ = ["parse_arguments", "parse_device_str", "parse_sim_params", "AxesGeometry",
+__all__ = ["parse_arguments", "parse_device_str", "parse_sim_params", "parse_sim_config", "AxesGeometry",
            "WireframeBoxGeometry", "WireframeSphereGeometry", "WireframeBBoxGeometry",
            "draw_lines"]
