@@ -577,3 +577,37 @@ def test_camera_sensors_see_depth_segmentation_and_colour_of_each_env():
     assert torch.equal(colour.reshape(48, -1).cpu(),
                        torch.from_numpy(gym.get_camera_image(sim, envs[1], cams[1],
                                                              gymapi.IMAGE_COLOR)))
+
+
+def test_a_setter_leaves_the_other_tensors_pending_edits_alone(tmp_path):
+    """IsaacGymEnvs' resets edit a wrapped tensor in place and pass it to its setter after
+    another setter ran (Ant: dof edits, then the root setter, then the dof setter; Ingenuity:
+    root edits, then the dof setter, then the root setter). In Isaac Gym a setter writes the
+    simulation only; the tensors change at the next refresh, so neither edit is lost."""
+    gym, sim = z_up_sim()
+    box = gym.create_box(sim, 0.2, 0.2, 0.2)
+    _, _, arm, _ = fixed_base_asset(tmp_path, "arm.urdf", ARM_URDF)
+    arm = gym.load_asset(sim, str(tmp_path), "arm.urdf", arm.options)
+    for i in range(2):
+        env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 2)
+        gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(0, 0, 1)), "box", i, 0, 0)
+        gym.create_actor(env, arm, gymapi.Transform(), "arm", i, 0, 0)
+    gym.prepare_sim(sim)
+    roots = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim)).view(2, 2, 13)
+    dofs = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim))
+    everything = torch.arange(4, dtype=torch.int32)
+    for order in ("dof first", "root first"):
+        roots[:, 0, 0] = torch.tensor([0.3, -0.3]) * (1 if order == "dof first" else 2)
+        dofs[:, 0] = torch.tensor([0.2, -0.2]) * (1 if order == "dof first" else 2)
+        want_roots, want_dofs = roots[:, 0, 0].clone(), dofs[:, 0].clone()
+        setters = [lambda: gym.set_dof_state_tensor_indexed(
+                       sim, gymtorch.unwrap_tensor(dofs), gymtorch.unwrap_tensor(everything), 4),
+                   lambda: gym.set_actor_root_state_tensor_indexed(
+                       sim, gymtorch.unwrap_tensor(roots.view(-1, 13)),
+                       gymtorch.unwrap_tensor(everything), 4)]
+        for setter in (setters if order == "dof first" else setters[::-1]):
+            setter()
+        gym.refresh_actor_root_state_tensor(sim)
+        gym.refresh_dof_state_tensor(sim)
+        torch.testing.assert_close(roots[:, 0, 0], want_roots)
+        torch.testing.assert_close(dofs[:, 0], want_dofs)

@@ -2016,7 +2016,8 @@ class Gym:
         envs = self._envs(sim, "set_actor_root_state_tensor")
         values = self._values(sim, "set_actor_root_state_tensor", root_states,
                               (envs.num_actors, 13))
-        envs.set_root_states(values.clone())
+        envs.set_root_states(values.clone(), forward=False)
+        envs.sim.forward()      # the state tensors change at the next refresh, as in Isaac Gym
         return True
 
     def set_actor_root_state_tensor_indexed(self, sim: Sim, root_states, indices,
@@ -2026,13 +2027,15 @@ class Gym:
         values = self._values(sim, call, root_states, (envs.num_actors, 13))
         sel = self._actor_selection(sim, call, indices, count)
         new = torch.where(sel[..., None], values, self._root_now(envs))
-        envs.set_root_states(new, env_ids=sel.any(dim=1))
+        envs.set_root_states(new, env_ids=sel.any(dim=1), forward=False)
+        envs.sim.forward()
         return True
 
     def set_dof_state_tensor(self, sim: Sim, dof_states) -> bool:
         envs = self._envs(sim, "set_dof_state_tensor")
         values = self._values(sim, "set_dof_state_tensor", dof_states, (envs.num_dofs, 2))
-        envs.set_dof_state(values[..., 0].clone(), values[..., 1].clone())
+        envs.set_dof_state(values[..., 0].clone(), values[..., 1].clone(), forward=False)
+        envs.sim.forward()
         return True
 
     def set_dof_state_tensor_indexed(self, sim: Sim, dof_states, indices, count: int) -> bool:
@@ -2043,7 +2046,8 @@ class Gym:
         s = envs.sim
         pos = torch.where(mask, values[..., 0], s.q[:, envs._dof_q])
         vel = torch.where(mask, values[..., 1], s.qd[:, envs.dof_columns])
-        envs.set_dof_state(pos, vel, env_ids=mask.any(dim=1))
+        envs.set_dof_state(pos, vel, env_ids=mask.any(dim=1), forward=False)
+        envs.sim.forward()
         return True
 
     def set_dof_actuation_force_tensor(self, sim: Sim, forces) -> bool:
