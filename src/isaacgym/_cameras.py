@@ -23,16 +23,10 @@ import os
 import numpy as np
 import torch
 
+from .gymapi import _quat_matrix as _rotation     # 3x3 rotation of a quaternion (x, y, z, w)
+
 IMAGE_COLOR, IMAGE_DEPTH, IMAGE_SEGMENTATION = 0, 1, 2
 FOLLOW_POSITION, FOLLOW_TRANSFORM = 0, 1
-
-
-def _rotation(q) -> np.ndarray:
-    """3x3 rotation of a quaternion (x, y, z, w)."""
-    x, y, z, w = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 class Camera:

@@ -1104,11 +1104,10 @@ class Gym:
     def set_camera_transform(self, camera_handle: int, env: Env, transform: Transform) -> None:
         """The camera at `transform` in the env's frame (it looks along the transform's +x)."""
         camera = env.sim.cameras.find(env, camera_handle)
-        from ._cameras import _rotation
         r = transform.r.normalize()
         camera.body = None
         camera.position = np.array([transform.p.x, transform.p.y, transform.p.z])
-        camera.rotation = _rotation([r.x, r.y, r.z, r.w])
+        camera.rotation = _quat_matrix([r.x, r.y, r.z, r.w])
 
     def attach_camera_to_body(self, camera_handle: int, env: Env, body_handle: int,
                               transform: Transform, follow_mode) -> None:
