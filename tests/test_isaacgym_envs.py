@@ -510,6 +510,8 @@ def test_per_actor_calls_read_and_write_the_tensors(tmp_path):
 # ------------------------------------------------------------------ camera sensors
 def renderer_or_skip():
     import mujoco
+    from myriad.rl.video import before_offscreen_gl
+    before_offscreen_gl()           # else a later torch.compile (triton) crashes this process
     try:
         mujoco.Renderer(mujoco.MjModel.from_xml_string("<mujoco/>"), 8, 8).close()
     except Exception as err:

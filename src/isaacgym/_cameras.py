@@ -124,6 +124,8 @@ class Cameras:
         import mujoco
         key = (width, height)
         if key not in self._renderers:
+            from myriad.rl.video import before_offscreen_gl
+            before_offscreen_gl()
             mj.vis.global_.offwidth = max(mj.vis.global_.offwidth, width)
             mj.vis.global_.offheight = max(mj.vis.global_.offheight, height)
             try:

@@ -11,6 +11,19 @@ import os
 import numpy as np
 
 
+def before_offscreen_gl() -> None:
+    """Loads triton (torch.compile's compiler), if installed, before MuJoCo opens an offscreen
+    OpenGL context: Mesa's software EGL and triton each carry LLVM, and importing triton after
+    Mesa's has loaded crashes the process (torch.compile imports it, e.g. rl_games 1.6.5's
+    model compilation after an env with cameras was built). Loaded first, both work."""
+    import importlib.util
+    if importlib.util.find_spec("triton") is not None:
+        try:
+            import triton  # noqa: F401
+        except Exception:
+            pass
+
+
 class VideoWriter:
     """Collects frames of env 0 of an `Envs` and writes an .mp4 (ffmpeg) or .gif on close."""
 
@@ -33,6 +46,7 @@ class VideoWriter:
         # 100 m: 1 m, which cut away a hand seen from 0.9 m. At most 1 cm instead
         extent = max(float(self.mj_model.stat.extent), 1e-9)
         self.mj_model.vis.map.znear = min(float(self.mj_model.vis.map.znear), 0.01 / extent)
+        before_offscreen_gl()
         try:
             self.renderer = mujoco.Renderer(self.mj_model, height=size[0], width=size[1])
         except Exception as err:
