@@ -8,6 +8,7 @@
 #   tests   the test suite on CUDA, one pytest process per file
 #   soak    every task under random actions for two episode lengths: nothing may go non-finite
 #   train   short training runs that time the paper's milestones
+#   isaacgym  (not in the default list) the isaacgym layer's cost against Myriad's own API
 # Run from the repository root on a machine with an NVIDIA GPU (benchmarks/device_bundle.sh packs
 # the packages it lacks and the kernel cache, and prints the calls), with the engine's CUDA kernels
 # compiled beforehand on the CPU machine (a cold NVRTC build is minutes of idle device time;
@@ -119,7 +120,15 @@ Ingenuity 45 1000 5000
 Humanoid 240 1000 3000 5000
 Anymal 120 10 40}"
       skipped=$(IFS=';'; echo "${dropped[*]}") ;;
-    *) echo "unknown stage $stage (peers, lanes, tests, soak, train)"; exit 2 ;;
+    isaacgym)
+      # issue 41: what the isaacgym layer costs on the GPU pipeline (the Ant loop through
+      # isaacgym and through Myriad's API, alternating rounds), at two env counts
+      echo "== isaacgym layer on $DEVICE"
+      for envs in ${ISAACGYM_ENVS:-4096 16384}; do
+        timeout 200 python3 benchmarks/isaacgym_layer.py --device "$DEVICE" --envs "$envs" \
+          --rounds 10 --steps 20 2>&1 | tee -a "$LOGS/isaacgym_layer.log" | grep -v "^Module"
+      done ;;
+    *) echo "unknown stage $stage (peers, lanes, tests, soak, train, isaacgym)"; exit 2 ;;
   esac
   echo "== $stage: $((SECONDS - start)) s; skipped to stay inside the budget: ${skipped:-nothing}"
 done
