@@ -4,9 +4,9 @@ summaries, as a progress.csv that `plot_curve.py` draws, and a table at given mi
     python benchmarks/rl_games_curve.py ../IsaacGymEnvs/isaacgymenvs/runs/cpu_Ant_*/summaries \
         --csv /tmp/ige_ant.csv --minutes 1 2 5 10
 
-rl_games writes the mean episode reward against frames (`rewards/step`) and against its own
-clock (`rewards/time`, seconds of training); the two are paired by their order (one point per
-epoch each).
+rl_games writes the mean episode reward against frames (`rewards/step`; IsaacGymEnvs' AMP
+learner: `rewards/frame`) and against its own clock (`rewards/time`, seconds of training); the
+two are paired by their order (one point per epoch each).
 """
 
 import argparse
@@ -21,10 +21,11 @@ def curve(folder: str) -> list[tuple[float, int, float]]:
     events = EventAccumulator(folder, size_guidance={"scalars": 0})
     events.Reload()
     tags = events.Tags()["scalars"]
-    if "rewards/step" not in tags or "rewards/time" not in tags:
-        raise SystemExit(f"{folder}: no rewards/step and rewards/time scalars (not an rl_games "
-                         f"run, or no episode finished yet)")
-    by_step, by_time = events.Scalars("rewards/step"), events.Scalars("rewards/time")
+    steps = "rewards/step" if "rewards/step" in tags else "rewards/frame"   # AMP's learner
+    if steps not in tags or "rewards/time" not in tags:
+        raise SystemExit(f"{folder}: no rewards/step (or /frame) and rewards/time scalars (not "
+                         f"an rl_games run, or no episode finished yet)")
+    by_step, by_time = events.Scalars(steps), events.Scalars("rewards/time")
     return [(float(t.step), int(s.step), float(s.value)) for s, t in zip(by_step, by_time)]
 
 
