@@ -44,7 +44,8 @@ Both
   `fix_base_link=True`, a root's free joint is removed. This is an option, not a repair: no
   warning. A root with other joints and no `fix_base_link` has them replaced by a free joint
   (Isaac Gym floats it; one warning).
-- a limited joint whose range is a single value (locked) gets a range 1e-6 wide around it.
+- a limited joint whose range is a single value (lower = upper) is made unlimited (Isaac Gym
+  sets no limit there).
 Anything else MuJoCo refuses stays a `ModelError` naming the file and the element.
 """
 
@@ -532,18 +533,18 @@ def _balance_inertias(spec: mujoco.MjSpec, path: str, kind: str) -> None:
 
 
 def _open_locked_ranges(spec: mujoco.MjSpec, path: str) -> None:
-    """A limited joint whose range is one value (lower = upper: locked, which Isaac Gym
-    accepts and MuJoCo refuses) gets a range 1e-6 rad (or m) wide around it."""
-    locked = []
+    """A limited joint whose range is one value (lower = upper), which MuJoCo refuses, is made
+    unlimited: Isaac Gym sets no limit there. IsaacGymEnvs' Ingenuity writes its rotors'
+    hinges so and spins its drawn rotors at 50 rad/s on them at every reset, which a locked
+    joint would stop with a kick to the whole copter."""
+    empty = []
     for j in spec.joints:
         if j.limited == mujoco.mjtLimited.mjLIMITED_TRUE and j.range[0] == j.range[1]:
-            half = 1e-6 * (180 / np.pi if spec.compiler.degree
-                           and j.type == mujoco.mjtJoint.mjJNT_HINGE else 1.0)
-            j.range = [j.range[0] - half, j.range[1] + half]
-            locked.append(j.name or "(unnamed)")
-    if locked:
-        _warn(f"{path}: joints {_some(locked)} have a one-value range (locked); given a range "
-              "1e-6 wide, which MuJoCo accepts")
+            j.limited = mujoco.mjtLimited.mjLIMITED_FALSE
+            empty.append(j.name or "(unnamed)")
+    if empty:
+        _warn(f"{path}: joints {_some(empty)} have a one-value range (lower = upper, which "
+              "MuJoCo refuses); made unlimited, as Isaac Gym sets no limit there")
 
 
 def _set_base(spec: mujoco.MjSpec, fix_base_link: bool) -> None:
