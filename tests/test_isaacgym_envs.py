@@ -182,7 +182,7 @@ PENDULUM = """<mujoco><worldbody>
     <geom type="box" size=".05 .05 .05" contype="0" conaffinity="0"/>
     <body name="bob" pos="0 0 -0.1">
       <joint name="swing" type="hinge" axis="0 1 0"/>
-      <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.02" contype="0" conaffinity="0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.02"/>
       <site name="foot"/>
     </body>
   </body></worldbody>
@@ -435,6 +435,20 @@ def test_a_static_mesh_that_is_not_a_grid_holds_a_ball_inside_it(tmp_path):
 
 
 # ------------------------------------------------------------------ small helpers
+def test_drawing_geoms_weigh_nothing(tmp_path):
+    """Geoms that take no part in contacts only draw, as in Isaac Gym: IsaacGymEnvs' Ingenuity
+    draws its chassis with such a mesh, which at MuJoCo's default density weighed 14 kg; a body
+    with nothing else gets 1 g."""
+    gym, sim, asset, _ = fixed_base_asset(tmp_path, "drawn.xml", """<mujoco><worldbody>
+      <body name="base"><geom type="box" size=".1 .1 .1" density="100"/>
+        <geom type="box" size=".5 .5 .5" contype="0" conaffinity="0"/>
+        <body name="flag" pos="0 0 .2"><joint type="hinge"/>
+          <geom type="box" size=".05 .05 .05" contype="0" conaffinity="0"/></body>
+      </body></worldbody></mujoco>""")
+    masses = [p.mass for p in asset.body_props]
+    assert masses == pytest.approx([100 * 0.2 ** 3, 1e-3])
+
+
 def test_helpers_tasks_call_while_building():
     import xml.etree.ElementTree as ET
     root = ET.Element("mujoco")

@@ -1209,6 +1209,7 @@ class Gym:
                           package_paths=(rootpath,))
         for sensor in list(spec.sensors):   # Isaac Gym imports no sensors from a file: its
             spec.delete(sensor)             # force sensors come from create_asset_force_sensor
+        _weightless_drawing(spec)
         actuators = _take_actuators(spec)
         asset = _finish_asset(spec, options, path, actuators, _urdf_fixed_joints(path))
         sim.assets.append(asset)
@@ -2256,6 +2257,30 @@ def _decompose_meshes(spec: mujoco.MjSpec, params: VhacdParams, source: str) -> 
                           priority=geom.priority, margin=geom.margin, gap=geom.gap,
                           density=geom.density, group=geom.group)
         spec.delete(geom)
+
+
+_DRAWN_BODY_MASS = 1e-3     # kg: a body with drawing geoms only (its inertia: a 1 cm ball's)
+
+
+def _weightless_drawing(spec: mujoco.MjSpec) -> None:
+    """Geoms that neither collide nor are collided with (contype = conaffinity = 0) only draw,
+    and weigh nothing, as in Isaac Gym (IsaacGymEnvs' Ingenuity draws its chassis and rotors
+    with such meshes, 14 kg of them at MuJoCo's default density). A body left with no mass gets
+    1 g (MuJoCo needs a moving body to have some)."""
+    for body in spec.bodies:
+        if body.name == "world" or body.explicitinertial:
+            continue
+        weighed = False
+        for geom in body.geoms:
+            if geom.contype == 0 and geom.conaffinity == 0 and not geom.mass > 0:
+                geom.density = 0.0
+            else:
+                weighed = True
+        if not weighed and list(body.geoms):
+            body.explicitinertial = True
+            body.mass = _DRAWN_BODY_MASS
+            body.ipos = [0.0, 0.0, 0.0]
+            body.inertia = [0.4 * _DRAWN_BODY_MASS * 0.01 ** 2] * 3
 
 
 def _urdf_fixed_joints(path: str) -> dict:
