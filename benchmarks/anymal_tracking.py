@@ -20,9 +20,9 @@ import argparse
 import torch
 
 import myriad
+from myriad.rl.evaluate import command_tracking
 from myriad.rl.policy import load_policy
 from myriad.rl.run import compose, task_and_train_configs
-from myriad.torch_utils import quat_rotate_inverse
 
 
 # --tiles: (KINDS index, pits / stairs inverted or not)
@@ -63,27 +63,15 @@ def main() -> None:
         put_on_tiles(task, *TILES[args.tiles], 0 if args.tiles == "flat" else args.level)
     policy = load_policy(args.checkpoint, train_cfg, task)
     obs = task.reset()["obs"]
-    steps = round(args.seconds / task.dt)
-    errors, still, falls, episodes = [], [], 0, args.envs
-    for step in range(steps):
-        with torch.no_grad():
-            out, _, resets, extras = task.step(policy(obs))
+
+    def advance():
+        nonlocal obs
+        out, _, resets, extras = task.step(policy(obs))
         obs = out["obs"]
-        falls += int((resets.bool() & ~extras["time_outs"].bool()).sum())
-        episodes += int(resets.bool().sum())
-        if step >= steps // 2:
-            root = task.envs.root_states[:, 0]
-            lin = quat_rotate_inverse(root[:, 3:7], root[:, 7:10])
-            ang = quat_rotate_inverse(root[:, 3:7], root[:, 10:13])
-            actual = torch.stack((lin[:, 0], lin[:, 1], ang[:, 2]), dim=-1)
-            errors.append((task.commands - actual).abs())
-            still.append(task.commands.abs())
-    err = torch.cat(errors).mean(0)
-    base = torch.cat(still).mean(0)
-    print(f"{args.envs} envs, {args.seconds:g} s, last half: mean |command - actual| "
-          f"forward {err[0]:.3f} m/s, lateral {err[1]:.3f} m/s, yaw {err[2]:.3f} rad/s "
-          f"(standing still: {base[0]:.3f}, {base[1]:.3f}, {base[2]:.3f}); "
-          f"episodes ended by a fall: {falls} of {episodes} ({100 * falls / episodes:.1f} %)"
+        return resets, extras["time_outs"]
+
+    print(f"{args.envs} envs, {args.seconds:g} s, last half: "
+          + command_tracking(task, advance, args.seconds)
           + (f"; tiles {args.tiles}, level {args.level}" if args.task == "AnymalTerrain" else ""))
 
 

@@ -21,7 +21,7 @@ import torch
 from rsl_rl.runners import OnPolicyRunner
 
 from myriad.rl.adapters import rsl_rl_env
-from myriad.torch_utils import quat_rotate_inverse
+from myriad.rl.evaluate import command_tracking
 
 
 def train_cfg(env, init_std: float) -> dict:
@@ -48,30 +48,16 @@ def train_cfg(env, init_std: float) -> dict:
 
 
 def tracking(env, policy, seconds: float) -> str:
-    """Mean |command - actual| (base frame) over the second half of `seconds` of fresh
-    episodes, next to standing still's, and the share of episodes that ended in a fall."""
-    task = env.task
-    task.reset()
+    """How well `policy` tracks its commands in fresh episodes (myriad's command_tracking)."""
+    env.task.reset()
     obs = env.get_observations()
-    steps = round(seconds / task.dt)
-    errors, still, falls, episodes = [], [], 0, task.num_envs
-    for step in range(steps):
-        with torch.no_grad():
-            obs, _, dones, extras = env.step(policy(obs))
-        falls += int((dones.bool() & ~extras["time_outs"].bool()).sum())
-        episodes += int(dones.bool().sum())
-        if step >= steps // 2:
-            root = task.envs.root_states[:, 0]
-            lin = quat_rotate_inverse(root[:, 3:7], root[:, 7:10])
-            ang = quat_rotate_inverse(root[:, 3:7], root[:, 10:13])
-            actual = torch.stack((lin[:, 0], lin[:, 1], ang[:, 2]), dim=-1)
-            errors.append((task.commands - actual).abs())
-            still.append(task.commands.abs())
-    err, base = torch.cat(errors).mean(0), torch.cat(still).mean(0)
-    return (f"mean |command - actual| forward {err[0]:.3f} m/s, lateral {err[1]:.3f} m/s, "
-            f"yaw {err[2]:.3f} rad/s (standing still: {base[0]:.3f}, {base[1]:.3f}, "
-            f"{base[2]:.3f}); episodes ended by a fall: {falls} of {episodes} "
-            f"({100 * falls / episodes:.1f} %)")
+
+    def advance():
+        nonlocal obs
+        obs, _, dones, extras = env.step(policy(obs))
+        return dones, extras["time_outs"]
+
+    return command_tracking(env.task, advance, seconds)
 
 
 def main() -> None:

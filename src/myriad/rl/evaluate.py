@@ -212,6 +212,40 @@ class ShareProbe(Probe):
         return super().describe() | {k: v for k, v in env.items() if "Tolerance" in k}
 
 
+def base_velocity(task) -> torch.Tensor:
+    """[N, 3]: each env's base forward and lateral velocity (m/s) and yaw rate (rad/s), in the
+    base's own frame: what a velocity command (`task.commands`) asks of it."""
+    from ..torch_utils import quat_rotate_inverse
+
+    root = task.envs.root_states[:, 0]
+    lin = quat_rotate_inverse(root[:, 3:7], root[:, 7:10])
+    ang = quat_rotate_inverse(root[:, 3:7], root[:, 10:13])
+    return torch.stack((lin[:, 0], lin[:, 1], ang[:, 2]), dim=-1)
+
+
+def command_tracking(task, advance, seconds: float) -> str:
+    """Steps `task` for `seconds` with `advance()` (one env step of the policy under test;
+    returns (dones, time_outs)) from fresh episodes, and says how well it tracked its commands:
+    the mean |command - actual| per axis (`base_velocity`) over the second half, next to what
+    standing still would score, and the share of episodes (running at the start or begun since)
+    that ended in a fall."""
+    steps = round(seconds / task.dt)
+    errors, still, falls, episodes = [], [], 0, task.num_envs
+    for step in range(steps):
+        with torch.no_grad():
+            dones, time_outs = advance()
+        falls += int((dones.bool() & ~time_outs.bool()).sum())
+        episodes += int(dones.bool().sum())
+        if step >= steps // 2:
+            errors.append((task.commands - base_velocity(task)).abs())
+            still.append(task.commands.abs())
+    err, base = torch.cat(errors).mean(0), torch.cat(still).mean(0)
+    return (f"mean |command - actual| forward {err[0]:.3f} m/s, lateral {err[1]:.3f} m/s, "
+            f"yaw {err[2]:.3f} rad/s (standing still: {base[0]:.3f}, {base[1]:.3f}, "
+            f"{base[2]:.3f}); episodes ended by a fall: {falls} of {episodes} "
+            f"({100 * falls / episodes:.1f} %)")
+
+
 class TrackingProbe(Probe):
     """Mean |commanded - actual| base velocity over each episode's steps (base frame: planar
     velocity norm, yaw rate); AnymalTerrain: also the level each episode was played at."""
@@ -244,15 +278,11 @@ class TrackingProbe(Probe):
             self.levels = self.task.levels.clone()
 
     def after_step(self, done):
-        from ..torch_utils import quat_rotate_inverse
-
-        root = self.task.envs.root_states[:, 0]
-        lin = quat_rotate_inverse(root[:, 3:7], root[:, 7:10])
-        ang = quat_rotate_inverse(root[:, 3:7], root[:, 10:13])
+        actual = base_velocity(self.task)
         cmd = self.task.commands
         live = (~done).double()     # a finished env's state is already its next episode's
-        self.lin += live * torch.norm(cmd[:, :2] - lin[:, :2], dim=-1).double()
-        self.yaw += live * (cmd[:, 2] - ang[:, 2]).abs().double()
+        self.lin += live * torch.norm(cmd[:, :2] - actual[:, :2], dim=-1).double()
+        self.yaw += live * (cmd[:, 2] - actual[:, 2]).abs().double()
         self.steps += live
         steps = self.steps.clamp(min=1.0)
         out = {"tracking_error_lin": self.lin / steps, "tracking_error_yaw": self.yaw / steps}
