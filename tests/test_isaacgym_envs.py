@@ -414,9 +414,8 @@ def test_vhacd_lets_a_ball_fall_into_a_bowl(tmp_path):
 
 
 def test_a_static_mesh_that_is_not_a_grid_holds_a_ball_inside_it(tmp_path):
-    """A bin given as a triangle mesh (not a height field's grid): cut into convex pieces, it
-    holds a ball on its floor, not on the rim its convex hull would have."""
-    pytest.importorskip("vhacdx", reason="V-HACD needs vhacdx (pip install -e '.[isaacgym]')")
+    """A bowl given as a triangle mesh (not a height field's grid) collides as its triangles:
+    it holds a ball on its floor, not on the rim its convex hull would have."""
     trimesh = pytest.importorskip("trimesh")
     bowl_obj(tmp_path / "bowl.obj")
     bowl = trimesh.load(tmp_path / "bowl.obj", force="mesh")

@@ -729,7 +729,7 @@ class Sim:
         self.gym, self.device, self.params = gym, device, copy.deepcopy(params)
         self.ground: PlaneParams | None = None
         self.terrain: dict | None = None        # Scene.add_terrain's arguments
-        self.static_meshes: list = []           # (convex piece files, Transform, friction)
+        self.triangle_meshes: list = []         # Scene.add_triangle_mesh's arguments
         from ._cameras import Cameras
         self.cameras = Cameras(self)            # camera sensors
         self.envs: list[Env] = []
@@ -756,7 +756,6 @@ def _scene_class():
         plane_distance = 0.0
         excluded_pairs: list = []       # (actor name, actor name) that must not collide
         attractors: list = []           # (body's full name, AttractorProperties)
-        static_meshes: list = []        # (convex piece files, Transform, friction)
 
         def compose(self):
             spec, drives = super().compose()
@@ -776,15 +775,6 @@ def _scene_class():
                     quat = [math.cos(angle / 2), *(axis * math.sin(angle / 2))]
                 ground.quat = quat
                 ground.pos = (-self.plane_distance * n).tolist()
-            for i, (pieces, pose, friction) in enumerate(self.static_meshes):
-                r = pose.r.normalize()
-                frame = spec.worldbody.add_frame(pos=[pose.p.x, pose.p.y, pose.p.z],
-                                                 quat=[r.w, r.x, r.y, r.z])
-                for k, file in enumerate(pieces):
-                    spec.add_mesh(name=f"static_mesh{i}/{k}", file=file)
-                    frame.add_geom(name=f"static_mesh{i}/{k}", type=mujoco.mjtGeom.mjGEOM_MESH,
-                                   meshname=f"static_mesh{i}/{k}",
-                                   friction=[friction, 0.005, 0.0001])
             for i, (body, props) in enumerate(self.attractors):
                 o, t = props.offset, props.target
                 ro, rt = o.r.normalize(), t.r.normalize()
@@ -910,10 +900,9 @@ class Gym:
         """A static triangle mesh shared by every env. A mesh made from a height field
         (terrain_utils.convert_heightfield_to_trimesh: one vertex per grid sample, steps
         steeper than its slope threshold made vertical walls) is simulated as that height
-        field with those walls, exactly. Any other mesh (a table, a bin) is cut into convex
-        pieces by V-HACD (`myriad.physics.convex`, cached), static in every env: an
-        approximation of the surface within V-HACD's tolerance (Myriad's engine has no static
-        triangle meshes yet)."""
+        field with those walls, exactly (and faster). Any other mesh (a table, a bin, a room)
+        collides as its triangles (`Scene.add_triangle_mesh`), exactly: its triangles must
+        face outward, as PhysX's do."""
         self._before_prepare(sim, "add_triangle_mesh")
         v = np.asarray(vertices, dtype=np.float64).reshape(-1)
         t = np.asarray(triangles).reshape(-1)
@@ -924,26 +913,23 @@ class Gym:
         if nt == 0 or t.min(initial=0) < 0 or t.max(initial=0) >= nv:
             raise ValueError(f"gym.add_triangle_mesh: triangle indices must lie in [0, {nv}) "
                              f"and there must be triangles")
-        grid = _height_grid(v.reshape(-1, 3), t.reshape(-1, 3).astype(np.int64))
+        # a height-field grid, unrotated, becomes the sim's one height field; every other mesh
+        # (or a second grid) collides as its triangles
+        rotated = abs(abs(params.transform.r.normalize().w) - 1.0) > 1e-6
+        grid = None if rotated or sim.terrain is not None else \
+            _height_grid(v.reshape(-1, 3), t.reshape(-1, 3).astype(np.int64))
         if grid is None:
-            self._add_convex_pieces(sim, v.reshape(-1, 3), t.reshape(-1, 3), params)
+            self._check_static_params("add_triangle_mesh", params)
+            pose = params.transform
+            r = pose.r.normalize()
+            sim.triangle_meshes.append(dict(
+                vertices=v.reshape(-1, 3), triangles=t.reshape(-1, 3).astype(np.int64),
+                pos=(pose.p.x, pose.p.y, pose.p.z), quat=(r.x, r.y, r.z, r.w),
+                friction=float(params.static_friction)))
             return
         heights, spacing, origin, riser = grid
         self._add_terrain(sim, "add_triangle_mesh", heights, spacing, params, riser=riser,
                           origin=origin)
-
-    def _add_convex_pieces(self, sim, vertices, triangles, params) -> None:
-        from myriad.physics.convex import convex_pieces_of
-        self._check_static_params("add_triangle_mesh", params)
-        try:
-            pieces = convex_pieces_of(vertices, triangles, max_hulls=64, resolution=400_000,
-                                      max_vertices=64)
-        except ImportError as err:
-            raise _unsupported("gym.add_triangle_mesh with a mesh that is not a height-field "
-                               "grid", f"it is cut into convex pieces by V-HACD, which needs "
-                               f"vhacdx and trimesh (pip install vhacdx trimesh): {err}")
-        sim.static_meshes.append((pieces, copy.deepcopy(params.transform),
-                                  float(params.static_friction)))
 
     def _check_static_params(self, call, params) -> None:
         if not math.isclose(params.static_friction, params.dynamic_friction, rel_tol=1e-6,
@@ -2507,7 +2493,8 @@ def _prepare(sim: Sim) -> None:
         scene.plane_distance = float(g.distance)
     scene.excluded_pairs = [(names[i], names[j]) for (i, j), c in pairs.items() if not c]
     scene.attractors = _attractors(envs, names)
-    scene.static_meshes = list(sim.static_meshes)
+    for mesh in sim.triangle_meshes:
+        scene.add_triangle_mesh(**mesh)
     for k, a in enumerate(first.actors):
         modes = [_MODES[int(m)] for m in a.dof_props["driveMode"]]
         p, r = a.pose.p, a.pose.r.normalize()

@@ -45,6 +45,7 @@ class Scene:
         self.actors: list[Actor] = []
         self.ground: dict | None = None
         self.terrain: dict | None = None
+        self.triangle_meshes: list[dict] = []
 
     def add_ground(self, friction: float = 1.0, restitution: float = 0.0) -> "Scene":
         """A static plane z = 0 that every actor collides with."""
@@ -73,6 +74,36 @@ class Scene:
         self.terrain = {"heights": heights, "horizontal_scale": float(horizontal_scale),
                         "origin": tuple(float(o) for o in origin), "friction": float(friction),
                         "riser": float(riser)}
+        return self
+
+    def add_triangle_mesh(self, vertices, triangles, pos=(0.0, 0.0, 0.0), quat=(0, 0, 0, 1),
+                          friction: float = 1.0) -> "Scene":
+        """A static triangle mesh that every actor collides with, as its triangles (a bin, a
+        table, a room, terrain that is not a grid; `stages.collision.trimesh`): `vertices`
+        [V, 3] (m), `triangles` [T, 3] vertex indices, counterclockwise seen from the side
+        bodies are on; placed at `pos`, `quat` (x, y, z, w). One copy is shared by all envs;
+        it does not bounce."""
+        v = np.asarray(vertices, dtype=np.float64)
+        t = np.asarray(triangles)
+        if v.ndim != 2 or v.shape[1] != 3 or len(v) < 3 or not np.isfinite(v).all():
+            raise ValueError(f"add_triangle_mesh: vertices must be a finite [V, 3] array with "
+                             f"V >= 3, not shape {v.shape}")
+        if t.ndim != 2 or t.shape[1] != 3 or len(t) == 0 or not np.issubdtype(t.dtype, np.integer):
+            raise ValueError(f"add_triangle_mesh: triangles must be a non-empty [T, 3] integer "
+                             f"array, not {t.dtype} of shape {t.shape}")
+        if t.min() < 0 or t.max() >= len(v):
+            raise ValueError(f"add_triangle_mesh: triangle vertex indices must lie in "
+                             f"[0, {len(v)}); they span [{t.min()}, {t.max()}]")
+        area = np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
+        if not (area > 0).any():
+            raise ValueError("add_triangle_mesh: every triangle has zero area")
+        if np.shape(pos) != (3,) or np.shape(quat) != (4,) or not friction >= 0:
+            raise ValueError(f"add_triangle_mesh: pos must be 3 numbers, quat 4 (x, y, z, w) and "
+                             f"friction={friction} >= 0")
+        self.triangle_meshes.append({"vertices": v, "triangles": t[area > 0].astype(np.int32),
+                                     "pos": tuple(float(p) for p in pos),
+                                     "quat": tuple(float(q) for q in quat),
+                                     "friction": float(friction)})
         return self
 
     def add_actor(self, name: str, path: str | os.PathLike | mujoco.MjSpec, pos=None, quat=(0, 0, 0, 1),
@@ -146,6 +177,18 @@ class Scene:
                                     friction=[self.ground["friction"], 0.005, 0.0001])
         if self.terrain is not None:
             self._add_terrain(spec, self.terrain)
+        for i, mesh in enumerate(self.triangle_meshes):
+            # drawn only in MuJoCo's model (contype = conaffinity = 0: no hull is built for it);
+            # `build` makes it collide as its triangles. A shell's inertia: it may be open
+            x, y, z, w = mesh["quat"]
+            spec.add_mesh(name=f"triangle_mesh{i}", uservert=mesh["vertices"].ravel().tolist(),
+                          userface=mesh["triangles"].ravel().tolist(),
+                          inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL)
+            spec.worldbody.add_geom(name=f"triangle_mesh{i}", type=mujoco.mjtGeom.mjGEOM_MESH,
+                                    meshname=f"triangle_mesh{i}", pos=list(mesh["pos"]),
+                                    quat=[w, x, y, z], contype=0, conaffinity=0,
+                                    rgba=[0.55, 0.55, 0.6, 1.0],
+                                    friction=[mesh["friction"], 0.005, 0.0001])
         drives = {}
         for actor in self.actors:
             drives[actor.name] = self._attach(spec, actor)
@@ -176,6 +219,12 @@ class Scene:
                 child = mujoco.MjSpec.from_file(actor.path)
             except Exception as err:
                 raise ModelError(f"{actor.path}: MuJoCo rejected the model: {err}") from err
+        taken = {b.name for b in child.bodies}
+        for i, body in enumerate(child.bodies[1:]):   # attach prefixes only named elements,
+            if not body.name:                         # and bodies are told apart by name
+                body.name = next(n for n in (f"body{i}" + "_" * k for k in range(len(taken) + 1))
+                                 if n not in taken)
+                taken.add(body.name)
         roots = child.worldbody.bodies
         if len(roots) != 1:
             raise ModelError(f"{actor.path}: an actor's file must have exactly one body under the "
@@ -256,6 +305,8 @@ class Scene:
         model: Model = from_mujoco(mj_model, source=f"scene {spec.modelname!r}")
         if self.terrain is not None and self.terrain["riser"] > 0:
             model.hfield_riser[:] = self.terrain["riser"]
+        for i in range(len(self.triangle_meshes)):
+            model.collide_as_triangles(f"triangle_mesh{i}")
         if fix_model is not None:
             fix_model(model)
         return Envs(model, self.actors, drives, self.ground, num_envs, device, params)

@@ -26,7 +26,7 @@ from .runtime.launch import block_threads
 from .stages.collision import CANDIDATES_PER_SLOT
 from .structs import (STRUCTS, Control, Contacts, Dynamics, EnvParams, HFields, Meshes,
                       ModelArrays, Options, RowLayout, Rows, State, field_shape)
-from .types import EqualityType, SensorType
+from .types import EqualityType, GeomType, SensorType
 
 
 @dataclasses.dataclass
@@ -38,6 +38,7 @@ class DeviceModel:
     pairs: wp.array           # [npair] vec2i: candidate geom pairs, fixed (`pairs`)
     meshes: Meshes
     hfields: HFields
+    triangle_meshes: list     # the `wp.Mesh` BVHs that `meshes.bvh` names (kept alive here)
     sizes: dict               # the named sizes of the per-env declarations ("nv", "nrow", ...)
     sensor_sites: list        # sites carrying a force or torque sensor (rows of sensor_wrench)
     sensor_site: wp.array     # [nsensor_site] int32: those sites
@@ -84,7 +85,7 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
     pairs = (pair_rules.candidate_pairs(model, params.self_collisions) if params.constraints
              else np.zeros((0, 2), np.int32))
     contact_capacity = params.contacts_per_env if len(pairs) else 0
-    meshes, hfields = shape_data(model, dev)
+    meshes, hfields, triangle_meshes = shape_data(model, dev)
 
     # constraint rows: 3 per contact slot, 2 per limited joint, 2 per limited tendon, one
     # spring-damper row per tendon (present with or without `constraints`), and one row per
@@ -157,7 +158,7 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
     return DeviceModel(
         m=model_arrays(model, dev, pair_rules.pair_friction(model, pairs)), opt=opt,
         layout=layout, pairs=wp.array(pairs, dtype=wp.vec2i, device=dev), meshes=meshes,
-        hfields=hfields, sizes=sizes, sensor_sites=sensor_sites,
+        hfields=hfields, triangle_meshes=triangle_meshes, sizes=sizes, sensor_sites=sensor_sites,
         sensor_site=wp.array(np.asarray(sensor_sites, np.int32), dtype=wp.int32, device=dev),
         sensor_site_body=wp.array(np.asarray(m.site_body[sensor_sites], np.int32)
                                   if sensor_sites else np.zeros(0, np.int32),
@@ -310,31 +311,45 @@ def row_width(dof_tree_span, tendon_dofs) -> int:
 
 
 # ------------------------------------------------------------------ collision shapes
-def shape_data(model, device) -> tuple[Meshes, HFields]:
-    """The vertices of each mesh's convex hull (with its bounding radius and box) and the height
-    fields on the device, shared by all envs. Collision reads only the hull's corners (supports,
-    probes, plane contacts): a scanned robot mesh has 10-20 times as many vertices inside or on
-    its hull faces, and every support query would visit them all."""
+def shape_data(model, device) -> tuple[Meshes, HFields, list]:
+    """The vertices of each mesh's convex hull (with its bounding radius and box), the
+    triangle meshes' BVHs and the height fields on the device, shared by all envs. Collision
+    reads only the hull's corners (supports, probes, plane contacts): a scanned robot mesh has
+    10-20 times as many vertices inside or on its hull faces, and every support query would
+    visit them all. A mesh a TRIMESH geom uses gets a `wp.Mesh` of its own triangles (the
+    third value: they must live as long as the ids in `Meshes.bvh`), and its bounds hold all
+    of its vertices."""
     def arr(a, dtype):
         return wp.array(np.ascontiguousarray(a), dtype=dtype, device=device)
 
     verts = model.mesh_vert.reshape(-1, 3)
+    triangles = set(model.geom_dataid[model.geom_type == GeomType.TRIMESH].tolist())
     hulls = [np.unique(model.mesh_hull_face[a:a + k]) for a, k in
              zip(model.mesh_hull_faceadr, model.mesh_hull_facenum)]
     corners = np.concatenate([verts[ids] for ids in hulls] + [np.zeros((0, 3), np.float32)])
     counts = np.asarray([len(ids) for ids in hulls], np.int32)
+    bounded = [np.arange(a, a + k) if i in triangles else hulls[i]
+               for i, (a, k) in enumerate(zip(model.mesh_vertadr, model.mesh_vertnum))]
     meshes = Meshes()
     meshes.vert = arr(corners.astype(np.float32), wp.vec3)
     meshes.vertadr = arr(np.cumsum(counts) - counts, wp.int32)
     meshes.vertnum = arr(counts, wp.int32)
     meshes.rbound = arr(np.asarray([np.linalg.norm(verts[ids], axis=1).max(initial=0.0)
-                                    for ids in hulls], np.float32), float)
-    low = np.asarray([verts[ids].min(axis=0) if len(ids) else np.zeros(3) for ids in hulls],
+                                    for ids in bounded], np.float32), float)
+    low = np.asarray([verts[ids].min(axis=0) if len(ids) else np.zeros(3) for ids in bounded],
                      np.float32).reshape(-1, 3)
-    high = np.asarray([verts[ids].max(axis=0) if len(ids) else np.zeros(3) for ids in hulls],
+    high = np.asarray([verts[ids].max(axis=0) if len(ids) else np.zeros(3) for ids in bounded],
                       np.float32).reshape(-1, 3)
     meshes.box_center = arr((low + high) / 2, wp.vec3)
     meshes.box_half = arr((high - low) / 2, wp.vec3)
+    bvhs = {}
+    for i in sorted(triangles):
+        a, k = model.mesh_vertadr[i], model.mesh_vertnum[i]
+        f, nf = model.mesh_faceadr[i], model.mesh_facenum[i]
+        bvhs[i] = wp.Mesh(points=arr(verts[a:a + k].astype(np.float32), wp.vec3),
+                          indices=arr(model.mesh_face[f:f + nf].reshape(-1), wp.int32))
+    meshes.bvh = arr(np.asarray([bvhs[i].id if i in bvhs else 0 for i in range(len(counts))],
+                                np.uint64), wp.uint64)
     hfields = HFields()
     hfields.size = arr(model.hfield_size.reshape(-1, 4), wp.vec4)
     hfields.nrow = arr(model.hfield_nrow, wp.int32)
@@ -342,7 +357,7 @@ def shape_data(model, device) -> tuple[Meshes, HFields]:
     hfields.adr = arr(model.hfield_adr, wp.int32)
     hfields.data = arr(model.hfield_data, wp.float32)
     hfields.riser = arr(model.hfield_riser, wp.float32)
-    return meshes, hfields
+    return meshes, hfields, list(bvhs.values())
 
 
 # ------------------------------------------------------------------ per-env memory

@@ -62,12 +62,14 @@ def _xyzw(wxyz: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(wxyz[..., [1, 2, 3, 0]], dtype=np.float32)
 
 
+# copies, always: MuJoCo's int32 arrays would otherwise be shared, and a change to the Model
+# (`Model.collide_as_triangles`) would change the MjModel that renders and checks it
 def _f32(a) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=np.float32)
+    return np.array(a, dtype=np.float32, order="C")
 
 
 def _i32(a) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=np.int32)
+    return np.array(a, dtype=np.int32, order="C")
 
 
 _F32_MAX = float(np.finfo(np.float32).max)
@@ -528,7 +530,9 @@ def from_mujoco(m, source: str = "<MjModel>") -> Model:
         geom_conaffinity=_i32(m.geom_conaffinity), geom_condim=_i32(m.geom_condim),
         geom_dataid=_i32(m.geom_dataid), geom_fluid=_f32(m.geom_fluid.reshape(-1, 12)),
         mesh_vert=_f32(m.mesh_vert), mesh_vertadr=_i32(m.mesh_vertadr),
-        mesh_vertnum=_i32(m.mesh_vertnum), mesh_hull_face=hull_face,
+        mesh_vertnum=_i32(m.mesh_vertnum), mesh_face=_i32(m.mesh_face.reshape(-1, 3)),
+        mesh_faceadr=_i32(m.mesh_faceadr), mesh_facenum=_i32(m.mesh_facenum),
+        mesh_hull_face=hull_face,
         mesh_hull_faceadr=hull_faceadr, mesh_hull_facenum=hull_facenum,
         hfield_size=_f32(m.hfield_size), hfield_nrow=_i32(m.hfield_nrow),
         hfield_ncol=_i32(m.hfield_ncol), hfield_adr=_i32(m.hfield_adr),

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .types import JointType, SensorType
+from .types import GeomType, JointType, SensorType
 
 
 class ModelError(ValueError):
@@ -101,14 +101,18 @@ class Model:
     geom_contype: np.ndarray         # [ngeom]
     geom_conaffinity: np.ndarray     # [ngeom]
     geom_condim: np.ndarray          # [ngeom]
-    geom_dataid: np.ndarray          # [ngeom] mesh or hfield id, -1 if none
+    geom_dataid: np.ndarray          # [ngeom] mesh or hfield id, -1 if none (a TRIMESH: its mesh)
     geom_fluid: np.ndarray           # [ngeom, 12] MuJoCo's ellipsoid fluid model (fluidshape,
                                      # fluidcoef, virtual mass and inertia); [:, 0] = 0: not used
 
-    # meshes, kept as convex hulls for collision
+    # meshes, kept as convex hulls for collision (a TRIMESH geom's mesh: as its triangles)
     mesh_vert: np.ndarray            # [nvert, 3] all mesh vertices, in the mesh frame
     mesh_vertadr: np.ndarray         # [nmesh]
     mesh_vertnum: np.ndarray         # [nmesh]
+    mesh_face: np.ndarray            # [nface, 3] the mesh's own triangles: vertex ids local to
+                                     # the mesh, counterclockwise seen from outside
+    mesh_faceadr: np.ndarray         # [nmesh]
+    mesh_facenum: np.ndarray         # [nmesh]
     mesh_hull_face: np.ndarray       # [nface, 3] vertex ids (global, into mesh_vert) of hull triangles
     mesh_hull_faceadr: np.ndarray    # [nmesh]
     mesh_hull_facenum: np.ndarray    # [nmesh]
@@ -273,6 +277,37 @@ class Model:
         """The columns of `sim.sensor_data` that the sensor named `name` writes."""
         i = self.sensor_index(name)
         return slice(int(self.sensor_adr[i]), int(self.sensor_adr[i] + self.sensor_dim[i]))
+
+    def collide_as_triangles(self, geom: str | int, contype: int = 1,
+                             conaffinity: int = 1) -> None:
+        """Collide static mesh geom `geom` (a name or index) as its triangles, exactly, instead
+        of as its convex hull (MuJoCo's, and Myriad's default): a bin, a table, a room, terrain
+        that is not a height-field grid. The geom must not move (on the world body, or on
+        bodies joined to it by no joint), and its triangles must face outward
+        (counterclockwise seen from the side bodies are on; see
+        `stages.collision.trimesh`). `contype`/`conaffinity` replace the geom's: a mesh put in
+        MuJoCo's model with both 0 is drawn only, and MuJoCo builds no hull for it."""
+        g = _index(self.geom_names, geom, "geom") if isinstance(geom, str) else int(geom)
+        if not 0 <= g < self.ngeom:
+            raise ValueError(f"collide_as_triangles: geom {geom} is not in [0, {self.ngeom})")
+        label = self.geom_names[g] or f"geom {g}"
+        if self.geom_type[g] not in (GeomType.MESH, GeomType.TRIMESH):
+            raise ModelError(f"{self.source}: collide_as_triangles: {label} is a "
+                             f"{GeomType(self.geom_type[g]).name.lower()}, not a mesh")
+        b = int(self.geom_body[g])
+        while b >= 0:
+            if self.body_jntnum[b] > 0:
+                raise ModelError(f"{self.source}: collide_as_triangles: {label} is on body "
+                                 f"{self.body_names[int(self.geom_body[g])]!r}, which moves; "
+                                 "only static meshes collide as triangles (a moving mesh "
+                                 "collides as its convex hull, or as convex pieces)")
+            b = int(self.body_parent[b])
+        if self.mesh_facenum[self.geom_dataid[g]] == 0:
+            raise ModelError(f"{self.source}: collide_as_triangles: {label}'s mesh has no "
+                             "triangles")
+        self.geom_type[g] = GeomType.TRIMESH
+        self.geom_contype[g] = contype
+        self.geom_conaffinity[g] = conaffinity
 
     @property
     def force_sensor_sites(self) -> list[int]:

@@ -7,8 +7,8 @@ parent-child body pair (unless the parent is the world), and are not excluded by
 <exclude>. Bodies joined by a connect or weld equality do not collide either (PhysX's default
 for jointed bodies: a weld holding two touching bodies together left their contact nothing to
 do but push harder each step, and a driven arm carrying a welded tool blew up). Pairs are
-ordered so that geom type 1 <= geom type 2 (a plane always comes first);
-contact normals point from geom 1 to geom 2.
+ordered so that geom type 1 <= geom type 2, a static triangle mesh (TRIMESH) counted as a
+height field (the ground types always come first); contact normals point from geom 1 to geom 2.
 
 An explicit MJCF <contact><pair> (`Model.pair_geoms`) is a candidate whatever the filters above
 say (contype/conaffinity, parent-child, <exclude>, a connect or weld), as in MuJoCo; the pair
@@ -78,12 +78,17 @@ def candidate_pairs(model, self_collision=True) -> np.ndarray:
                     else self_collision.get(int(root[g1]), True)
                 if not allowed:
                     continue
-            if model.geom_type[g1] <= model.geom_type[g2]:
+            if _order(model.geom_type[g1]) <= _order(model.geom_type[g2]):
                 pairs.append((g1, g2))
             else:
                 pairs.append((g2, g1))
     pairs = np.asarray(pairs, dtype=np.int32).reshape(-1, 2)
     return pairs[~_overlapping_at_rest(model, pairs)]
+
+
+def _order(geom_type) -> int:
+    """A type's place in a pair: a static triangle mesh goes first, as terrain does."""
+    return GeomType.HFIELD if geom_type == GeomType.TRIMESH else int(geom_type)
 
 
 def _explicit(model) -> dict:
@@ -121,10 +126,12 @@ def _overlapping_at_rest(model, pairs: np.ndarray) -> np.ndarray:
     free_root = np.array([model.body_jntnum[r] > 0
                           and model.jnt_type[model.body_jntadr[r]] == JointType.FREE
                           for r in range(model.nbody)], dtype=bool)
-    ground = (GeomType.PLANE, GeomType.HFIELD)
+    ground = (GeomType.PLANE, GeomType.HFIELD, GeomType.TRIMESH)
 
     def same_robot(g1, g2):
         b1, b2 = body[g1], body[g2]
+        if GeomType.TRIMESH in (model.geom_type[g1], model.geom_type[g2]):
+            return False        # MuJoCo knows it as a hull, or as a drawn-only mesh
         if b1 >= 0 and b2 >= 0:
             return root[b1] == root[b2]
         b, static = (b2, g1) if b1 < 0 else (b1, g2)

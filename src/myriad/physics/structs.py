@@ -224,7 +224,9 @@ class Meshes:
     vertnum: wp.array(dtype=wp.int32)
     rbound: wp.array(dtype=float)      # per mesh: largest vertex distance from the mesh origin
     box_center: wp.array(dtype=wp.vec3)   # per mesh: the box round its hull, in the mesh frame
-    box_half: wp.array(dtype=wp.vec3)
+    box_half: wp.array(dtype=wp.vec3)     # (a TRIMESH geom's mesh: round all its vertices)
+    bvh: wp.array(dtype=wp.uint64)        # per mesh: the `wp.Mesh` id of its triangles where a
+                                          # TRIMESH geom uses it, else 0
 
 
 @wp.struct

@@ -59,6 +59,8 @@ class GeomType(IntEnum):
     CYLINDER = 5
     BOX = 6
     MESH = 7     # the convex hull of the mesh's vertices
+    TRIMESH = 9  # Myriad's own: a static mesh collided as its triangles, not its hull
+                 # (`Model.collide_as_triangles`; MuJoCo's model holds it as a mesh geom)
 
 
 class SensorType(IntEnum):
@@ -149,6 +151,7 @@ ELLIPSOID = wp.constant(int(GeomType.ELLIPSOID))
 CYLINDER = wp.constant(int(GeomType.CYLINDER))
 BOX = wp.constant(int(GeomType.BOX))
 MESH = wp.constant(int(GeomType.MESH))
+TRIMESH = wp.constant(int(GeomType.TRIMESH))
 
 INACTIVE = wp.constant(int(RowType.INACTIVE))
 NORMAL = wp.constant(int(RowType.NORMAL))

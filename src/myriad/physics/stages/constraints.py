@@ -33,7 +33,7 @@ from ..lanes import sync, world_lane
 from ..spatial import tangents, velocity_at
 from ..structs import Contacts, Dynamics, EnvParams, ModelArrays, Options, RowLayout, Rows, State
 from ..types import (CONNECT, DOF, EQ_JOINT, EQUALITY, FRICTION, FRICTION2, HFIELD, INACTIVE,
-                    NORMAL, PLANE, SOFT, WELD)
+                    NORMAL, PLANE, SOFT, TRIMESH, WELD)
 
 
 # a contact whose J M⁻¹ Jᵀ is below this fraction of its bodies' free 1/m1 + 1/m2 is dropped
@@ -297,12 +297,13 @@ def contact_rows(m: ModelArrays, e: int, at: wp.vec3i, h: float, rest_offset: fl
             a2 = wp.transform_point(wp.transform_inverse(x2), pos)
         c.anchor[e, k, 0] = a1
         c.anchor[e, k, 1] = a2
-        # a contact with the ground (a plane or height field: a foot) starts from its normal
+        # a contact with the ground (a plane, height field or static mesh: a foot) starts from its normal
         # impulse of the last substep, like a limit: a leg pressed down under load otherwise
         # sank 43 mm into the ground in a hard landing (the ant under random torques; 5 mm
         # warm). Other contacts start from zero (above); warm, a link pressed into a fixed
         # robot's base mesh at its joint limit pushed a UR5 1.4 rad past the limit
-        if same >= 0 and (m.geom_type[pair[0]] == PLANE or m.geom_type[pair[0]] == HFIELD):
+        ground = m.geom_type[pair[0]]
+        if same >= 0 and (ground == PLANE or ground == HFIELD or ground == TRIMESH):
             warm_n = rows.lam[e, 3 * same]
             if warm_n != 0.0:
                 build_contact_rows(m, e, r0, sp, factor, rows)

@@ -22,7 +22,7 @@ boxes and cylinders then correct its depth where one of them needs less translat
 import warp as wp
 
 from ...structs import Meshes
-from ...types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
+from ...types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, TRIMESH
 
 MPR_ITERATIONS = wp.constant(48)
 
@@ -59,7 +59,7 @@ epa_edges = wp.types.vector(length=EPA_VERTS, dtype=wp.int32)
 @wp.func
 def bounding_box(t: int, s: wp.vec3, dataid: int, meshes: Meshes):
     """(center, half extents) of a box in the geom's frame that holds the whole shape."""
-    if t == MESH:
+    if t == MESH or t == TRIMESH:
         return meshes.box_center[dataid], meshes.box_half[dataid]
     if t == SPHERE:
         return wp.vec3(), wp.vec3(s[0], s[0], s[0])

@@ -22,15 +22,18 @@ import warp as wp
 from ...spatial import tangents
 from ..kinematics import geom_frame
 from ...structs import Contacts, EnvParams, HFields, Meshes, ModelArrays, Options, State
-from ...types import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPHERE
+from ...types import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPHERE, TRIMESH
 from .convex import (bounding_box, bounding_radius, box_corner, boxes_apart,
                      convex_contact, mat43, support)
 from .heightfield import ellipsoid_probe, probe_point, riser_contact, surface
+from .trimesh import box_depth, clip_to_box, surface_point
 
 
-# probes per shape against a height field (see heightfield.probe_point); meshes: at most this many
-# of their vertices (the hull's vertices come first in MuJoCo's mesh data)
+# probes per shape against a height field or a triangle mesh (see heightfield.probe_point);
+# meshes: at most this many of their vertices (the hull's vertices come first in MuJoCo's data)
 HFIELD_PROBES = wp.constant(32)
+# a triangle mesh's edges that meet a box or capsule, each one contact (see trimesh)
+TRIMESH_EDGES = wp.constant(16)
 
 # a convex pair's extra contact points: the normal tilted by this (tan of the angle) to find the
 # corners of each shape's contact face, and the least distance between two kept points (m)
@@ -578,6 +581,106 @@ def _plane_mesh(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x2: w
             _emit(e, pair, key + which, q - n * (0.5 * dist), n, dist, margin, out)
 
 
+@wp.func
+def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, bvh: wp.uint64, t2: int,
+             x2: wp.transform, s2: wp.vec3, m2: int, meshes: Meshes, margin: float,
+             out: ContactSlots):
+    """Contacts of a shape (type t2) with a static triangle mesh (see trimesh): its probe
+    points against the surface (keys + 0..31), then, for boxes and capsules, the mesh's edges
+    that reach into it (keys + 16..31: boxes and capsules have 8 and 3 probes), for cylinders
+    their rims' lowest points (keys + 16, 17)."""
+    size = bounding_radius(t2, s2, m2, meshes)
+    c2 = wp.transform_get_translation(x2)
+    if t2 == ELLIPSOID:
+        # its point deepest along the normal at the closest point to its center
+        found, n, dist = surface_point(bvh, x1, c2, size + margin)
+        if found != 0:
+            point = support(t2, s2, -1, meshes, x2, -n, 0.0)
+            found, n, dist = surface_point(bvh, x1, point, size + margin)
+            if found != 0:
+                _emit(e, pair, key, point - n * (0.5 * dist), n, dist, margin, out)
+        return
+    for k in range(HFIELD_PROBES):
+        valid, point, radius = probe_point(t2, s2, m2, meshes, x2, k)
+        if valid != 0:
+            # a point behind a face by more than the shape's size is taken to be beyond it
+            found, n, dist = surface_point(bvh, x1, point, radius + wp.max(margin, size))
+            if found != 0:
+                dist -= radius
+                _emit(e, pair, key + k, point - n * (radius + 0.5 * dist), n, dist, margin, out)
+    if t2 == CYLINDER:
+        # a cylinder lying on its side touches along a line between its rims' lowest points,
+        # which its 16 rim probes miss by up to r·(1 - cos 22.5°): each rim's point deepest
+        # along the normal at the closest point to its center (keys + 16, + 17)
+        found, n, dist = surface_point(bvh, x1, c2, size + margin)
+        if found != 0:
+            axis = wp.quat_rotate(wp.transform_get_rotation(x2), wp.vec3(0.0, 0.0, 1.0))
+            down = -n - axis * wp.dot(-n, axis)
+            if wp.length(down) > 1.0e-6:
+                down = wp.normalize(down) * s2[0]
+                for side in range(2):
+                    point = c2 + axis * (s2[1] * (2.0 * float(side) - 1.0)) + down
+                    hit, normal, gap = surface_point(bvh, x1, point, size + margin)
+                    if hit != 0:
+                        _emit(e, pair, key + 16 + side, point - normal * (0.5 * gap), normal,
+                              gap, margin, out)
+        return
+    if t2 != BOX and t2 != CAPSULE:
+        return
+    # the mesh's edges near the shape (the box round its bounding sphere, in the mesh's frame),
+    # each once: a shared edge is taken from the triangle that walks it from the lower vertex id
+    local = wp.transform_point(wp.transform_inverse(x1), c2)
+    reach = wp.vec3(size + margin, size + margin, size + margin)
+    query = wp.mesh_query_aabb(bvh, local - reach, local + reach)
+    face = int(0)
+    found = int(0)
+    inv2 = wp.transform_inverse(x2)
+    while found < TRIMESH_EDGES and wp.mesh_query_aabb_next(query, face):
+        for j in range(3):
+            ia = 3 * face + j
+            ib = 3 * face + (j + 1) % 3
+            if found < TRIMESH_EDGES and wp.mesh_get_index(bvh, ia) < wp.mesh_get_index(bvh, ib):
+                a = wp.transform_point(x1, wp.mesh_get_point(bvh, ia))
+                b = wp.transform_point(x1, wp.mesh_get_point(bvh, ib))
+                hit = int(0)
+                n = wp.vec3()
+                dist = float(0.0)
+                pos = wp.vec3()
+                if t2 == CAPSULE:
+                    p2 = _segment(x2, s2[1], -1.0)
+                    q2 = _segment(x2, s2[1], 1.0)
+                    st = _closest_between_segments(a, b, p2, q2)
+                    on_edge = a + (b - a) * st[0]
+                    n, dist, pos = _spheres(on_edge, 0.0, p2 + (q2 - p2) * st[1], s2[0])
+                    hit = 1
+                else:
+                    # the deepest of the edge's part inside the box (grown by the offset): its
+                    # two ends there and its middle
+                    grown = s2 + wp.vec3(margin, margin, margin)
+                    la = wp.transform_point(inv2, a)
+                    lb = wp.transform_point(inv2, b)
+                    inside, t0, t1 = clip_to_box(grown, la, lb)
+                    if inside != 0:
+                        depth = float(-1.0e30)
+                        out_n = wp.vec3()
+                        at = wp.vec3()
+                        for i in range(3):
+                            t = t0 + (t1 - t0) * 0.5 * float(i)
+                            q = la + (lb - la) * t
+                            di, ni = box_depth(s2, q)
+                            if di > depth:
+                                depth = di
+                                out_n = ni
+                                at = q
+                        hit = 1
+                        n = -wp.quat_rotate(wp.transform_get_rotation(x2), out_n)
+                        dist = -depth
+                        pos = wp.transform_point(x2, at) + n * (0.5 * dist)
+                if hit != 0 and dist < margin:
+                    _emit(e, pair, key + 16 + found, pos, n, dist, margin, out)
+                    found += 1
+
+
 @wp.kernel
 def geom_frames(m: ModelArrays, p: EnvParams, meshes: Meshes,
                 s: State):   # in: body_x; out: geom_x, geom_bound
@@ -728,6 +831,15 @@ def _pair(m: ModelArrays, e: int, k: int, pairs: wp.array(dtype=wp.vec2i), p: En
                                 wp.vec3(0.0, 0.0, 1.0))
             if wp.dot(offset, up) > b2[3] + margin:
                 return
+    elif t1 == TRIMESH:
+        # the other's bounding sphere against the box round the mesh, in the mesh's frame
+        x1 = s.geom_x[e, g1]
+        local = wp.transform_point(wp.transform_inverse(x1), wp.vec3(b2[0], b2[1], b2[2]))
+        d = local - meshes.box_center[m.geom_dataid[g1]]
+        half = meshes.box_half[m.geom_dataid[g1]]
+        for i in range(3):
+            if wp.abs(d[i]) > half[i] + b2[3] + margin:
+                return
     elif t1 != HFIELD:
         reach = b1[3] + b2[3] + margin
         if wp.length_sq(offset) > reach * reach:
@@ -810,6 +922,9 @@ def _collide_pair(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.trans
                             dist = gap - radius
                             _emit(e, pair, p * 32 + 16 + k, point - wn * (radius + 0.5 * dist),
                                   wn, dist, margin, out)
+    elif t1 == TRIMESH:
+        _trimesh(e, pair, p * 32, x1, meshes.bvh[geom_dataid[g1]], t2, x2, s2, geom_dataid[g2],
+                 meshes, margin, out)
     elif t1 == SPHERE and t2 != SPHERE and t2 != CAPSULE and t2 != BOX:
         _convex(e, pair, p * 32, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
                 margin, out)

@@ -1,0 +1,198 @@
+"""Static triangle meshes (`Model.collide_as_triangles`, `Scene.add_triangle_mesh`,
+stages/collision/trimesh.py): a mesh collided as its triangles, not its convex hull.
+
+Scenes use Isaac Gym's settings (dt 1/60 in 2 substeps, TGS); heights are checked against the
+exact geometry: a shape resting on a face rests at its half-height, a sphere beside a ridge is
+measured to the ridge's edge.
+"""
+
+import mujoco
+import numpy as np
+import pytest
+import torch
+
+import myriad
+from myriad.api import Scene
+from myriad.physics import ModelError
+from myriad.physics.types import GeomType
+
+PARAMS = myriad.SimParams(dt=1 / 60, substeps=2)
+
+W, H = 0.5, 0.3        # the bin: a 1 m square floor at z = 0, walls 0.3 m high, faces inward
+BIN_VERTICES = np.array([[-W, -W, 0], [W, -W, 0], [W, W, 0], [-W, W, 0],
+                         [-W, -W, H], [W, -W, H], [W, W, H], [-W, W, H]], float)
+BIN_TRIANGLES = np.array([[0, 1, 2], [0, 2, 3],       # floor, normal +z
+                          [0, 4, 5], [0, 5, 1],       # wall y = -W, normal +y
+                          [1, 5, 6], [1, 6, 2],       # x = +W, normal -x
+                          [2, 6, 7], [2, 7, 3],       # y = +W, normal -y
+                          [3, 7, 4], [3, 4, 0]])      # x = -W, normal +x
+
+SHAPES = ['type="sphere" size="0.05"', 'type="box" size="0.05 0.04 0.03"',
+          'type="capsule" size="0.03 0.06"', 'type="cylinder" size="0.04 0.03"']
+
+
+def _resting_height(geom: str, quat_xyzw) -> float:
+    """Height of a shape's center above a flat floor it rests on in orientation `quat_xyzw`:
+    its support along -z."""
+    kind, size = geom.split('"')[1], [float(v) for v in geom.split('"')[3].split()]
+    x, y, z, w = quat_xyzw
+    axis_z = np.array([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])
+    if kind == "sphere":
+        return size[0]
+    if kind == "capsule":
+        return size[0] + size[1] * abs(axis_z[2])
+    if kind == "cylinder":
+        return size[1] * abs(axis_z[2]) + size[0] * np.sqrt(max(0.0, 1 - axis_z[2] ** 2))
+    world_z_row = np.array([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])
+    return float(np.abs(world_z_row) @ np.asarray(size))      # a box
+
+
+def _mesh_xml(vertices, triangles, bodies: str, pos="0 0 0") -> str:
+    verts = " ".join(f"{x:.9g}" for x in np.asarray(vertices).ravel())
+    faces = " ".join(str(int(i)) for i in np.asarray(triangles).ravel())
+    return (f'<mujoco><asset><mesh name="m" vertex="{verts}" face="{faces}" inertia="shell"/>'
+            f'</asset><worldbody><geom name="m" type="mesh" mesh="m" pos="{pos}" contype="0" '
+            f'conaffinity="0"/>{bodies}</worldbody></mujoco>')
+
+
+def _simulator(xml: str, num_envs: int = 1, device="cpu") -> myriad.Simulator:
+    model = myriad.load_xml(xml, "trimesh")
+    model.collide_as_triangles("m")
+    assert model.geom_type[model.geom_names.index("m")] == GeomType.TRIMESH
+    return myriad.Simulator(model, num_envs=num_envs, device=device, params=PARAMS)
+
+
+def test_shapes_dropped_into_a_bin_rest_on_its_floor(device):
+    """Each shape, dropped tilted into the bin, lands on its floor (its convex hull would hold
+    them at the rim, 0.3 m up) and comes to rest, its center at its exact support height for
+    the orientation it came to rest in (a cylinder on its side: its radius), within 1 mm."""
+    bodies = "".join(f'<body pos="{-0.3 + 0.2 * k} {0.1 * (k % 2)} 0.5" euler="{20 + 10 * k} 30 '
+                     f'{15 * k}"><freejoint/><geom {geom} mass="0.2"/></body>'
+                     for k, geom in enumerate(SHAPES))
+    sim = _simulator(_mesh_xml(BIN_VERTICES, BIN_TRIANGLES, bodies), device=device)
+    for _ in range(240):
+        sim.step()
+    q = sim.q[0].cpu().numpy().reshape(-1, 7)
+    v = sim.qd[0].cpu().numpy().reshape(-1, 6)
+    for k, geom in enumerate(SHAPES):
+        assert q[k, 2] == pytest.approx(_resting_height(geom, q[k, 3:]), abs=1e-3), geom
+        assert np.abs(v[k]).max() < 0.05, geom
+
+
+def test_walls_keep_a_thrown_ball_inside(device):
+    """A ball thrown at 3.6 m/s towards a corner meets the walls (faces whose normals point into
+    the bin) and stays inside, resting on the floor at the end. At impact it may reach into a
+    wall by a few millimetres, as into any static shape at that speed (25 mm per substep)."""
+    r = 0.05
+    sim = _simulator(_mesh_xml(BIN_VERTICES, BIN_TRIANGLES,
+                               f'<body pos="0 0 0.1"><freejoint/><geom type="sphere" size="{r}" '
+                               f'mass="0.2"/></body>'), device=device)
+    sim.qd[0, 0:3] = torch.tensor([3.0, 2.0, 0.0])
+    farthest = 0.0
+    for _ in range(300):
+        sim.step()
+        farthest = max(farthest, float(sim.q[0, 0:2].abs().max()))
+    assert farthest < W - r + 5e-3
+    assert float(sim.q[0, 2]) == pytest.approx(r, abs=1e-3)
+
+
+def test_a_sphere_beside_a_ridge_is_measured_to_the_edge(device):
+    """A roof-shaped ridge (two faces meeting along y at x = 0, z = 0.1, sloping down at 45°):
+    a sphere above and beside the ridge line, nearer its edge than either face's plane would
+    say, gets one contact whose distance is to the edge and whose normal points from the edge
+    to the sphere's center (a height field would measure along the face normal below it)."""
+    vertices = [[-1, -1, -1.0], [0, -1, 0.1], [0, 1, 0.1], [-1, 1, -1.0],
+                [1, -1, -1.0], [1, 1, -1.0]]
+    triangles = [[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]]
+    r, center = 0.05, np.array([0.03, 0.0, 0.1 + 0.052])
+    sim = _simulator(_mesh_xml(vertices, triangles,
+                               f'<body pos="{center[0]} {center[1]} {center[2]}"><freejoint/>'
+                               f'<geom type="sphere" size="{r}"/></body>'), device=device)
+    sim.collide()
+    n = int(sim.contact_count[0])
+    assert n == 1
+    edge = np.array([0.0, 0.0, 0.1])
+    expected = np.linalg.norm(center - edge) - r
+    assert float(sim.contact_dist[0, 0]) == pytest.approx(expected, abs=1e-5)
+    normal = (center - edge) / np.linalg.norm(center - edge)
+    np.testing.assert_allclose(sim.contact_normal[0, 0].cpu().numpy(), normal, atol=1e-5)
+
+
+def test_a_box_over_a_table_edge_rests_on_the_edge(device):
+    """A box hanging 40 % over the edge of a table mesh (its center of mass over the table)
+    rests level, held by its two corners on the table and the table's edge under its face; with
+    60 % over the edge it tips off. Corners alone would give no support under the overhang."""
+    # the table top: a 1 m square at z = 0, x in [-1, 0]; a closed slab 0.1 m thick
+    top = [[-1, -0.5, 0], [0, -0.5, 0], [0, 0.5, 0], [-1, 0.5, 0]]
+    bottom = [[x, y, -0.1] for x, y, _ in top]
+    vertices = np.array(top + bottom, float)
+    triangles = [[0, 1, 2], [0, 2, 3], [4, 6, 5], [4, 7, 6],          # top +z, bottom -z
+                 [1, 5, 6], [1, 6, 2], [0, 3, 7], [0, 7, 4],           # x = 0 (+x), x = -1
+                 [0, 4, 5], [0, 5, 1], [3, 2, 6], [3, 6, 7]]           # y = -0.5, y = +0.5
+    half = 0.1
+    bodies = "".join(f'<body pos="{half * (2 * share - 1)} {0.25 * k - 0.125} {0.05 + 0.001}">'
+                     f'<freejoint/><geom type="box" size="{half} 0.05 0.05" mass="1"/></body>'
+                     for k, share in enumerate((0.4, 0.6)))
+    sim = _simulator(_mesh_xml(vertices, triangles, bodies), device=device)
+    for _ in range(120):
+        sim.step()
+    q = sim.q[0].cpu().numpy().reshape(-1, 7)
+    # held: level (its quaternion's x, y near 0) at its half-height
+    assert q[0, 2] == pytest.approx(0.05, abs=2e-3)
+    assert np.abs(q[0, 3:5]).max() < 0.02
+    # tipped: fell below the table top
+    assert q[1, 2] < -0.05
+
+
+def test_a_box_lands_on_a_spike(device):
+    """A pyramid whose apex stands 0.2 m above a 1 m base: a box dropped onto the apex is held
+    by it (a mesh vertex inside the box's face), not let through to the base as probes of the
+    box's corners alone would."""
+    vertices = [[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0], [0, 0, 0.2]]
+    triangles = [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4], [0, 2, 1], [0, 3, 2]]
+    sim = _simulator(_mesh_xml(vertices, triangles,
+                               '<body pos="0 0 0.3"><freejoint/><geom type="box" '
+                               'size="0.05 0.05 0.02" mass="0.2"/></body>'), device=device)
+    for _ in range(30):
+        sim.step()
+    assert float(sim.q[0, 2]) == pytest.approx(0.22, abs=3e-3)
+
+
+def test_scene_places_a_triangle_mesh_for_every_env(device):
+    """`Scene.add_triangle_mesh`: the bin, raised by 0.2 m and turned about z, holds a ball in
+    each of two envs at the raised floor; the mesh is drawn in MuJoCo's model (a mesh geom)
+    and collides in Myriad's as its triangles."""
+    scene = Scene().add_triangle_mesh(BIN_VERTICES, BIN_TRIANGLES, pos=(0.0, 0.0, 0.2),
+                                      quat=(0.0, 0.0, np.sin(0.3), np.cos(0.3)))
+    ball = mujoco.MjSpec.from_string(
+        '<mujoco><worldbody><body pos="0.1 0 0.7"><freejoint/><geom type="sphere" size="0.05" '
+        'mass="0.2"/></body></worldbody></mujoco>')
+    envs = scene.add_actor("ball", ball, pos=None).build(2, device=device, params=PARAMS)
+    model = envs.model
+    g = model.geom_names.index("triangle_mesh0")
+    assert model.geom_type[g] == GeomType.TRIMESH
+    assert model.mj_model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH
+    for _ in range(90):
+        envs.step()
+    z = envs.root_states[:, 0, 2].cpu().numpy()
+    np.testing.assert_allclose(z, 0.25, atol=1e-3)
+
+
+def test_bad_meshes_are_refused_with_their_reason():
+    scene = Scene()
+    with pytest.raises(ValueError, match=r"\[V, 3\]"):
+        scene.add_triangle_mesh(np.zeros((4, 2)), [[0, 1, 2]])
+    with pytest.raises(ValueError, match=r"in \[0, 8\)"):
+        scene.add_triangle_mesh(BIN_VERTICES, [[0, 1, 8]])
+    with pytest.raises(ValueError, match="integer"):
+        scene.add_triangle_mesh(BIN_VERTICES, [[0.0, 1.0, 2.0]])
+    with pytest.raises(ValueError, match="zero area"):
+        scene.add_triangle_mesh(BIN_VERTICES, [[0, 0, 1]])
+    moving = myriad.load_xml(
+        '<mujoco><asset><mesh name="m" vertex="0 0 0 1 0 0 0 1 0 0 0 1"/></asset><worldbody>'
+        '<body name="lid"><freejoint/><geom name="m" type="mesh" mesh="m"/></body>'
+        '<geom name="floor" type="plane" size="1 1 1"/></worldbody></mujoco>', "moving")
+    with pytest.raises(ModelError, match="'lid', which moves"):
+        moving.collide_as_triangles("m")
+    with pytest.raises(ModelError, match="is a plane, not a mesh"):
+        moving.collide_as_triangles("floor")
