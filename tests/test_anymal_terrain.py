@@ -211,11 +211,21 @@ def test_the_penalty_curriculum_scales_the_costs_only():
         make("cpu", num_envs=2, **{"env.penaltyCurriculum.start": 0.0})
 
 
-def test_the_robot_stands_on_every_kind_of_tile(device):
+# the terrain as the original's triangle mesh (`env.terrain.mesh`), on a grid cut to the levels
+# and columns the tests use (7 levels, 10 columns: every kind; a 2 m border): 1 M triangles
+AS_MESH = {"env.terrain.mesh": True, "env.terrain.levels": 7, "env.terrain.types": 10,
+           "env.terrain.border": 2.0}
+
+
+@pytest.mark.parametrize("surface", ["height field", "mesh"])
+def test_the_robot_stands_on_every_kind_of_tile(device, surface):
     """Zero actions (PD to the default pose) on each kind of tile at level 6: once settled, the
-    base stays up and within 1 cm for 10 s, and no base touches the ground."""
-    task = make(device, num_envs=len(KINDS), pushInterval_s=1000)
-    kinds = [next(j for j in range(20) if column_kind(j, task.terrain_config)[0] == k)
+    base stays up and within 1 cm for 10 s, and no base touches the ground; on the height field
+    with risers and on the original's triangle mesh alike."""
+    task = make(device, num_envs=len(KINDS), pushInterval_s=1000,
+                **(AS_MESH if surface == "mesh" else {}))
+    kinds_in = task.terrain_config.types
+    kinds = [next(j for j in range(kinds_in) if column_kind(j, task.terrain_config)[0] == k)
              for k in range(len(KINDS))]
     place(task, [6] * len(kinds), kinds)
     for _ in range(300):                # 6 s to drop onto the legs and settle (on the rough
@@ -251,15 +261,19 @@ def _penetration(centres, radius, raw, cfg):
     return max(worst)
 
 
-def test_feet_do_not_sink_into_step_edges(device):
+@pytest.mark.parametrize("surface", ["height field", "mesh"])
+def test_feet_do_not_sink_into_step_edges(device, surface):
     """Six robots on the stairs of a stairs-up tile (0.155 m steps at level 6), set down across
     one 0.3 m step at 0.1 m intervals, under random actions for 1.5 s: they stumble over the
     step edges, feet pressing on the risers (horizontal contacts), and most topple down the
     stairs. Until its robot falls (its episode ends), no foot sphere reaches deeper than 1 cm
-    into the stepped terrain (vertical risers)."""
+    into the stepped terrain (vertical risers): the height field's risers and the original's
+    mesh (its walls' vertices moved under the step tops) alike."""
     torch.manual_seed(0)
-    task = make(device, num_envs=6, pushInterval_s=1000)
-    stairs = next(j for j in range(20) if column_kind(j, task.terrain_config)[0] == 3)
+    task = make(device, num_envs=6, pushInterval_s=1000,
+                **(AS_MESH if surface == "mesh" else {}))
+    stairs = next(j for j in range(task.terrain_config.types)
+                  if column_kind(j, task.terrain_config)[0] == 3)
     place(task, [6] * 6, [stairs] * 6)
     states = task.envs.root_states.clone()
     states[:, 0, 0] += torch.tensor([-3.3, -3.2, -3.1, -3.0, -2.9, -2.8], device=task.device)

@@ -212,7 +212,7 @@ def test_collision_reads_only_the_corners_of_a_mesh_hull():
     model = myriad.load_xml(f"""<mujoco><asset>
       <mesh name="m" vertex="{corners} 0 0 0 0.1 0 0"/></asset><worldbody>
       <body><freejoint/><geom type="mesh" mesh="m"/></body></worldbody></mujoco>""")
-    meshes, _ = shape_data(model, "cpu")
+    meshes, _, _ = shape_data(model, "cpu")
     assert meshes.vertnum.numpy().tolist() == [8]
     assert np.allclose(np.abs(meshes.vert.numpy()), 0.1, atol=1e-6)
     assert meshes.rbound.numpy()[0] == pytest.approx(0.1 * math.sqrt(3), rel=1e-5)

@@ -257,6 +257,14 @@ def test_fixed_joints_count_as_isaac_gym_counts_them_and_collapse_into_their_par
     upper = collapsed.body_props[1]
     assert upper.mass == pytest.approx(1.5)
     assert upper.com.z == pytest.approx((1.0 * 0.15 + 0.5 * 0.3) / 1.5)
+    # a fixed joint with dont_collapse="true" keeps its link (legged_gym's ANYmal finds its
+    # FOOT links so, and penalizes contacts of the shanks, not of the feet)
+    (tmp_path / "kept.urdf").write_text(ARM_URDF.replace('name="hand_joint" type="fixed"',
+                                                         'name="hand_joint" type="fixed" '
+                                                         'dont_collapse="true"'))
+    kept = gym.load_asset(sim, str(tmp_path), "kept.urdf", options)
+    assert gym.get_asset_rigid_body_names(kept) == ["base", "upper", "hand"]
+    assert [p.mass for p in kept.body_props] == pytest.approx([2.0, 1.0, 0.5])
     # the start pose of a body, before prepare_sim (FrankaCabinet reads it to place props)
     env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 1)
     gym.create_actor(env, arm, gymapi.Transform(gymapi.Vec3(0.5, 0.0, 1.0)), "arm", 0, 0, 0)

@@ -118,6 +118,24 @@ def test_a_sphere_beside_a_ridge_is_measured_to_the_edge(device):
     np.testing.assert_allclose(sim.contact_normal[0, 0].cpu().numpy(), normal, atol=1e-5)
 
 
+def test_a_sphere_in_a_corner_touches_both_faces(device):
+    """A sphere in the bin's corner between the floor and the wall x = -W, 1 mm from each:
+    two contacts, one with each face (the closest feature alone would give the nearer one),
+    each at its exact distance along that face's normal."""
+    r = 0.05
+    sim = _simulator(_mesh_xml(BIN_VERTICES, BIN_TRIANGLES,
+                               f'<body pos="{-W + r + 0.001} 0 {r + 0.0012}"><freejoint/>'
+                               f'<geom type="sphere" size="{r}"/></body>'), device=device)
+    sim.collide()
+    n = int(sim.contact_count[0])
+    normals = sim.contact_normal[0, :n].cpu().numpy()
+    dists = sim.contact_dist[0, :n].cpu().numpy()
+    assert n == 2
+    order = np.argsort(-normals[:, 2])          # the floor's first
+    np.testing.assert_allclose(normals[order], [[0, 0, 1], [1, 0, 0]], atol=1e-6)
+    np.testing.assert_allclose(dists[order], [0.0012, 0.001], atol=1e-6)
+
+
 def test_a_box_over_a_table_edge_rests_on_the_edge(device):
     """A box hanging 40 % over the edge of a table mesh (its center of mass over the table)
     rests level, held by its two corners on the table and the table's edge under its face; with

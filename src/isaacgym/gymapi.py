@@ -2269,27 +2269,36 @@ def _weightless_drawing(spec: mujoco.MjSpec) -> None:
             body.inertia = [0.4 * _DRAWN_BODY_MASS * 0.01 ** 2] * 3
 
 
-def _urdf_fixed_joints(path: str) -> dict:
-    """{child link: joint name} of a URDF's fixed joints (MuJoCo's model keeps no name for
-    them); {} for other files."""
+def _urdf_fixed_joints(path: str) -> tuple[dict, set]:
+    """({child link: joint name} of a URDF's fixed joints (MuJoCo's model keeps no name for
+    them), {child links whose fixed joint says dont_collapse="true"}); empty for other files."""
     if not path.lower().endswith(".urdf"):
-        return {}
+        return {}, set()
     import xml.etree.ElementTree as ET
     try:
         robot = ET.parse(path).getroot()
     except (ET.ParseError, OSError):
-        return {}
-    return {j.find("child").get("link"): j.get("name") for j in robot.iter("joint")
-            if j.get("type") == "fixed" and j.find("child") is not None}
+        return {}, set()
+    fixed = [j for j in robot.iter("joint")
+             if j.get("type") == "fixed" and j.find("child") is not None]
+    return ({j.find("child").get("link"): j.get("name") for j in fixed},
+            {j.find("child").get("link") for j in fixed
+             if j.get("dont_collapse", "").strip().lower() in ("true", "1")})
 
 
-def _collapse_fixed_joints(spec: mujoco.MjSpec, source: str) -> None:
+def _collapse_fixed_joints(spec: mujoco.MjSpec, source: str, keep: set = frozenset()) -> None:
     """Isaac Gym's collapse_fixed_joints: every link on a fixed joint (a body without joints,
     other than the root) merged into its parent: its shapes and sites move there, its mass and
     inertia are added to the parent's (MuJoCo's fusestatic, which turns the spec's fused bodies
-    into frames). The root stays a body, fixed base or not."""
+    into frames). The root stays a body, fixed base or not, and so do the links in `keep` (a
+    URDF joint's dont_collapse="true": legged_gym's ANYmal keeps its FOOT links so, to find its
+    feet by name and tell their contacts from the shanks'): each holds a joint while MuJoCo
+    fuses the others."""
     root = spec.worldbody.bodies[0]
-    anchor = root.add_freejoint(name="__collapse_anchor") if not list(root.joints) else None
+    anchors = [root.add_freejoint(name="__collapse_anchor")] if not list(root.joints) else []
+    for b in spec.bodies:
+        if b.name in keep and not list(b.joints):
+            anchors.append(b.add_joint(name=f"__keep_{b.name}", type=mujoco.mjtJoint.mjJNT_SLIDE))
     spec.compiler.fusestatic = True
     try:
         spec.compile()
@@ -2298,12 +2307,12 @@ def _collapse_fixed_joints(spec: mujoco.MjSpec, source: str) -> None:
                            f"model: {err}") from err
     finally:
         spec.compiler.fusestatic = False
-        if anchor is not None:
+        for anchor in anchors:
             spec.delete(anchor)
 
 
 def _finish_asset(spec: mujoco.MjSpec, options: AssetOptions, source: str,
-                  actuators: list, fixed_joints: dict | None = None) -> Asset:
+                  actuators: list, fixed_joints: tuple[dict, set] | None = None) -> Asset:
     """Apply density, armature and collapse_fixed_joints to a spec; make the Asset."""
     roots = spec.worldbody.bodies
     if len(roots) != 1:
@@ -2315,8 +2324,9 @@ def _finish_asset(spec: mujoco.MjSpec, options: AssetOptions, source: str,
             for g in b.geoms:
                 if not (g.mass > 0) and float(options.density) != 1000.0:
                     g.density = float(options.density)
+    names, kept = fixed_joints or ({}, set())
     if options.collapse_fixed_joints:
-        _collapse_fixed_joints(spec, source)
+        _collapse_fixed_joints(spec, source, kept)
         bodies = [b for b in spec.bodies if b.name != "world"]
     if options.vhacd_enabled:
         _decompose_meshes(spec, options.vhacd_params, source)
@@ -2342,7 +2352,7 @@ def _finish_asset(spec: mujoco.MjSpec, options: AssetOptions, source: str,
                 b.iquat = m.body_iquat[i].tolist()
                 b.inertia = (m.body_inertia[i] + armature).tolist()
                 b.fullinertia = [np.nan] * 6
-    return Asset(spec, options, source, actuators, fixed_joints)
+    return Asset(spec, options, source, actuators, names)
 
 
 def _height_grid(vertices: np.ndarray, triangles: np.ndarray):

@@ -12,12 +12,15 @@ NumPy's global generator (`np.random`), which those projects seed.
 up; with a slope threshold, a vertex below a neighbour that is steeper than the threshold moves
 under that neighbour, so steps become vertical walls instead of ramps. Myriad's
 `add_triangle_mesh` recognizes such a grid mesh and simulates it as a height field with those
-walls (`myriad.api.Scene.add_terrain(riser=...)`).
+walls (`myriad.api.Scene.add_terrain(riser=...)`); any other mesh collides as its triangles.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+# the same mesh Myriad's AnymalTerrain builds for its `terrain.mesh` option
+from myriad.tasks.terrain import heightfield_to_mesh as convert_heightfield_to_trimesh
 
 __all__ = ["SubTerrain", "random_uniform_terrain", "sloped_terrain", "pyramid_sloped_terrain",
            "discrete_obstacles_terrain", "wave_terrain", "stairs_terrain",
@@ -207,37 +210,3 @@ def stepping_stones_terrain(terrain: SubTerrain, stone_size: float, stone_distan
         start += size + gap
     _flatten_platform(terrain, platform_size)
     return terrain
-
-
-def convert_heightfield_to_trimesh(height_field_raw: np.ndarray, horizontal_scale: float,
-                                   vertical_scale: float, slope_threshold: float | None = None):
-    """The height field as a triangle mesh: vertices [rows·cols, 3] float32 (m; sample (i, j)
-    at (i·horizontal_scale, j·horizontal_scale), row-major), triangles [2·(rows-1)·(cols-1), 3]
-    uint32, counter-clockwise seen from above. With `slope_threshold` (m/m): a vertex whose
-    neighbour along x or y is higher by more than threshold·horizontal_scale moves
-    horizontally under that neighbour, making the step a vertical wall."""
-    hf = np.asarray(height_field_raw)
-    if hf.ndim != 2 or min(hf.shape) < 2:
-        raise ValueError(f"convert_heightfield_to_trimesh: height_field_raw must be a 2-D grid "
-                         f"of at least 2 x 2 samples, not shape {hf.shape}")
-    rows, cols = hf.shape
-    x = np.arange(rows, dtype=np.float64)[:, None] * np.ones((1, cols))
-    y = np.ones((rows, 1)) * np.arange(cols, dtype=np.float64)[None, :]
-    if slope_threshold is not None:
-        jump = slope_threshold * horizontal_scale / vertical_scale    # in raw units
-        h = hf.astype(np.float64)
-        move_x, move_y = np.zeros((rows, cols)), np.zeros((rows, cols))
-        move_x[:-1, :] += h[1:, :] - h[:-1, :] > jump       # next sample along x is higher
-        move_x[1:, :] -= h[:-1, :] - h[1:, :] > jump        # previous one is higher
-        move_y[:, :-1] += h[:, 1:] - h[:, :-1] > jump
-        move_y[:, 1:] -= h[:, :-1] - h[:, 1:] > jump
-        x += move_x
-        y += move_y
-        x, y = np.clip(x, 0, rows - 1), np.clip(y, 0, cols - 1)   # the border stays put
-    vertices = np.stack([x.ravel() * horizontal_scale, y.ravel() * horizontal_scale,
-                         hf.ravel().astype(np.float64) * vertical_scale], axis=1)
-    corner = (np.arange(rows - 1)[:, None] * cols + np.arange(cols - 1)[None, :]).ravel()
-    triangles = np.empty((2 * corner.size, 3), dtype=np.uint32)
-    triangles[0::2] = np.stack([corner, corner + cols + 1, corner + 1], axis=1)
-    triangles[1::2] = np.stack([corner, corner + cols, corner + cols + 1], axis=1)
-    return vertices.astype(np.float32), triangles

@@ -188,6 +188,41 @@ def generate_terrain(config: TerrainConfig | None = None, seed: int = 0) -> Terr
     return Terrain(config, raw, (raw * config.vertical_scale).astype(np.float32), origins, kinds)
 
 
+def heightfield_to_mesh(height_field_raw: np.ndarray, horizontal_scale: float,
+                        vertical_scale: float, slope_threshold: float | None = None):
+    """The height field as a triangle mesh, as Isaac Gym's terrain_utils builds it for PhysX
+    (`isaacgym.terrain_utils.convert_heightfield_to_trimesh` is this function): vertices
+    [rows·cols, 3] float32 (m; sample (i, j) at (i·horizontal_scale, j·horizontal_scale),
+    row-major), triangles [2·(rows-1)·(cols-1), 3] uint32, counter-clockwise seen from above. With `slope_threshold` (m/m): a vertex whose
+    neighbour along x or y is higher by more than threshold·horizontal_scale moves
+    horizontally under that neighbour, making the step a vertical wall."""
+    hf = np.asarray(height_field_raw)
+    if hf.ndim != 2 or min(hf.shape) < 2:
+        raise ValueError(f"heightfield_to_mesh: height_field_raw must be a 2-D grid "
+                         f"of at least 2 x 2 samples, not shape {hf.shape}")
+    rows, cols = hf.shape
+    x = np.arange(rows, dtype=np.float64)[:, None] * np.ones((1, cols))
+    y = np.ones((rows, 1)) * np.arange(cols, dtype=np.float64)[None, :]
+    if slope_threshold is not None:
+        jump = slope_threshold * horizontal_scale / vertical_scale    # in raw units
+        h = hf.astype(np.float64)
+        move_x, move_y = np.zeros((rows, cols)), np.zeros((rows, cols))
+        move_x[:-1, :] += h[1:, :] - h[:-1, :] > jump       # next sample along x is higher
+        move_x[1:, :] -= h[:-1, :] - h[1:, :] > jump        # previous one is higher
+        move_y[:, :-1] += h[:, 1:] - h[:, :-1] > jump
+        move_y[:, 1:] -= h[:, :-1] - h[:, 1:] > jump
+        x += move_x
+        y += move_y
+        x, y = np.clip(x, 0, rows - 1), np.clip(y, 0, cols - 1)   # the border stays put
+    vertices = np.stack([x.ravel() * horizontal_scale, y.ravel() * horizontal_scale,
+                         hf.ravel().astype(np.float64) * vertical_scale], axis=1)
+    corner = (np.arange(rows - 1)[:, None] * cols + np.arange(cols - 1)[None, :]).ravel()
+    triangles = np.empty((2 * corner.size, 3), dtype=np.uint32)
+    triangles[0::2] = np.stack([corner, corner + cols + 1, corner + 1], axis=1)
+    triangles[1::2] = np.stack([corner, corner + cols, corner + cols + 1], axis=1)
+    return vertices.astype(np.float32), triangles
+
+
 def height_points(device="cpu") -> torch.Tensor:
     """The 140 points [140, 3] (base frame, yaw only; z = 0) where the policy reads the terrain:
     x in ±0.2…±0.8 m and y in ±0.1…±0.5 m, every 0.1 m (x-major)."""
@@ -238,8 +273,18 @@ class TerrainCurriculum:
         self.terrain = generate_terrain(self.terrain_config, seed=int(terrain["seed"]))
 
     def add_terrain(self, scene, env: dict):
-        """`scene` with the grid as its shared height field (geom "terrain")."""
+        """`scene` with the grid as its shared height field (geom "terrain"), or with
+        `env.terrain.mesh` as the triangle mesh the original gives PhysX (its steps' vertices
+        moved under their tops: vertical walls), collided as its triangles (slower; the
+        height field's risers give the same walls)."""
         t, c = self.terrain, self.terrain_config
+        if env["terrain"].get("mesh", False):
+            vertices, triangles = heightfield_to_mesh(t.raw, c.horizontal_scale,
+                                                      c.vertical_scale,
+                                                      env["terrain"]["slopeThreshold"])
+            vertices[:, :2] -= c.border
+            return scene.add_triangle_mesh(vertices, triangles.astype(np.int64),
+                                           friction=env["terrain"]["staticFriction"])
         return scene.add_terrain(
             t.heights, c.horizontal_scale, origin=(-c.border, -c.border),
             friction=env["terrain"]["staticFriction"],

@@ -26,7 +26,7 @@ from ...types import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPH
 from .convex import (bounding_box, bounding_radius, box_corner, boxes_apart,
                      convex_contact, mat43, support)
 from .heightfield import ellipsoid_probe, probe_point, riser_contact, surface
-from .trimesh import box_depth, clip_to_box, surface_point
+from .trimesh import box_depth, clip_to_box, face_plane, surface_point
 
 
 # probes per shape against a height field or a triangle mesh (see heightfield.probe_point);
@@ -586,33 +586,63 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, bvh: wp.uint64,
              x2: wp.transform, s2: wp.vec3, m2: int, meshes: Meshes, margin: float,
              out: ContactSlots):
     """Contacts of a shape (type t2) with a static triangle mesh (see trimesh): its probe
-    points against the surface (keys + 0..31), then, for boxes and capsules, the mesh's edges
-    that reach into it (keys + 16..31: boxes and capsules have 8 and 3 probes), for cylinders
-    their rims' lowest points (keys + 16, 17)."""
+    points against the surface (keys + 0..31), a round probe's other faces, and, for boxes and
+    capsules, the mesh's edges that reach into it (keys + 16..31, at most TRIMESH_EDGES of
+    them: spheres, capsules and boxes have 1, 3 and 8 probes), for cylinders their rims'
+    lowest points (keys + 16, 17)."""
     size = bounding_radius(t2, s2, m2, meshes)
     c2 = wp.transform_get_translation(x2)
+    # the broadphase: no face in the box round the shape's bounding sphere (in the mesh's
+    # frame), no contact; one walk down the BVH instead of a query per probe (terrain holds
+    # a robot's every link, most of them far above it)
+    centre = wp.transform_point(wp.transform_inverse(x1), c2)
+    bound = wp.vec3(size + margin, size + margin, size + margin)
+    near = wp.mesh_query_aabb(bvh, centre - bound, centre + bound)
+    first = int(0)
+    if not wp.mesh_query_aabb_next(near, first):
+        return
     if t2 == ELLIPSOID:
         # its point deepest along the normal at the closest point to its center
-        found, n, dist = surface_point(bvh, x1, c2, size + margin)
+        found, n, dist, face = surface_point(bvh, x1, c2, size + margin)
         if found != 0:
             point = support(t2, s2, -1, meshes, x2, -n, 0.0)
-            found, n, dist = surface_point(bvh, x1, point, size + margin)
+            found, n, dist, face = surface_point(bvh, x1, point, size + margin)
             if found != 0:
                 _emit(e, pair, key, point - n * (0.5 * dist), n, dist, margin, out)
         return
+    extra = int(0)      # contacts past the probes' own, keys + 16 + extra
+    rot1 = wp.transform_get_rotation(x1)
     for k in range(HFIELD_PROBES):
         valid, point, radius = probe_point(t2, s2, m2, meshes, x2, k)
         if valid != 0:
             # a point behind a face by more than the shape's size is taken to be beyond it
-            found, n, dist = surface_point(bvh, x1, point, radius + wp.max(margin, size))
+            found, n, dist, face = surface_point(bvh, x1, point, radius + wp.max(margin, size))
             if found != 0:
                 dist -= radius
                 _emit(e, pair, key + k, point - n * (radius + 0.5 * dist), n, dist, margin, out)
+            if radius > 0.0:
+                # the other faces whose prisms hold the point within its radius: the second
+                # side of a crease (each face once: coplanar neighbours share their edge)
+                local = wp.transform_point(wp.transform_inverse(x1), point)
+                reach = wp.vec3(radius + margin, radius + margin, radius + margin)
+                query = wp.mesh_query_aabb(bvh, local - reach, local + reach)
+                other = int(0)
+                kept_n = wp.quat_rotate_inv(rot1, n)
+                while extra < TRIMESH_EDGES and wp.mesh_query_aabb_next(query, other):
+                    if other != face:
+                        inside, fn, height = face_plane(bvh, other, local)
+                        gap = height - radius
+                        if inside != 0 and gap < margin and height > -size \
+                                and wp.dot(fn, kept_n) < 0.999:
+                            normal = wp.quat_rotate(rot1, fn)
+                            _emit(e, pair, key + 16 + extra, point - normal * (radius + 0.5 * gap),
+                                  normal, gap, margin, out)
+                            extra += 1
     if t2 == CYLINDER:
         # a cylinder lying on its side touches along a line between its rims' lowest points,
         # which its 16 rim probes miss by up to r·(1 - cos 22.5°): each rim's point deepest
         # along the normal at the closest point to its center (keys + 16, + 17)
-        found, n, dist = surface_point(bvh, x1, c2, size + margin)
+        found, n, dist, face = surface_point(bvh, x1, c2, size + margin)
         if found != 0:
             axis = wp.quat_rotate(wp.transform_get_rotation(x2), wp.vec3(0.0, 0.0, 1.0))
             down = -n - axis * wp.dot(-n, axis)
@@ -620,7 +650,7 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, bvh: wp.uint64,
                 down = wp.normalize(down) * s2[0]
                 for side in range(2):
                     point = c2 + axis * (s2[1] * (2.0 * float(side) - 1.0)) + down
-                    hit, normal, gap = surface_point(bvh, x1, point, size + margin)
+                    hit, normal, gap, face = surface_point(bvh, x1, point, size + margin)
                     if hit != 0:
                         _emit(e, pair, key + 16 + side, point - normal * (0.5 * gap), normal,
                               gap, margin, out)
@@ -633,13 +663,12 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, bvh: wp.uint64,
     reach = wp.vec3(size + margin, size + margin, size + margin)
     query = wp.mesh_query_aabb(bvh, local - reach, local + reach)
     face = int(0)
-    found = int(0)
     inv2 = wp.transform_inverse(x2)
-    while found < TRIMESH_EDGES and wp.mesh_query_aabb_next(query, face):
+    while extra < TRIMESH_EDGES and wp.mesh_query_aabb_next(query, face):
         for j in range(3):
             ia = 3 * face + j
             ib = 3 * face + (j + 1) % 3
-            if found < TRIMESH_EDGES and wp.mesh_get_index(bvh, ia) < wp.mesh_get_index(bvh, ib):
+            if extra < TRIMESH_EDGES and wp.mesh_get_index(bvh, ia) < wp.mesh_get_index(bvh, ib):
                 a = wp.transform_point(x1, wp.mesh_get_point(bvh, ia))
                 b = wp.transform_point(x1, wp.mesh_get_point(bvh, ib))
                 hit = int(0)
@@ -677,8 +706,8 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, bvh: wp.uint64,
                         dist = -depth
                         pos = wp.transform_point(x2, at) + n * (0.5 * dist)
                 if hit != 0 and dist < margin:
-                    _emit(e, pair, key + 16 + found, pos, n, dist, margin, out)
-                    found += 1
+                    _emit(e, pair, key + 16 + extra, pos, n, dist, margin, out)
+                    extra += 1
 
 
 @wp.kernel

@@ -10,7 +10,10 @@ against it (`narrowphase._trimesh`):
   convex mesh's first hull vertices; an ellipsoid's point deepest along the normal under its
   center): each finds the closest point of the whole mesh (`surface_point`), and its signed
   distance is exact, the sign from the angle-weighted normal at the closest feature (face, edge
-  or vertex), which stays right across creases and ridges.
+  or vertex), which stays right across creases and ridges. A round probe (a sphere's center, a
+  capsule's points) also meets every other face whose prism it stands in, within its radius
+  (`face_plane`): a foot in the corner of a step touches the tread and the riser, not only the
+  nearer of the two.
 - The mesh's edges into boxes and capsules (`box_depth`, `clip_to_box`, and the segment test in
   the narrowphase): an edge or vertex of the mesh under a face of the shape, between the shape's
   own probes (a box lying over a table's edge, a capsule across a ridge), makes a contact at
@@ -30,18 +33,43 @@ import warp as wp
 @wp.func
 def surface_point(bvh: wp.uint64, x: wp.transform, point: wp.vec3, reach: float):
     """(found, outward normal at the closest point, in the world; signed distance of `point`
-    from the surface: negative inside) for the closest point of the mesh within `reach`."""
+    from the surface: negative inside; the face it lies on) for the closest point of the mesh
+    within `reach`."""
     local = wp.transform_point(wp.transform_inverse(x), point)
     query = wp.mesh_query_point_sign_normal(bvh, local, reach)
     if not query.result:
-        return 0, wp.vec3(), 0.0
+        return 0, wp.vec3(), 0.0, -1
     closest = wp.mesh_eval_position(bvh, query.face, query.u, query.v)
     d = local - closest
     length = wp.length(d)
     n = wp.mesh_eval_face_normal(bvh, query.face)
     if length > 1.0e-9:
         n = d * (query.sign / length)     # inside, d points inward: the normal is -d
-    return 1, wp.quat_rotate(wp.transform_get_rotation(x), n), length * query.sign
+    return 1, wp.quat_rotate(wp.transform_get_rotation(x), n), length * query.sign, query.face
+
+
+@wp.func
+def face_plane(bvh: wp.uint64, face: int, local: wp.vec3):
+    """(whether `local` (mesh frame) lies in the prism over the face: its foot on the face's
+    plane inside the triangle; the face's normal, mesh frame; the signed distance from that
+    plane)."""
+    a = wp.mesh_get_point(bvh, 3 * face)
+    b = wp.mesh_get_point(bvh, 3 * face + 1)
+    c = wp.mesh_get_point(bvh, 3 * face + 2)
+    n = wp.cross(b - a, c - a)
+    area = wp.length(n)
+    if area < 1.0e-12:
+        return 0, wp.vec3(), 0.0
+    n = n / area
+    # the foot is inside when it lies on the inner side of all three edges
+    inside = int(1)
+    if wp.dot(wp.cross(b - a, local - a), n) < 0.0:
+        inside = 0
+    if wp.dot(wp.cross(c - b, local - b), n) < 0.0:
+        inside = 0
+    if wp.dot(wp.cross(a - c, local - c), n) < 0.0:
+        inside = 0
+    return inside, n, wp.dot(local - a, n)
 
 
 @wp.func
