@@ -8,7 +8,8 @@
 #   tests   the test suite on CUDA, one pytest process per file
 #   soak    every task under random actions for two episode lengths: nothing may go non-finite
 #   train   short training runs that time the paper's milestones
-#   isaacgym  (not in the default list) the isaacgym layer's cost against Myriad's own API
+#   isaacgym  (not in the default list) the isaacgym layer's cost against Myriad's own API,
+#           and AnymalTerrain on its height field against the original's triangle mesh
 # Run from the repository root on a machine with an NVIDIA GPU (benchmarks/device_bundle.sh packs
 # the packages it lacks and the kernel cache, and prints the calls), with the engine's CUDA kernels
 # compiled beforehand on the CPU machine (a cold NVRTC build is minutes of idle device time;
@@ -127,7 +128,11 @@ Anymal 120 10 40}"
       for envs in ${ISAACGYM_ENVS:-4096 16384}; do
         timeout 200 python3 benchmarks/isaacgym_layer.py --device "$DEVICE" --envs "$envs" \
           --rounds 10 --steps 20 2>&1 | tee -a "$LOGS/isaacgym_layer.log" | grep -v "^Module"
-      done ;;
+      done
+      # the original's terrain is a 4.8 M-triangle mesh (IsaacGymEnvs, legged_gym): its cost
+      # against the height field it came from, in AnymalTerrain
+      timeout 200 python3 benchmarks/terrain_mesh.py --device "$DEVICE" --envs 4096 \
+        --rounds 6 --steps 20 2>&1 | tee -a "$LOGS/terrain_mesh.log" | grep -v "^Module" ;;
     *) echo "unknown stage $stage (peers, lanes, tests, soak, train, isaacgym)"; exit 2 ;;
   esac
   echo "== $stage: $((SECONDS - start)) s; skipped to stay inside the budget: ${skipped:-nothing}"

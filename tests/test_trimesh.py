@@ -101,11 +101,8 @@ def test_a_sphere_beside_a_ridge_is_measured_to_the_edge(device):
     a sphere above and beside the ridge line, nearer its edge than either face's plane would
     say, gets one contact whose distance is to the edge and whose normal points from the edge
     to the sphere's center (a height field would measure along the face normal below it)."""
-    vertices = [[-1, -1, -1.0], [0, -1, 0.1], [0, 1, 0.1], [-1, 1, -1.0],
-                [1, -1, -1.0], [1, 1, -1.0]]
-    triangles = [[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]]
     r, center = 0.05, np.array([0.03, 0.0, 0.1 + 0.052])
-    sim = _simulator(_mesh_xml(vertices, triangles,
+    sim = _simulator(_mesh_xml(RIDGE_VERTICES, RIDGE_TRIANGLES,
                                f'<body pos="{center[0]} {center[1]} {center[2]}"><freejoint/>'
                                f'<geom type="sphere" size="{r}"/></body>'), device=device)
     sim.collide()
@@ -116,6 +113,36 @@ def test_a_sphere_beside_a_ridge_is_measured_to_the_edge(device):
     assert float(sim.contact_dist[0, 0]) == pytest.approx(expected, abs=1e-5)
     normal = (center - edge) / np.linalg.norm(center - edge)
     np.testing.assert_allclose(sim.contact_normal[0, 0].cpu().numpy(), normal, atol=1e-5)
+
+
+RIDGE_VERTICES = [[-1, -1, -1.0], [0, -1, 0.1], [0, 1, 0.1], [-1, 1, -1.0], [1, -1, -1.0],
+                  [1, 1, -1.0]]
+RIDGE_TRIANGLES = [[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]]
+
+
+def test_shapes_lying_across_a_ridge_meet_its_edge(device):
+    """A box, a capsule, a cylinder and an ellipsoid lying across the ridge of the roof (their
+    long axes along x, over its edge along y at z = 0.1), 2 mm above it: each touches the edge
+    between its own probe points, at 2 mm along +z (the faces fall away at 45° below them)."""
+    gap = 0.002
+    shapes = [('type="box" size="0.1 0.04 0.03"', 0.03, ""),
+              ('type="capsule" size="0.03 0.1"', 0.03, 'euler="0 90 0"'),
+              ('type="cylinder" size="0.04 0.1"', 0.04, 'euler="0 90 0"'),
+              ('type="ellipsoid" size="0.1 0.04 0.03"', 0.03, "")]
+    bodies = "".join(f'<body pos="0 {-0.6 + 0.4 * k} {0.1 + low + gap}" {turn}><freejoint/>'
+                     f'<geom {geom}/></body>' for k, (geom, low, turn) in enumerate(shapes))
+    sim = _simulator(_mesh_xml(RIDGE_VERTICES, RIDGE_TRIANGLES, bodies), device=device)
+    sim.collide()
+    n = int(sim.contact_count[0])
+    body = sim.model.geom_body[sim.contact_geom[0, :n, 1].cpu().numpy()]
+    dist = sim.contact_dist[0, :n].cpu().numpy()
+    normal = sim.contact_normal[0, :n].cpu().numpy()
+    for k, (geom, _, _) in enumerate(shapes):
+        mine = np.flatnonzero(body == k)
+        assert len(mine), geom
+        nearest = mine[np.argmin(dist[mine])]
+        assert dist[nearest] == pytest.approx(gap, abs=2e-5), geom
+        np.testing.assert_allclose(normal[nearest], [0, 0, 1], atol=1e-3, err_msg=geom)
 
 
 def test_a_sphere_in_a_corner_touches_both_faces(device):

@@ -586,21 +586,26 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, bvh: wp.uint64,
              x2: wp.transform, s2: wp.vec3, m2: int, meshes: Meshes, margin: float,
              out: ContactSlots):
     """Contacts of a shape (type t2) with a static triangle mesh (see trimesh): its probe
-    points against the surface (keys + 0..31), a round probe's other faces, and, for boxes and
-    capsules, the mesh's edges that reach into it (keys + 16..31, at most TRIMESH_EDGES of
-    them: spheres, capsules and boxes have 1, 3 and 8 probes), for cylinders their rims'
-    lowest points (keys + 16, 17)."""
+    points against the surface; a round probe's other faces; a cylinder's lowest rim points;
+    the mesh's edges that reach into a box, capsule, cylinder or ellipsoid. At most
+    TRIMESH_EDGES contacts past the probes'. Keys: a probe's index (0..31; an ellipsoid's
+    support point 0), then 16 + (its face, or its edge's two vertices) mod 16 (a cylinder: 16,
+    17 for its rims, 18 + ... mod 14 after them), so that a contact keeps its key, and its
+    friction anchors, from one substep to the next whatever else the mesh finds."""
     size = bounding_radius(t2, s2, m2, meshes)
     c2 = wp.transform_get_translation(x2)
     # the broadphase: no face in the box round the shape's bounding sphere (in the mesh's
     # frame), no contact; one walk down the BVH instead of a query per probe (terrain holds
     # a robot's every link, most of them far above it)
-    centre = wp.transform_point(wp.transform_inverse(x1), c2)
+    rot1 = wp.transform_get_rotation(x1)
+    inv1 = wp.transform_inverse(x1)
+    centre = wp.transform_point(inv1, c2)
     bound = wp.vec3(size + margin, size + margin, size + margin)
     near = wp.mesh_query_aabb(bvh, centre - bound, centre + bound)
     first = int(0)
     if not wp.mesh_query_aabb_next(near, first):
         return
+    extra = int(0)
     if t2 == ELLIPSOID:
         # its point deepest along the normal at the closest point to its center
         found, n, dist, face = surface_point(bvh, x1, c2, size + margin)
@@ -609,39 +614,42 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, bvh: wp.uint64,
             found, n, dist, face = surface_point(bvh, x1, point, size + margin)
             if found != 0:
                 _emit(e, pair, key, point - n * (0.5 * dist), n, dist, margin, out)
-        return
-    extra = int(0)      # contacts past the probes' own, keys + 16 + extra
-    rot1 = wp.transform_get_rotation(x1)
-    for k in range(HFIELD_PROBES):
-        valid, point, radius = probe_point(t2, s2, m2, meshes, x2, k)
-        if valid != 0:
-            # a point behind a face by more than the shape's size is taken to be beyond it
-            found, n, dist, face = surface_point(bvh, x1, point, radius + wp.max(margin, size))
-            if found != 0:
-                dist -= radius
-                _emit(e, pair, key + k, point - n * (radius + 0.5 * dist), n, dist, margin, out)
-            if radius > 0.0:
-                # the other faces whose prisms hold the point within its radius: the second
-                # side of a crease (each face once: coplanar neighbours share their edge)
-                local = wp.transform_point(wp.transform_inverse(x1), point)
-                reach = wp.vec3(radius + margin, radius + margin, radius + margin)
-                query = wp.mesh_query_aabb(bvh, local - reach, local + reach)
-                other = int(0)
-                kept_n = wp.quat_rotate_inv(rot1, n)
-                while extra < TRIMESH_EDGES and wp.mesh_query_aabb_next(query, other):
-                    if other != face:
-                        inside, fn, height = face_plane(bvh, other, local)
-                        gap = height - radius
-                        if inside != 0 and gap < margin and height > -size \
-                                and wp.dot(fn, kept_n) < 0.999:
-                            normal = wp.quat_rotate(rot1, fn)
-                            _emit(e, pair, key + 16 + extra, point - normal * (radius + 0.5 * gap),
-                                  normal, gap, margin, out)
-                            extra += 1
+    else:
+        for k in range(HFIELD_PROBES):
+            valid, point, radius = probe_point(t2, s2, m2, meshes, x2, k)
+            if valid != 0:
+                # a point behind a face by more than the shape's size is taken to be beyond it
+                found, n, dist, face = surface_point(bvh, x1, point,
+                                                     radius + wp.max(margin, size))
+                if found != 0:
+                    dist -= radius
+                    _emit(e, pair, key + k, point - n * (radius + 0.5 * dist), n, dist, margin,
+                          out)
+                if radius > 0.0:
+                    # the other faces whose prisms hold the point within its radius: the second
+                    # side of a crease (each face once: coplanar neighbours share their edge)
+                    local = wp.transform_point(inv1, point)
+                    reach = wp.vec3(radius + margin, radius + margin, radius + margin)
+                    query = wp.mesh_query_aabb(bvh, local - reach, local + reach)
+                    other = int(0)
+                    kept_n = wp.quat_rotate_inv(rot1, n)
+                    while extra < TRIMESH_EDGES and wp.mesh_query_aabb_next(query, other):
+                        if other != face:
+                            inside, fn, height = face_plane(bvh, other, local)
+                            gap = height - radius
+                            if inside != 0 and gap < margin and height > -size \
+                                    and wp.dot(fn, kept_n) < 0.999:
+                                normal = wp.quat_rotate(rot1, fn)
+                                _emit(e, pair, key + 16 + other % 16,
+                                      point - normal * (radius + 0.5 * gap), normal, gap, margin,
+                                      out)
+                                extra += 1
+    edge_keys = int(16)
     if t2 == CYLINDER:
         # a cylinder lying on its side touches along a line between its rims' lowest points,
         # which its 16 rim probes miss by up to r·(1 - cos 22.5°): each rim's point deepest
-        # along the normal at the closest point to its center (keys + 16, + 17)
+        # along the normal at the closest point to its center
+        edge_keys = 18
         found, n, dist, face = surface_point(bvh, x1, c2, size + margin)
         if found != 0:
             axis = wp.quat_rotate(wp.transform_get_rotation(x2), wp.vec3(0.0, 0.0, 1.0))
@@ -654,21 +662,20 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, bvh: wp.uint64,
                     if hit != 0:
                         _emit(e, pair, key + 16 + side, point - normal * (0.5 * gap), normal,
                               gap, margin, out)
-        return
-    if t2 != BOX and t2 != CAPSULE:
-        return
-    # the mesh's edges near the shape (the box round its bounding sphere, in the mesh's frame),
-    # each once: a shared edge is taken from the triangle that walks it from the lower vertex id
-    local = wp.transform_point(wp.transform_inverse(x1), c2)
-    reach = wp.vec3(size + margin, size + margin, size + margin)
-    query = wp.mesh_query_aabb(bvh, local - reach, local + reach)
-    face = int(0)
+    if t2 == SPHERE or t2 == MESH:
+        return      # a sphere's closest point is exact; a mesh's probes use every key
+    # the mesh's edges near the shape, each once: a shared edge is taken from the triangle
+    # that walks it from the lower vertex id
     inv2 = wp.transform_inverse(x2)
+    query = wp.mesh_query_aabb(bvh, centre - bound, centre + bound)
+    face = int(0)
     while extra < TRIMESH_EDGES and wp.mesh_query_aabb_next(query, face):
         for j in range(3):
             ia = 3 * face + j
             ib = 3 * face + (j + 1) % 3
-            if extra < TRIMESH_EDGES and wp.mesh_get_index(bvh, ia) < wp.mesh_get_index(bvh, ib):
+            va = wp.mesh_get_index(bvh, ia)
+            vb = wp.mesh_get_index(bvh, ib)
+            if extra < TRIMESH_EDGES and va < vb:
                 a = wp.transform_point(x1, wp.mesh_get_point(bvh, ia))
                 b = wp.transform_point(x1, wp.mesh_get_point(bvh, ib))
                 hit = int(0)
@@ -682,7 +689,7 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, bvh: wp.uint64,
                     on_edge = a + (b - a) * st[0]
                     n, dist, pos = _spheres(on_edge, 0.0, p2 + (q2 - p2) * st[1], s2[0])
                     hit = 1
-                else:
+                elif t2 == BOX:
                     # the deepest of the edge's part inside the box (grown by the offset): its
                     # two ends there and its middle
                     grown = s2 + wp.vec3(margin, margin, margin)
@@ -705,8 +712,18 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, bvh: wp.uint64,
                         n = -wp.quat_rotate(wp.transform_get_rotation(x2), out_n)
                         dist = -depth
                         pos = wp.transform_point(x2, at) + n * (0.5 * dist)
+                else:
+                    # a cylinder or an ellipsoid: the edge as a capsule of radius 0 (a
+                    # segment), against the shape by GJK / EPA
+                    length = wp.length(b - a)
+                    if length > 1.0e-9:
+                        xe = wp.transform(0.5 * (a + b), wp.quat_between_vectors(
+                            wp.vec3(0.0, 0.0, 1.0), (b - a) / length))
+                        hit, n, dist, pos = convex_contact(CAPSULE, wp.vec3(0.0, 0.5 * length, 0.0),
+                                                           -1, xe, t2, s2, m2, x2, meshes, margin)
                 if hit != 0 and dist < margin:
-                    _emit(e, pair, key + 16 + extra, pos, n, dist, margin, out)
+                    _emit(e, pair, key + edge_keys + (va * 7 + vb) % (32 - edge_keys), pos, n,
+                          dist, margin, out)
                     extra += 1
 
 
