@@ -223,6 +223,28 @@ def test_scene_places_a_triangle_mesh_for_every_env(device):
     np.testing.assert_allclose(z, 0.25, atol=1e-3)
 
 
+def test_ridges_are_the_edges_that_bend_away():
+    """`build.ridge_edges`: of a closed slab, the 12 edges of the box and none of its faces'
+    diagonals; of the open bin, the 4 rims of its walls (no neighbour) and none of its concave
+    edges (floor to wall, wall to wall) or its floor's diagonal. Each edge marked once."""
+    from myriad.physics.build import ridge_edges
+
+    def marked(vertices, triangles):
+        bits = ridge_edges(np.asarray(vertices, float), np.asarray(triangles))
+        f = np.asarray(triangles)
+        return sorted(tuple(sorted((int(f[i, j]), int(f[i, (j + 1) % 3]))))
+                      for i in range(len(f)) for j in range(3) if bits[i] >> j & 1)
+
+    slab = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
+    # a cube's 12 triangles, counterclockwise from outside (vertex = x + 2y + 4z)
+    cube = [[0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6], [0, 1, 5], [0, 5, 4],
+            [2, 6, 7], [2, 7, 3], [0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5]]
+    edges = marked(slab, cube)
+    assert len(edges) == 12 and len(set(edges)) == 12
+    assert all(np.abs(slab[a] - slab[b]).sum() == 1 for a, b in edges)    # box edges only
+    assert marked(BIN_VERTICES, BIN_TRIANGLES) == [(4, 5), (4, 7), (5, 6), (6, 7)]
+
+
 def test_bad_meshes_are_refused_with_their_reason():
     scene = Scene()
     with pytest.raises(ValueError, match=r"\[V, 3\]"):

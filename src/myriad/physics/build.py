@@ -311,6 +311,45 @@ def row_width(dof_tree_span, tendon_dofs) -> int:
 
 
 # ------------------------------------------------------------------ collision shapes
+# a triangle mesh's edge is a ridge (it can reach into a shape between the shape's probes)
+# where its two faces meet at more than this angle, convex; a flat run of triangles has none
+RIDGE_ANGLE = np.radians(10.0)
+
+
+def ridge_edges(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """[nface] int32: bit j set where edge j of a face (its vertices j, j + 1) is a ridge: its
+    neighbour across it bends away (convex) by more than RIDGE_ANGLE, or it has no neighbour
+    (the rim of an open surface), or more than one. An edge of two faces is marked in one of
+    them (the one that walks it from its lower vertex id), so that it is met once."""
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64)
+    normal = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
+    nf = len(f)
+    a = f.reshape(-1)                                   # edge 3·face + j: f[j] -> f[j + 1]
+    b = f[:, [1, 2, 0]].reshape(-1)
+    third = f[:, [2, 0, 1]].reshape(-1)
+    key = np.minimum(a, b) * (int(v.shape[0]) + 1) + np.maximum(a, b)
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    start = np.r_[True, sorted_key[1:] != sorted_key[:-1]]
+    group = np.cumsum(start) - 1
+    size = np.bincount(group)[group]
+    # the twin of each edge of a pair: its group's other member
+    first = np.flatnonzero(start)[group]
+    twin = np.where(np.arange(len(order)) == first, first + 1, first)
+    twin = order[np.minimum(twin, len(order) - 1)]
+    edge = order
+    face = edge // 3
+    other = twin // 3
+    bends = (np.einsum("ij,ij->i", normal[face], normal[other]) < np.cos(RIDGE_ANGLE)) & \
+        (np.einsum("ij,ij->i", v[third[twin]] - v[a[edge]], normal[face]) < 0.0)
+    ridge = np.where(size == 2, bends & (a[edge] < b[edge]), True)
+    bits = np.zeros(3 * nf, np.int32)
+    bits[edge] = ridge
+    return (bits.reshape(nf, 3) << np.arange(3)).sum(axis=1).astype(np.int32)
+
+
 def shape_data(model, device) -> tuple[Meshes, HFields, list]:
     """The vertices of each mesh's convex hull (with its bounding radius and box), the
     triangle meshes' BVHs and the height fields on the device, shared by all envs. Collision
@@ -342,14 +381,20 @@ def shape_data(model, device) -> tuple[Meshes, HFields, list]:
                       np.float32).reshape(-1, 3)
     meshes.box_center = arr((low + high) / 2, wp.vec3)
     meshes.box_half = arr((high - low) / 2, wp.vec3)
-    bvhs = {}
+    bvhs, ridges, ridgeadr, used = {}, [], np.zeros(len(counts), np.int32), 0
     for i in sorted(triangles):
         a, k = model.mesh_vertadr[i], model.mesh_vertnum[i]
         f, nf = model.mesh_faceadr[i], model.mesh_facenum[i]
+        faces = model.mesh_face[f:f + nf].reshape(-1, 3)
         bvhs[i] = wp.Mesh(points=arr(verts[a:a + k].astype(np.float32), wp.vec3),
-                          indices=arr(model.mesh_face[f:f + nf].reshape(-1), wp.int32))
+                          indices=arr(faces.reshape(-1), wp.int32))
+        ridges.append(ridge_edges(verts[a:a + k], faces))
+        ridgeadr[i] = used
+        used += nf
     meshes.bvh = arr(np.asarray([bvhs[i].id if i in bvhs else 0 for i in range(len(counts))],
                                 np.uint64), wp.uint64)
+    meshes.ridge = arr(np.concatenate(ridges) if ridges else np.zeros(0, np.int32), wp.int32)
+    meshes.ridgeadr = arr(ridgeadr, wp.int32)
     hfields = HFields()
     hfields.size = arr(model.hfield_size.reshape(-1, 4), wp.vec4)
     hfields.nrow = arr(model.hfield_nrow, wp.int32)

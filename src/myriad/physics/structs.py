@@ -227,6 +227,9 @@ class Meshes:
     box_half: wp.array(dtype=wp.vec3)     # (a TRIMESH geom's mesh: round all its vertices)
     bvh: wp.array(dtype=wp.uint64)        # per mesh: the `wp.Mesh` id of its triangles where a
                                           # TRIMESH geom uses it, else 0
+    ridge: wp.array(dtype=wp.int32)       # per face of those meshes: bit j set where its edge j
+                                          # (vertices j, j + 1) is a ridge (build.ridge_edges)
+    ridgeadr: wp.array(dtype=wp.int32)    # per mesh: its first face's place in `ridge`
 
 
 @wp.struct

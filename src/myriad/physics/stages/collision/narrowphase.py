@@ -582,7 +582,7 @@ def _plane_mesh(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x2: w
 
 
 @wp.func
-def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, bvh: wp.uint64, t2: int,
+def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, m1: int, t2: int,
              x2: wp.transform, s2: wp.vec3, m2: int, meshes: Meshes, margin: float,
              out: ContactSlots):
     """Contacts of a shape (type t2) with a static triangle mesh (see trimesh): its probe
@@ -592,6 +592,7 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, bvh: wp.uint64,
     support point 0), then 16 + (its face, or its edge's two vertices) mod 16 (a cylinder: 16,
     17 for its rims, 18 + ... mod 14 after them), so that a contact keeps its key, and its
     friction anchors, from one substep to the next whatever else the mesh finds."""
+    bvh = meshes.bvh[m1]
     size = bounding_radius(t2, s2, m2, meshes)
     c2 = wp.transform_get_translation(x2)
     # the broadphase: no face in the box round the shape's bounding sphere (in the mesh's
@@ -664,18 +665,19 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, bvh: wp.uint64,
                               gap, margin, out)
     if t2 == SPHERE or t2 == MESH:
         return      # a sphere's closest point is exact; a mesh's probes use every key
-    # the mesh's edges near the shape, each once: a shared edge is taken from the triangle
-    # that walks it from the lower vertex id
+    # the mesh's ridges near the shape (edges whose faces bend away: on a flat run of triangles
+    # the probes see all there is), each once (`ridge_edges` marks it in one of its faces)
     inv2 = wp.transform_inverse(x2)
     query = wp.mesh_query_aabb(bvh, centre - bound, centre + bound)
     face = int(0)
     while extra < TRIMESH_EDGES and wp.mesh_query_aabb_next(query, face):
+        ridges = meshes.ridge[meshes.ridgeadr[m1] + face]
         for j in range(3):
             ia = 3 * face + j
             ib = 3 * face + (j + 1) % 3
             va = wp.mesh_get_index(bvh, ia)
             vb = wp.mesh_get_index(bvh, ib)
-            if extra < TRIMESH_EDGES and va < vb:
+            if extra < TRIMESH_EDGES and (ridges >> j) & 1 != 0:
                 a = wp.transform_point(x1, wp.mesh_get_point(bvh, ia))
                 b = wp.transform_point(x1, wp.mesh_get_point(bvh, ib))
                 hit = int(0)
@@ -969,8 +971,8 @@ def _collide_pair(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.trans
                             _emit(e, pair, p * 32 + 16 + k, point - wn * (radius + 0.5 * dist),
                                   wn, dist, margin, out)
     elif t1 == TRIMESH:
-        _trimesh(e, pair, p * 32, x1, meshes.bvh[geom_dataid[g1]], t2, x2, s2, geom_dataid[g2],
-                 meshes, margin, out)
+        _trimesh(e, pair, p * 32, x1, geom_dataid[g1], t2, x2, s2, geom_dataid[g2], meshes,
+                 margin, out)
     elif t1 == SPHERE and t2 != SPHERE and t2 != CAPSULE and t2 != BOX:
         _convex(e, pair, p * 32, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
                 margin, out)
