@@ -168,12 +168,18 @@ def test_a_heightfield_holds_a_box_at_its_height():
     hf.vertical_scale = 0.005
     hf.transform.p = gymapi.Vec3(-1.0, -1.0, 0.0)
     gym.add_heightfield(sim, np.full((21, 21), 100, np.int16), hf)
+    # a second one, 0.25 m high, with other row and column spacings: simulated as triangles
+    hf.row_scale, hf.column_scale = 0.1, 0.2
+    hf.nbRows = 11                      # samples along y (terrain_utils' columns)
+    hf.transform.p = gymapi.Vec3(2.0, -1.0, 0.0)
+    gym.add_heightfield(sim, np.full((21, 11), 50, np.int16), hf)
     box = gym.create_box(sim, 0.2, 0.2, 0.2)
-    envs_with(gym, sim, box, [gymapi.Transform(gymapi.Vec3(0.0, 0.0, 0.8))])
+    envs_with(gym, sim, box, [gymapi.Transform(gymapi.Vec3(0.0, 0.0, 0.8)),
+                              gymapi.Transform(gymapi.Vec3(3.0, 0.0, 0.8))])
     gym.prepare_sim(sim)
     root = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim))
     settle(gym, sim, 120)
-    assert root[0, 2].item() == pytest.approx(0.6, abs=5e-3)
+    np.testing.assert_allclose(root[:, 2].numpy(), [0.6, 0.35], atol=5e-3)
 
 
 # ------------------------------------------------------------------ force sensors

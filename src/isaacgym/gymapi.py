@@ -880,18 +880,26 @@ class Gym:
     def add_heightfield(self, sim: Sim, heightsamples, params: HeightFieldParams) -> None:
         """A static height field shared by every env: `heightsamples` (int16, nbColumns ×
         nbRows values, e.g. terrain_utils' [x, y] grid) scaled by `vertical_scale`; sample
-        (i, j) at (i·row_scale, j·column_scale) moved by `transform.p` (m)."""
+        (i, j) at (i·row_scale, j·column_scale) moved by `transform.p` (m). The sim's first
+        one, unrotated with one spacing, is Myriad's height field; any other is simulated as
+        the same surface in triangles."""
         self._before_prepare(sim, "add_heightfield")
         raw = np.asarray(heightsamples)
         rows, cols = int(params.nbColumns), int(params.nbRows)
         if raw.size != rows * cols or rows < 2 or cols < 2:
             raise ValueError(f"gym.add_heightfield: {raw.size} height samples for nbRows="
                              f"{params.nbRows} x nbColumns={params.nbColumns}")
-        if not math.isclose(params.row_scale, params.column_scale, rel_tol=1e-6):
-            raise _unsupported(f"gym.add_heightfield with row_scale={params.row_scale} != "
-                               f"column_scale={params.column_scale}",
-                               "a Myriad height field has one spacing")
-        heights = raw.reshape(rows, cols).astype(np.float64) * float(params.vertical_scale)
+        grid = raw.reshape(rows, cols)
+        rotated = abs(abs(params.transform.r.normalize().w) - 1.0) > 1e-6
+        if sim.terrain is not None or rotated or not math.isclose(
+                params.row_scale, params.column_scale, rel_tol=1e-6):
+            from myriad.tasks.terrain import heightfield_to_mesh
+            vertices, triangles = heightfield_to_mesh(grid, 1.0, float(params.vertical_scale))
+            vertices[:, 0] *= float(params.row_scale)
+            vertices[:, 1] *= float(params.column_scale)
+            self._add_triangles(sim, "add_heightfield", vertices, triangles, params)
+            return
+        heights = grid.astype(np.float64) * float(params.vertical_scale)
         self._add_terrain(sim, "add_heightfield", heights, float(params.row_scale), params,
                           riser=0.0)
 
@@ -919,17 +927,22 @@ class Gym:
         grid = None if rotated or sim.terrain is not None else \
             _height_grid(v.reshape(-1, 3), t.reshape(-1, 3).astype(np.int64))
         if grid is None:
-            self._check_static_params("add_triangle_mesh", params)
-            pose = params.transform
-            r = pose.r.normalize()
-            sim.triangle_meshes.append(dict(
-                vertices=v.reshape(-1, 3), triangles=t.reshape(-1, 3).astype(np.int64),
-                pos=(pose.p.x, pose.p.y, pose.p.z), quat=(r.x, r.y, r.z, r.w),
-                friction=float(params.static_friction)))
+            self._add_triangles(sim, "add_triangle_mesh", v.reshape(-1, 3), t.reshape(-1, 3),
+                                params)
             return
         heights, spacing, origin, riser = grid
         self._add_terrain(sim, "add_triangle_mesh", heights, spacing, params, riser=riser,
                           origin=origin)
+
+    def _add_triangles(self, sim, call, vertices, triangles, params) -> None:
+        """A static mesh that collides as its triangles (`Scene.add_triangle_mesh`)."""
+        self._check_static_params(call, params)
+        pose = params.transform
+        r = pose.r.normalize()
+        sim.triangle_meshes.append(dict(
+            vertices=np.asarray(vertices, np.float64), triangles=np.asarray(triangles, np.int64),
+            pos=(pose.p.x, pose.p.y, pose.p.z), quat=(r.x, r.y, r.z, r.w),
+            friction=float(params.static_friction)))
 
     def _check_static_params(self, call, params) -> None:
         if not math.isclose(params.static_friction, params.dynamic_friction, rel_tol=1e-6,
@@ -942,13 +955,9 @@ class Gym:
                                "Myriad's static shapes here do not bounce")
 
     def _add_terrain(self, sim, call, heights, spacing, params, riser, origin=(0.0, 0.0)):
-        if sim.terrain is not None:
-            raise _unsupported(f"a second gym.{call}", "a Myriad sim has one height field")
+        """The sim's one height field (the callers send a second one, or a rotated one, to
+        `_add_triangles`)."""
         pose = params.transform
-        r = pose.r.normalize()
-        if abs(abs(r.w) - 1.0) > 1e-6:
-            raise _unsupported(f"gym.{call} with a rotated transform",
-                               "terrain is placed by transform.p only")
         self._check_static_params(call, params)
         sim.terrain = dict(heights=heights + pose.p.z, horizontal_scale=spacing,
                            origin=(origin[0] + pose.p.x, origin[1] + pose.p.y),
