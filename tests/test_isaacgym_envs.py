@@ -321,6 +321,35 @@ def test_an_attractor_holds_a_box_corner_at_its_target():
                                                        gymapi.Vec3(1, 1, 1), 1), props)
 
 
+def test_attractor_targets_move_per_env():
+    """set_attractor_target: a box's top held by an attractor at a target of its env's own,
+    set before prepare_sim in one env and after it in the other; the held point follows."""
+    gym, sim = z_up_sim()
+    box = gym.create_box(sim, 0.2, 0.2, 0.2)
+    envs = envs_with(gym, sim, box, [gymapi.Transform(gymapi.Vec3(0.0, 0.0, 0.9))] * 2)
+    props = gymapi.AttractorProperties()
+    props.stiffness, props.damping = 5e7, 5e3
+    props.axes = gymapi.AXIS_TRANSLATION
+    props.rigid_handle = 0
+    props.offset.p = gymapi.Vec3(0.0, 0.0, 0.1)             # the middle of the top face
+    props.target.p = gymapi.Vec3(0.0, 0.0, 1.0)
+    handles = [gym.create_rigid_body_attractor(env, props) for env in envs]
+    gym.set_attractor_target(envs[1], handles[1], gymapi.Transform(gymapi.Vec3(0.05, 0.0, 1.0)))
+    gym.prepare_sim(sim)
+    bodies = gymtorch.wrap_tensor(gym.acquire_rigid_body_state_tensor(sim))
+    settle(gym, sim, 60)
+    assert gym.get_attractor_properties(envs[1], handles[1]).target.p.x == pytest.approx(0.05)
+    gym.set_attractor_target(envs[0], handles[0], gymapi.Transform(gymapi.Vec3(0.0, 0.1, 1.1)))
+    settle(gym, sim, 200)
+    gym.refresh_rigid_body_state_tensor(sim)
+    held = torch.stack([bodies[e, :3] + rotate(bodies[e, 3:7], torch.tensor([0.0, 0.0, 0.1]))
+                        for e in range(2)])
+    torch.testing.assert_close(held, torch.tensor([[0.0, 0.1, 1.1], [0.05, 0.0, 1.0]]),
+                               atol=2e-3, rtol=0)
+    with pytest.raises(ValueError, match="attractor handle 3"):
+        gym.set_attractor_target(envs[0], 3, gymapi.Transform())
+
+
 def rotate(q, v):
     """v turned by the quaternion q (x, y, z, w)."""
     u, w = q[:3], q[3]

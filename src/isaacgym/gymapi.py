@@ -1378,6 +1378,25 @@ class Gym:
         env.attractors.append((k, handle - actor.body_offset, copy.deepcopy(props)))
         return len(env.attractors) - 1
 
+    def set_attractor_target(self, env: Env, attractor_handle: int, target: Transform) -> None:
+        """Moves the attractor's target (the env's frame) in this env alone, before or after
+        prepare_sim (the constraint's world point, and its orientation for a weld)."""
+        props = self._attractor(env, attractor_handle, "set_attractor_target")
+        props.target = copy.deepcopy(target)
+        if env.sim.myriad is not None:
+            _apply_attractor_targets(env.sim, [env])
+
+    def get_attractor_properties(self, env: Env, attractor_handle: int) -> AttractorProperties:
+        return copy.deepcopy(self._attractor(env, attractor_handle, "get_attractor_properties"))
+
+    def _attractor(self, env: Env, handle: int, call: str) -> AttractorProperties:
+        if not isinstance(env, Env):
+            raise TypeError(f"gym.{call}: expected an Env, got {type(env).__name__}")
+        if not 0 <= int(handle) < len(env.attractors):
+            raise ValueError(f"gym.{call}: attractor handle {handle}; env {env.index} has "
+                             f"{len(env.attractors)} attractor(s)")
+        return env.attractors[int(handle)][2]
+
     def begin_aggregate(self, env: Env, max_bodies: int, max_shapes: int,
                         self_collisions: bool) -> bool:
         """PhysX's broad-phase grouping of an env's actors: no effect on the motion, none here
@@ -2549,6 +2568,7 @@ def _prepare(sim: Sim) -> None:
     _apply_dof_props(sim, all_actors)
     _apply_shape_props(sim, all_actors)
     _apply_body_props(sim, all_actors)
+    _apply_attractor_targets(sim, envs)
     _apply_scales(sim)
     built.forward()
 
@@ -2649,14 +2669,15 @@ def _index_maps(sim: Sim) -> None:
 
 
 def _attractors(envs: list, names: list) -> list:
-    """(body's full name, props) of env 0's attractors, which every env must repeat."""
+    """(body's full name, props) of env 0's attractors, which every env must repeat (each with
+    its own target: `_apply_attractor_targets`)."""
     def key(env):
-        return [(k, b, int(p.axes), repr(p.offset), repr(p.target)) for k, b, p in env.attractors]
+        return [(k, b, int(p.axes), repr(p.offset)) for k, b, p in env.attractors]
     for env in envs[1:]:
         if key(env) != key(envs[0]):
             raise _unsupported(f"gym.prepare_sim: env {env.index}'s attractors differ from env "
-                               "0's", "every env must hold the same attractors (bodies, axes, "
-                               "offsets and targets in its own frame)")
+                               "0's", "every env must hold the same attractors (bodies, axes "
+                               "and offsets; the targets may differ)")
     first = envs[0]
     return [(f"{names[k]}/{first.actors[k].asset.body_names[b]}", p)
             for k, b, p in first.attractors]
@@ -2692,6 +2713,18 @@ def _check_efforts(sim: Sim, built: bool) -> dict:
             # the asset's joint order within the composed model: offset by earlier actors
             out[sum(f.asset.mj.njnt for f in first[:k]) + joint] = (value < _FLT_MAX, value)
     return out
+
+
+def _apply_attractor_targets(sim: Sim, envs: list) -> None:
+    """Each env's attractor targets into its constraints' world points (and frames)."""
+    built = sim.myriad
+    mj, s = built.model.mj_model, built.sim
+    for env in envs:
+        for i, (_, _, props) in enumerate(env.attractors):
+            eq = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_EQUALITY, f"attractor{i}")
+            p, r = props.target.p, props.target.r.normalize()
+            s.eq_anchor[env.index, eq, 1] = torch.tensor([p.x, p.y, p.z])
+            s.eq_frame[env.index, eq, 1] = torch.tensor([r.x, r.y, r.z, r.w])
 
 
 def _apply_dof_props(sim: Sim, actors: list) -> None:
