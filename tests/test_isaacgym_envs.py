@@ -397,12 +397,24 @@ def test_tendon_properties_take_physx_semantics(tmp_path):
     props[0].upper_limit = 0.5
     with pytest.raises(NotImplementedError, match="upper_limit"):
         gym.set_asset_tendon_properties(asset, props)
-    envs_with(gym, sim, asset, [gymapi.Transform()])
+    envs = envs_with(gym, sim, asset, [gymapi.Transform()] * 2)
+    # an actor's own values, in its env alone: env 1's damping before prepare_sim, env 0's
+    # limit stiffness after it
+    mine = gym.get_actor_tendon_properties(envs[1], 0)
+    mine[0].damping = 0.5
+    gym.set_actor_tendon_properties(envs[1], 0, mine)
     gym.prepare_sim(sim)
     m = sim.myriad.model
     t = m.tendon_names.index("a0/couple")
     assert m.tendon_limit_stiffness[t] == pytest.approx(30.0)
     assert m.tendon_damping[t] == pytest.approx(0.1)
+    mine = gym.get_actor_tendon_properties(envs[0], 0)
+    mine[0].limit_stiffness = 10.0
+    gym.set_actor_tendon_properties(envs[0], 0, mine)
+    own = sim.myriad.sim
+    torch.testing.assert_close(own.tendon_limit_stiffness[:, t], torch.tensor([10.0, 30.0]))
+    torch.testing.assert_close(own.tendon_damping[:, t], torch.tensor([0.1, 0.5]))
+    assert gym.get_actor_tendon_properties(envs[1], 0)[0].damping == pytest.approx(0.5)
 
 
 # ------------------------------------------------------------------ convex decomposition

@@ -666,6 +666,7 @@ class _Actor:
         self.dof_props = asset.dof_props.copy()
         self.shape_props = copy.deepcopy(asset.shape_props)
         self.body_props = copy.deepcopy(asset.body_props)
+        self.tendon_props = copy.deepcopy(asset.tendon_props)
         self.scale = 1.0         # set_actor_scale
         self.body_offset = 0     # index of its first body in the env (set by create_actor)
         self.dof_offset = 0
@@ -1430,35 +1431,21 @@ class Gym:
 
     def set_asset_tendon_properties(self, asset: Asset, props: list) -> bool:
         """Each tendon's limit stiffness and damping (PhysX's semantics); its limits, spring and
-        joints stay the file's."""
-        if len(props) != len(asset.tendon_props):
-            raise ValueError(f"gym.set_asset_tendon_properties: {len(props)} entries for "
-                             f"{len(asset.tendon_props)} tendons of {asset.source}")
-        for i, (new, old) in enumerate(zip(props, asset.tendon_props)):
-            for name in ("fixed_spring_stiffness", "is_limited", "lower_limit", "upper_limit",
-                         "num_joints"):
-                if getattr(new, name) != getattr(old, name):
-                    raise _unsupported(f"gym.set_asset_tendon_properties changing {name} of "
-                                       f"tendon {asset.tendon_names[i]!r}",
-                                       "limit_stiffness and damping can change")
-            if not (new.limit_stiffness >= 0 and new.damping >= 0):
-                raise ValueError(f"gym.set_asset_tendon_properties: tendon "
-                                 f"{asset.tendon_names[i]!r}: limit_stiffness and damping must "
-                                 f"be >= 0")
-        asset.tendon_props = copy.deepcopy(list(props))
+        joints stay the file's. Actors created after this take them."""
+        asset.tendon_props = _checked_tendon_props("set_asset_tendon_properties", asset, props)
         return True
 
     def get_actor_tendon_properties(self, env: Env, handle: int) -> list:
-        return copy.deepcopy(self._actor(env, handle).asset.tendon_props)
+        return copy.deepcopy(self._actor(env, handle).tendon_props)
 
     def set_actor_tendon_properties(self, env: Env, handle: int, props: list) -> bool:
-        """Tendon properties are one set per asset in Myriad: the asset's own values are
-        accepted, others raise NotImplementedError."""
-        asset = self._actor(env, handle).asset
-        if [repr(p) for p in props] != [repr(p) for p in asset.tendon_props]:
-            raise _unsupported("gym.set_actor_tendon_properties with values other than the "
-                               "asset's", "tendon properties are the same in every env "
-                               "(gym.set_asset_tendon_properties before creating actors)")
+        """This actor's tendons' limit stiffness and damping, in its env alone, before or after
+        prepare_sim (its limits, spring and joints stay the asset's)."""
+        actor = self._actor(env, handle)
+        actor.tendon_props = _checked_tendon_props("set_actor_tendon_properties", actor.asset,
+                                                   props)
+        if env.sim.myriad is not None:
+            _apply_tendon_props(env.sim, [actor])
         return True
 
     def get_asset_force_sensor_count(self, asset: Asset) -> int:
@@ -2568,6 +2555,7 @@ def _prepare(sim: Sim) -> None:
     _apply_dof_props(sim, all_actors)
     _apply_shape_props(sim, all_actors)
     _apply_body_props(sim, all_actors)
+    _apply_tendon_props(sim, all_actors)
     _apply_attractor_targets(sim, envs)
     _apply_scales(sim)
     built.forward()
@@ -2725,6 +2713,36 @@ def _apply_attractor_targets(sim: Sim, envs: list) -> None:
             p, r = props.target.p, props.target.r.normalize()
             s.eq_anchor[env.index, eq, 1] = torch.tensor([p.x, p.y, p.z])
             s.eq_frame[env.index, eq, 1] = torch.tensor([r.x, r.y, r.z, r.w])
+
+
+def _checked_tendon_props(call: str, asset: Asset, props: list) -> list:
+    """A copy of `props` for the asset's tendons: limit stiffness and damping may change, the
+    rest must stay the asset's."""
+    if len(props) != len(asset.tendon_props):
+        raise ValueError(f"gym.{call}: {len(props)} entries for {len(asset.tendon_props)} "
+                         f"tendons of {asset.source}")
+    for i, (new, old) in enumerate(zip(props, asset.tendon_props)):
+        for name in ("fixed_spring_stiffness", "is_limited", "lower_limit", "upper_limit",
+                     "num_joints"):
+            if getattr(new, name) != getattr(old, name):
+                raise _unsupported(f"gym.{call} changing {name} of tendon "
+                                   f"{asset.tendon_names[i]!r}",
+                                   "limit_stiffness and damping can change")
+        if not (new.limit_stiffness >= 0 and new.damping >= 0):
+            raise ValueError(f"gym.{call}: tendon {asset.tendon_names[i]!r}: limit_stiffness "
+                             f"and damping must be >= 0")
+    return copy.deepcopy(list(props))
+
+
+def _apply_tendon_props(sim: Sim, actors: list) -> None:
+    """Each actor's tendon limit stiffness and damping into its env's parameters."""
+    built = sim.myriad
+    names, s = built.model.tendon_names, built.sim
+    for actor in actors:
+        for name, props in zip(actor.asset.tendon_names, actor.tendon_props):
+            t = names.index(f"a{actor.index}/{name}")
+            s.tendon_limit_stiffness[actor.env.index, t] = float(props.limit_stiffness)
+            s.tendon_damping[actor.env.index, t] = float(props.damping)
 
 
 def _apply_dof_props(sim: Sim, actors: list) -> None:
