@@ -32,7 +32,8 @@ from .trimesh import box_depth, clip_to_box, face_plane, surface_point
 # probes per shape against a height field or a triangle mesh (see heightfield.probe_point);
 # meshes: at most this many of their vertices (the hull's vertices come first in MuJoCo's data)
 HFIELD_PROBES = wp.constant(32)
-# a triangle mesh's edges that meet a box or capsule, each one contact (see trimesh)
+# contacts of a shape with a triangle mesh past its probes' own (a round probe's other faces,
+# the mesh's ridges into the shape), at most; each has a key of its own (see `_trimesh`)
 TRIMESH_EDGES = wp.constant(16)
 
 # a convex pair's extra contact points: the normal tilted by this (tan of the angle) to find the
