@@ -122,8 +122,9 @@ RIDGE_TRIANGLES = [[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]]
 
 def test_shapes_lying_across_a_ridge_meet_its_edge(device):
     """A box, a capsule, a cylinder and an ellipsoid lying across the ridge of the roof (their
-    long axes along x, over its edge along y at z = 0.1), 2 mm above it: each touches the edge
-    between its own probe points, at 2 mm along +z (the faces fall away at 45° below them)."""
+    long axes along x, over its edge along y at z = 0.1), 2 mm above it: each touches the edge,
+    at 2 mm along +z (the faces fall away at 45° below them). The box's corners and the
+    cylinder's rims are far from any face: only the ridge test sees the edge under them."""
     gap = 0.002
     shapes = [('type="box" size="0.1 0.04 0.03"', 0.03, ""),
               ('type="capsule" size="0.03 0.1"', 0.03, 'euler="0 90 0"'),

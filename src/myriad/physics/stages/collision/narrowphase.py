@@ -162,6 +162,27 @@ def _local_box_distance(half: wp.vec3, local: wp.vec3):
 
 
 @wp.func
+def _cylinder_distance(s: wp.vec3, local: wp.vec3):
+    """(signed distance from a point in the cylinder's frame to its surface, negative inside;
+    the outward normal there) of the cylinder of radius s[0], half-height s[1] along z."""
+    radial = wp.vec3(local[0], local[1], 0.0)
+    rho = wp.length(radial)
+    out = wp.vec3(1.0, 0.0, 0.0)
+    if rho > 1.0e-12:
+        out = radial / rho
+    side = rho - s[0]
+    cap = wp.abs(local[2]) - s[1]
+    up = wp.vec3(0.0, 0.0, wp.sign(local[2]))
+    if side > 0.0 and cap > 0.0:      # beyond a rim: to the rim's nearest point
+        d = out * side + up * cap
+        length = wp.length(d)
+        return length, d / length
+    if side > cap:
+        return side, out
+    return cap, up
+
+
+@wp.func
 def _sphere_box(c: wp.vec3, r: float, x: wp.transform, half: wp.vec3):
     """(normal from sphere to box, signed distance, midpoint) of a sphere and a box."""
     local = wp.transform_point(wp.transform_inverse(x), c)
@@ -588,7 +609,7 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, m1: int, t2: in
              out: ContactSlots):
     """Contacts of a shape (type t2) with a static triangle mesh (see trimesh): its probe
     points against the surface; a round probe's other faces; a cylinder's lowest rim points;
-    the mesh's edges that reach into a box, capsule, cylinder or ellipsoid. At most
+    the mesh's ridges that reach into a box, capsule or cylinder. At most
     TRIMESH_EDGES contacts past the probes'. Keys: a probe's index (0..31; an ellipsoid's
     support point 0), then 16 + (its face, or its edge's two vertices) mod 16 (a cylinder: 16,
     17 for its rims, 18 + ... mod 14 after them), so that a contact keeps its key, and its
@@ -664,8 +685,10 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, m1: int, t2: in
                     if hit != 0:
                         _emit(e, pair, key + 16 + side, point - normal * (0.5 * gap), normal,
                               gap, margin, out)
-    if t2 == SPHERE or t2 == MESH:
-        return      # a sphere's closest point is exact; a mesh's probes use every key
+    if t2 == SPHERE or t2 == MESH or t2 == ELLIPSOID:
+        # a sphere's closest point is exact; a mesh's probes use every key; an ellipsoid, its
+        # point deepest toward the surface (edges into its side are not seen)
+        return
     # the mesh's ridges near the shape (edges whose faces bend away: on a flat run of triangles
     # the probes see all there is), each once (`ridge_edges` marks it in one of its faces)
     inv2 = wp.transform_inverse(x2)
@@ -716,14 +739,34 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, m1: int, t2: in
                         dist = -depth
                         pos = wp.transform_point(x2, at) + n * (0.5 * dist)
                 else:
-                    # a cylinder or an ellipsoid: the edge as a capsule of radius 0 (a
-                    # segment), against the shape by GJK / EPA
-                    length = wp.length(b - a)
-                    if length > 1.0e-9:
-                        xe = wp.transform(0.5 * (a + b), wp.quat_between_vectors(
-                            wp.vec3(0.0, 0.0, 1.0), (b - a) / length))
-                        hit, n, dist, pos = convex_contact(CAPSULE, wp.vec3(0.0, 0.5 * length, 0.0),
-                                                           -1, xe, t2, s2, m2, x2, meshes, margin)
+                    # a cylinder: the edge's deepest point in it, by golden section on its signed
+                    # distance (convex along the edge), as capsule - box does for a box
+                    la = wp.transform_point(inv2, a)
+                    lb = wp.transform_point(inv2, b)
+                    lo = float(0.0)
+                    hi = float(1.0)
+                    g1 = hi - GOLDEN * (hi - lo)
+                    g2 = lo + GOLDEN * (hi - lo)
+                    f1, _n1 = _cylinder_distance(s2, la + (lb - la) * g1)
+                    f2, _n2 = _cylinder_distance(s2, la + (lb - la) * g2)
+                    for it in range(20):
+                        if f1 < f2:
+                            hi = g2
+                            g2 = g1
+                            f2 = f1
+                            g1 = hi - GOLDEN * (hi - lo)
+                            f1, _n1 = _cylinder_distance(s2, la + (lb - la) * g1)
+                        else:
+                            lo = g1
+                            g1 = g2
+                            f1 = f2
+                            g2 = lo + GOLDEN * (hi - lo)
+                            f2, _n2 = _cylinder_distance(s2, la + (lb - la) * g2)
+                    at = la + (lb - la) * (0.5 * (lo + hi))
+                    dist, out_n = _cylinder_distance(s2, at)
+                    hit = 1
+                    n = -wp.quat_rotate(wp.transform_get_rotation(x2), out_n)
+                    pos = wp.transform_point(x2, at) + n * (0.5 * dist)
                 if hit != 0 and dist < margin:
                     _emit(e, pair, key + edge_keys + (va * 7 + vb) % (32 - edge_keys), pos, n,
                           dist, margin, out)
