@@ -183,6 +183,42 @@ def _cylinder_distance(s: wp.vec3, local: wp.vec3):
 
 
 @wp.func
+def _signed_distance(kind: int, size: wp.vec3, local: wp.vec3):
+    """Signed distance from a point in a box's (kind BOX) or cylinder's frame to its surface."""
+    if kind == BOX:
+        return _local_box_distance(size, local)
+    dist, normal = _cylinder_distance(size, local)
+    return dist
+
+
+@wp.func
+def _deepest_on_segment(kind: int, size: wp.vec3, la: wp.vec3, lb: wp.vec3):
+    """The parameter t in [0, 1] of the point of the segment la-lb (the shape's frame) deepest
+    in a box or cylinder (`_signed_distance`, convex along the segment): golden section, one new
+    distance per step, the interval shrinking to 6e-5."""
+    lo = float(0.0)
+    hi = float(1.0)
+    m1 = hi - GOLDEN * (hi - lo)
+    m2 = lo + GOLDEN * (hi - lo)
+    f1 = _signed_distance(kind, size, la + (lb - la) * m1)
+    f2 = _signed_distance(kind, size, la + (lb - la) * m2)
+    for it in range(20):
+        if f1 < f2:
+            hi = m2
+            m2 = m1
+            f2 = f1
+            m1 = hi - GOLDEN * (hi - lo)
+            f1 = _signed_distance(kind, size, la + (lb - la) * m1)
+        else:
+            lo = m1
+            m1 = m2
+            f1 = f2
+            m2 = lo + GOLDEN * (hi - lo)
+            f2 = _signed_distance(kind, size, la + (lb - la) * m2)
+    return 0.5 * (lo + hi)
+
+
+@wp.func
 def _sphere_box(c: wp.vec3, r: float, x: wp.transform, half: wp.vec3):
     """(normal from sphere to box, signed distance, midpoint) of a sphere and a box."""
     local = wp.transform_point(wp.transform_inverse(x), c)
@@ -429,27 +465,7 @@ def _capsule_box(e: int, pair: wp.vec2i, key: int, x1: wp.transform, s1: wp.vec3
         _emit(e, pair, key + 1, pos, n, dist, margin, out)
     if da + db - 2.0 * s1[1] >= 2.0 * reach:
         return
-    # golden section on [0, 1]: one new distance per step, the interval shrinks to 6e-5
-    lo = float(0.0)
-    hi = float(1.0)
-    m1 = hi - GOLDEN * (hi - lo)
-    m2 = lo + GOLDEN * (hi - lo)
-    f1 = _local_box_distance(h2, la + (lb - la) * m1)
-    f2 = _local_box_distance(h2, la + (lb - la) * m2)
-    for it in range(20):
-        if f1 < f2:
-            hi = m2
-            m2 = m1
-            f2 = f1
-            m1 = hi - GOLDEN * (hi - lo)
-            f1 = _local_box_distance(h2, la + (lb - la) * m1)
-        else:
-            lo = m1
-            m1 = m2
-            f1 = f2
-            m2 = lo + GOLDEN * (hi - lo)
-            f2 = _local_box_distance(h2, la + (lb - la) * m2)
-    t = 0.5 * (lo + hi)
+    t = _deepest_on_segment(BOX, h2, la, lb)
     if t > 0.02 and t < 0.98:
         n, dist, pos = _sphere_box(a + (b - a) * t, s1[0], x2, h2)
         _emit(e, pair, key + 2, pos, n, dist, margin, out)
@@ -739,30 +755,10 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, m1: int, t2: in
                         dist = -depth
                         pos = wp.transform_point(x2, at) + n * (0.5 * dist)
                 else:
-                    # a cylinder: the edge's deepest point in it, by golden section on its signed
-                    # distance (convex along the edge), as capsule - box does for a box
+                    # a cylinder: the edge's deepest point in it
                     la = wp.transform_point(inv2, a)
                     lb = wp.transform_point(inv2, b)
-                    lo = float(0.0)
-                    hi = float(1.0)
-                    g1 = hi - GOLDEN * (hi - lo)
-                    g2 = lo + GOLDEN * (hi - lo)
-                    f1, _n1 = _cylinder_distance(s2, la + (lb - la) * g1)
-                    f2, _n2 = _cylinder_distance(s2, la + (lb - la) * g2)
-                    for it in range(20):
-                        if f1 < f2:
-                            hi = g2
-                            g2 = g1
-                            f2 = f1
-                            g1 = hi - GOLDEN * (hi - lo)
-                            f1, _n1 = _cylinder_distance(s2, la + (lb - la) * g1)
-                        else:
-                            lo = g1
-                            g1 = g2
-                            f1 = f2
-                            g2 = lo + GOLDEN * (hi - lo)
-                            f2, _n2 = _cylinder_distance(s2, la + (lb - la) * g2)
-                    at = la + (lb - la) * (0.5 * (lo + hi))
+                    at = la + (lb - la) * _deepest_on_segment(CYLINDER, s2, la, lb)
                     dist, out_n = _cylinder_distance(s2, at)
                     hit = 1
                     n = -wp.quat_rotate(wp.transform_get_rotation(x2), out_n)
