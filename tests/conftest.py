@@ -1,7 +1,10 @@
 import os
+import random
 import sys
 
+import numpy as np
 import pytest
+import torch
 import warp as wp
 
 import myriad  # noqa: F401  (before any test imports MuJoCo: picks its headless GL backend)
@@ -19,6 +22,16 @@ def pytest_addoption(parser):
 @pytest.fixture(scope="session")
 def device(request):
     return request.config.getoption("--device")
+
+
+@pytest.fixture(autouse=True)
+def same_random_state():
+    """Every test starts from the same random numbers, whatever ran before it in the process:
+    torch seeds its default generator from the clock, and a task's randomization (ANYmal's
+    friction buckets) drew different values in each run."""
+    torch.manual_seed(0)
+    np.random.seed(0)
+    random.seed(0)
 
 
 @pytest.fixture(scope="session")

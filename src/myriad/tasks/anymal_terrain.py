@@ -87,7 +87,8 @@ class AnymalTerrain(TerrainCurriculum, VecTask):
         # the robot's friction: one of `frictionBuckets` values per env (env i: bucket i mod B)
         lo, hi = env["frictionRange"]
         buckets = torch.empty(int(env["frictionBuckets"]), device=dev).uniform_(lo, hi)
-        robot_geoms = [g for g, n in enumerate(e.model.geom_names) if n != "terrain"]
+        # the robot's geoms: on its bodies, not the world's (the ground, a height field, a mesh)
+        robot_geoms = torch.nonzero(torch.as_tensor(e.model.geom_body) > 0).flatten().tolist()
         e.sim.geom_friction[:, robot_geoms] = buckets[torch.arange(N, device=dev)
                                                       % len(buckets)][:, None]
 
