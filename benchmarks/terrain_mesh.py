@@ -7,9 +7,9 @@ collided as its triangles through a BVH).
 
 Prints, per surface: the time to build the task (the mesh's MuJoCo compile and its BVH
 included), the triangles, and the task's env-steps/s over interleaved rounds of random actions
-(the same half-scale actions for both, the same start states; each surface goes first in turn, so drift of a shared machine falls
-on both alike); then the ratio mesh / height field. Robots start spread over every tile of
-the full 10 × 20 grid (4.8 M triangles), the curriculum off.
+(the same half-scale actions for both, the same start states; each surface goes first in turn,
+so drift of a shared machine falls on both alike); then the ratio mesh / height field. Robots
+start spread over every tile of the full 10 × 20 grid (4.8 M triangles), the curriculum off.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ import time
 import torch
 
 import myriad
+from myriad.physics.types import GeomType
 
 SURFACES = {"height field": {}, "mesh": {"env.terrain.mesh": True}}
 
@@ -47,7 +48,8 @@ def main() -> None:
         task.reset()
         tasks[name] = task
         model = task.envs.model
-        triangles = int(model.mesh_facenum.sum()) if name == "mesh" else 0
+        terrain = model.geom_dataid[model.geom_type == GeomType.TRIMESH]
+        triangles = int(model.mesh_facenum[terrain].sum())
         print(f"{name:>12}: built in {built[name]:6.1f} s, {triangles:,} triangles",
               flush=True)
 

@@ -241,6 +241,24 @@ def test_the_robot_stands_on_every_kind_of_tile(device, surface):
     assert height.min() > 0.3, height       # standing: 0.51 on flat ground
 
 
+def test_the_robot_slides_but_is_not_thrown_on_the_slippery_rough_mesh(device):
+    """Zero actions on the rough slope at level 6 of the original's triangle mesh, everything
+    at friction 0.5: the robot lands, crouches and slides down (0.4 m/s at most), and is never
+    thrown. The mesh's folds (vertices moved under their neighbours) once had a shank taken to
+    be 16 cm deep above one: it left at 11 m/s."""
+    task = make(device, num_envs=1, pushInterval_s=1000, **AS_MESH,
+                **{"env.terrain.staticFriction": 0.5, "env.frictionRange": [0.5, 0.5]})
+    rough = next(j for j in range(task.terrain_config.types)
+                 if KINDS[column_kind(j, task.terrain_config)[0]] == "rough slope")
+    place(task, [6], [rough])
+    fastest = 0.0
+    for step in range(100):
+        task.step(torch.zeros(1, 12, device=task.device))
+        if step >= 30:              # landed (1.8 m/s as the legs meet the ground)
+            fastest = max(fastest, float(task.envs.root_states[0, 0, 7:10].norm()))
+    assert fastest < 1.0, fastest
+
+
 def _penetration(centres, radius, raw, cfg):
     """How deep spheres [n, 3] reach into the stepped terrain (m): cells as columns, each at its
     lowest corner's height (on stairs every cell is flat or one step), the vertical walls

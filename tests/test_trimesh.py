@@ -164,6 +164,47 @@ def test_a_sphere_in_a_corner_touches_both_faces(device):
     np.testing.assert_allclose(dists[order], [0.0012, 0.001], atol=1e-6)
 
 
+# a fin 2 cm tall on a 4 m floor: two faces share its top edge (y from -0.1 to 0.1) and lean
+# past each other to its foot, each facing out and a little down: the fold a height field's
+# vertex moved under its neighbour makes (`heightfield_to_mesh` with a slope threshold)
+FIN_VERTICES = [[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0],
+                [0, -0.1, 0.02], [0, 0.1, 0.02], [-0.001, 0, 0], [0.001, 0, 0]]
+FIN_TRIANGLES = [[0, 1, 2], [0, 2, 3], [4, 6, 5], [4, 5, 7]]
+
+
+def test_a_sphere_above_a_folded_fin_is_outside(device):
+    """A sphere 1 cm above the fin's top edge: one contact, 1 cm along +z. The angle-weighted
+    normal at the edge, the sum of the two faces' normals, points down and called the sphere
+    7 cm deep (an ANYmal's shank was thrown off such a fin on the original's terrain mesh);
+    the faces around it, the floor with the fin, do not enclose it."""
+    r = 0.03
+    sim = _simulator(_mesh_xml(FIN_VERTICES, FIN_TRIANGLES,
+                               f'<body pos="0 0 {0.02 + r + 0.01}"><freejoint/>'
+                               f'<geom type="sphere" size="{r}"/></body>'), device=device)
+    sim.collide()
+    n = int(sim.contact_count[0])
+    assert n == 1
+    assert float(sim.contact_dist[0, 0]) == pytest.approx(0.01, abs=1e-5)
+    np.testing.assert_allclose(sim.contact_normal[0, 0].cpu().numpy(), [0, 0, 1], atol=1e-5)
+
+
+def test_a_sphere_pressed_on_a_thin_wall_meets_its_near_face_only(device):
+    """A wall 5 mm thick (a face at x = 0 facing -x, its back at x = 0.005 facing +x), a sphere
+    of radius 3 cm 1 cm into its near face: one contact, that face's, pushing the sphere back
+    along -x. Its center is also within its radius behind the back face, which is no side the
+    sphere presses on: a contact with it pushed the sphere on through the wall."""
+    vertices = [[0, -1, -1], [0, 1, -1], [0, 1, 1], [0, -1, 1],
+                [0.005, -1, -1], [0.005, 1, -1], [0.005, 1, 1], [0.005, -1, 1]]
+    triangles = [[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7]]
+    sim = _simulator(_mesh_xml(vertices, triangles, '<body pos="-0.02 0 0"><freejoint/>'
+                               '<geom type="sphere" size="0.03"/></body>'), device=device)
+    sim.collide()
+    n = int(sim.contact_count[0])
+    assert n == 1
+    assert float(sim.contact_dist[0, 0]) == pytest.approx(-0.01, abs=1e-5)
+    np.testing.assert_allclose(sim.contact_normal[0, 0].cpu().numpy(), [-1, 0, 0], atol=1e-5)
+
+
 def test_a_box_over_a_table_edge_rests_on_the_edge(device):
     """A box hanging 40 % over the edge of a table mesh (its center of mass over the table)
     rests level, held by its two corners on the table and the table's edge under its face; with

@@ -891,8 +891,7 @@ class Gym:
             raise ValueError(f"gym.add_heightfield: {raw.size} height samples for nbRows="
                              f"{params.nbRows} x nbColumns={params.nbColumns}")
         grid = raw.reshape(rows, cols)
-        rotated = abs(abs(params.transform.r.normalize().w) - 1.0) > 1e-6
-        if sim.terrain is not None or rotated or not math.isclose(
+        if not _height_field_fits(sim, params) or not math.isclose(
                 params.row_scale, params.column_scale, rel_tol=1e-6):
             from myriad.tasks.terrain import heightfield_to_mesh
             vertices, triangles = heightfield_to_mesh(grid, 1.0, float(params.vertical_scale))
@@ -922,11 +921,10 @@ class Gym:
         if nt == 0 or t.min(initial=0) < 0 or t.max(initial=0) >= nv:
             raise ValueError(f"gym.add_triangle_mesh: triangle indices must lie in [0, {nv}) "
                              f"and there must be triangles")
-        # a height-field grid, unrotated, becomes the sim's one height field; every other mesh
-        # (or a second grid) collides as its triangles
-        rotated = abs(abs(params.transform.r.normalize().w) - 1.0) > 1e-6
-        grid = None if rotated or sim.terrain is not None else \
-            _height_grid(v.reshape(-1, 3), t.reshape(-1, 3).astype(np.int64))
+        # a height-field grid becomes the sim's one height field where it fits there; every
+        # other mesh (or a second grid) collides as its triangles
+        grid = _height_grid(v.reshape(-1, 3), t.reshape(-1, 3).astype(np.int64)) \
+            if _height_field_fits(sim, params) else None
         if grid is None:
             self._add_triangles(sim, "add_triangle_mesh", v.reshape(-1, 3), t.reshape(-1, 3),
                                 params)
@@ -941,7 +939,7 @@ class Gym:
         pose = params.transform
         r = pose.r.normalize()
         sim.triangle_meshes.append(dict(
-            vertices=np.asarray(vertices, np.float64), triangles=np.asarray(triangles, np.int64),
+            vertices=np.asarray(vertices, np.float64), triangles=np.asarray(triangles),
             pos=(pose.p.x, pose.p.y, pose.p.z), quat=(r.x, r.y, r.z, r.w),
             friction=float(params.static_friction)))
 
@@ -2701,6 +2699,12 @@ def _check_efforts(sim: Sim, built: bool) -> dict:
             # the asset's joint order within the composed model: offset by earlier actors
             out[sum(f.asset.mj.njnt for f in first[:k]) + joint] = (value < _FLT_MAX, value)
     return out
+
+
+def _height_field_fits(sim: Sim, params) -> bool:
+    """Whether a height field (or a grid mesh) with these params can be the sim's one height
+    field: none yet, and placed unrotated (Myriad's is placed by a translation)."""
+    return sim.terrain is None and abs(abs(params.transform.r.normalize().w) - 1.0) <= 1e-6
 
 
 def _apply_attractor_targets(sim: Sim, envs: list) -> None:

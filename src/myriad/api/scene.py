@@ -222,9 +222,11 @@ class Scene:
         taken = {b.name for b in child.bodies}
         for i, body in enumerate(child.bodies[1:]):   # attach prefixes only named elements,
             if not body.name:                         # and bodies are told apart by name
-                body.name = next(n for n in (f"body{i}" + "_" * k for k in range(len(taken) + 1))
-                                 if n not in taken)
-                taken.add(body.name)
+                name = f"body{i}"
+                while name in taken:
+                    name += "_"
+                body.name = name
+                taken.add(name)
         roots = child.worldbody.bodies
         if len(roots) != 1:
             raise ModelError(f"{actor.path}: an actor's file must have exactly one body under the "

@@ -278,6 +278,16 @@ class Model:
         i = self.sensor_index(name)
         return slice(int(self.sensor_adr[i]), int(self.sensor_adr[i] + self.sensor_dim[i]))
 
+    @property
+    def body_static(self) -> np.ndarray:
+        """[nbody] bool: the bodies that never move, welded to the world by no joint between
+        them and it (a fixed-base table, the wall beside it)."""
+        static = np.zeros(self.nbody, dtype=bool)
+        for b in range(self.nbody):                # parents come before their children
+            p = self.body_parent[b]
+            static[b] = self.body_jntnum[b] == 0 and (p < 0 or static[p])
+        return static
+
     def collide_as_triangles(self, geom: str | int, contype: int = 1,
                              conaffinity: int = 1) -> None:
         """Collide static mesh geom `geom` (a name or index) as its triangles, exactly, instead
@@ -295,13 +305,11 @@ class Model:
             raise ModelError(f"{self.source}: collide_as_triangles: {label} is a "
                              f"{GeomType(self.geom_type[g]).name.lower()}, not a mesh")
         b = int(self.geom_body[g])
-        while b >= 0:
-            if self.body_jntnum[b] > 0:
-                raise ModelError(f"{self.source}: collide_as_triangles: {label} is on body "
-                                 f"{self.body_names[int(self.geom_body[g])]!r}, which moves; "
-                                 "only static meshes collide as triangles (a moving mesh "
-                                 "collides as its convex hull, or as convex pieces)")
-            b = int(self.body_parent[b])
+        if b >= 0 and not self.body_static[b]:
+            raise ModelError(f"{self.source}: collide_as_triangles: {label} is on body "
+                             f"{self.body_names[b]!r}, which moves; only static meshes collide "
+                             "as triangles (a moving mesh collides as its convex hull, or as "
+                             "convex pieces)")
         if self.mesh_facenum[self.geom_dataid[g]] == 0:
             raise ModelError(f"{self.source}: collide_as_triangles: {label}'s mesh has no "
                              "triangles")

@@ -54,11 +54,7 @@ def candidate_pairs(model, self_collision=True) -> np.ndarray:
                  np.stack([model.eq_obj1, model.eq_obj2], 1)[jointed].tolist()}
     explicit = _explicit(model)
     # bodies welded to the world (no joint between them and it) move no more than the world
-    fixed = np.zeros(model.nbody, dtype=bool)
-    for b in range(model.nbody):               # parents come before their children
-        p = model.body_parent[b]
-        fixed[b] = model.body_jntnum[b] == 0 and (p < 0 or fixed[p])
-    static = np.where(body >= 0, fixed[np.maximum(body, 0)], True)
+    static = np.where(body >= 0, model.body_static[np.maximum(body, 0)], True)
     pairs = []
     for g1 in range(model.ngeom):
         for g2 in range(g1 + 1, model.ngeom):

@@ -193,9 +193,10 @@ def heightfield_to_mesh(height_field_raw: np.ndarray, horizontal_scale: float,
     """The height field as a triangle mesh, as Isaac Gym's terrain_utils builds it for PhysX
     (`isaacgym.terrain_utils.convert_heightfield_to_trimesh` is this function): vertices
     [rows·cols, 3] float32 (m; sample (i, j) at (i·horizontal_scale, j·horizontal_scale),
-    row-major), triangles [2·(rows-1)·(cols-1), 3] uint32, counter-clockwise seen from above. With `slope_threshold` (m/m): a vertex whose
-    neighbour along x or y is higher by more than threshold·horizontal_scale moves
-    horizontally under that neighbour, making the step a vertical wall."""
+    row-major), triangles [2·(rows-1)·(cols-1), 3] uint32, counter-clockwise seen from above.
+    With `slope_threshold` (m/m): a vertex whose neighbour along x or y is higher by more than
+    threshold·horizontal_scale moves horizontally under that neighbour, making the step a
+    vertical wall."""
     hf = np.asarray(height_field_raw)
     if hf.ndim != 2 or min(hf.shape) < 2:
         raise ValueError(f"heightfield_to_mesh: height_field_raw must be a 2-D grid "
@@ -283,7 +284,7 @@ class TerrainCurriculum:
                                                       c.vertical_scale,
                                                       env["terrain"]["slopeThreshold"])
             vertices[:, :2] -= c.border
-            return scene.add_triangle_mesh(vertices, triangles.astype(np.int64),
+            return scene.add_triangle_mesh(vertices, triangles,
                                            friction=env["terrain"]["staticFriction"])
         return scene.add_terrain(
             t.heights, c.horizontal_scale, origin=(-c.border, -c.border),

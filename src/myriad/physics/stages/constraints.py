@@ -297,10 +297,10 @@ def contact_rows(m: ModelArrays, e: int, at: wp.vec3i, h: float, rest_offset: fl
             a2 = wp.transform_point(wp.transform_inverse(x2), pos)
         c.anchor[e, k, 0] = a1
         c.anchor[e, k, 1] = a2
-        # a contact with the ground (a plane, height field or static mesh: a foot) starts from its normal
-        # impulse of the last substep, like a limit: a leg pressed down under load otherwise
-        # sank 43 mm into the ground in a hard landing (the ant under random torques; 5 mm
-        # warm). Other contacts start from zero (above); warm, a link pressed into a fixed
+        # a contact with the ground (a plane, height field or static mesh: a foot) starts from
+        # its normal impulse of the last substep, like a limit: a leg pressed down under load
+        # otherwise sank 43 mm into the ground in a hard landing (the ant under random torques;
+        # 5 mm warm). Other contacts start from zero (above); warm, a link pressed into a fixed
         # robot's base mesh at its joint limit pushed a UR5 1.4 rad past the limit
         ground = m.geom_type[pair[0]]
         if same >= 0 and (ground == PLANE or ground == HFIELD or ground == TRIMESH):

@@ -26,7 +26,7 @@ from ...types import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPH
 from .convex import (bounding_box, bounding_radius, box_corner, boxes_apart,
                      convex_contact, mat43, support)
 from .heightfield import ellipsoid_probe, probe_point, riser_contact, surface
-from .trimesh import box_depth, clip_to_box, face_plane, surface_point
+from .trimesh import face_plane, surface_point
 
 
 # probes per shape against a height field or a triangle mesh (see heightfield.probe_point);
@@ -189,6 +189,27 @@ def _signed_distance(kind: int, size: wp.vec3, local: wp.vec3):
         return _local_box_distance(size, local)
     dist, normal = _cylinder_distance(size, local)
     return dist
+
+
+@wp.func
+def _distance_and_normal(kind: int, size: wp.vec3, local: wp.vec3):
+    """(`_signed_distance`, the outward normal of the surface nearest the point), both in the
+    box's or cylinder's frame."""
+    if kind == BOX:
+        clamped = wp.vec3(wp.clamp(local[0], -size[0], size[0]),
+                          wp.clamp(local[1], -size[1], size[1]),
+                          wp.clamp(local[2], -size[2], size[2]))
+        away = local - clamped
+        if wp.length_sq(away) > 1.0e-24:        # outside: from the nearest surface point
+            return _local_box_distance(size, local), wp.normalize(away)
+        axis = int(0)                           # inside: the nearest face
+        for i in range(1, 3):
+            if size[i] - wp.abs(local[i]) < size[axis] - wp.abs(local[axis]):
+                axis = i
+        n = wp.vec3()
+        n[axis] = wp.sign(local[axis])
+        return _local_box_distance(size, local), n
+    return _cylinder_distance(size, local)
 
 
 @wp.func
@@ -666,7 +687,12 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, m1: int, t2: in
                           out)
                 if radius > 0.0:
                     # the other faces whose prisms hold the point within its radius: the second
-                    # side of a crease (each face once: coplanar neighbours share their edge)
+                    # side of a crease (each face once: coplanar neighbours share their edge).
+                    # A face the point is behind counts only when the point is inside: outside,
+                    # it is the back of a fold (a fin's other face), not a side it presses on
+                    behind = -size
+                    if found != 0 and dist + radius >= 0.0:
+                        behind = 0.0
                     local = wp.transform_point(inv1, point)
                     reach = wp.vec3(radius + margin, radius + margin, radius + margin)
                     query = wp.mesh_query_aabb(bvh, local - reach, local + reach)
@@ -676,7 +702,7 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, m1: int, t2: in
                         if other != face:
                             inside, fn, height = face_plane(bvh, other, local)
                             gap = height - radius
-                            if inside != 0 and gap < margin and height > -size \
+                            if inside != 0 and gap < margin and height > behind \
                                     and wp.dot(fn, kept_n) < 0.999:
                                 normal = wp.quat_rotate(rot1, fn)
                                 _emit(e, pair, key + 16 + other % 16,
@@ -715,12 +741,9 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, m1: int, t2: in
         for j in range(3):
             ia = 3 * face + j
             ib = 3 * face + (j + 1) % 3
-            va = wp.mesh_get_index(bvh, ia)
-            vb = wp.mesh_get_index(bvh, ib)
             if extra < TRIMESH_EDGES and (ridges >> j) & 1 != 0:
                 a = wp.transform_point(x1, wp.mesh_get_point(bvh, ia))
                 b = wp.transform_point(x1, wp.mesh_get_point(bvh, ib))
-                hit = int(0)
                 n = wp.vec3()
                 dist = float(0.0)
                 pos = wp.vec3()
@@ -730,42 +753,18 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, m1: int, t2: in
                     st = _closest_between_segments(a, b, p2, q2)
                     on_edge = a + (b - a) * st[0]
                     n, dist, pos = _spheres(on_edge, 0.0, p2 + (q2 - p2) * st[1], s2[0])
-                    hit = 1
-                elif t2 == BOX:
-                    # the deepest of the edge's part inside the box (grown by the offset): its
-                    # two ends there and its middle
-                    grown = s2 + wp.vec3(margin, margin, margin)
-                    la = wp.transform_point(inv2, a)
-                    lb = wp.transform_point(inv2, b)
-                    inside, t0, t1 = clip_to_box(grown, la, lb)
-                    if inside != 0:
-                        depth = float(-1.0e30)
-                        out_n = wp.vec3()
-                        at = wp.vec3()
-                        for i in range(3):
-                            t = t0 + (t1 - t0) * 0.5 * float(i)
-                            q = la + (lb - la) * t
-                            di, ni = box_depth(s2, q)
-                            if di > depth:
-                                depth = di
-                                out_n = ni
-                                at = q
-                        hit = 1
-                        n = -wp.quat_rotate(wp.transform_get_rotation(x2), out_n)
-                        dist = -depth
-                        pos = wp.transform_point(x2, at) + n * (0.5 * dist)
                 else:
-                    # a cylinder: the edge's deepest point in it
+                    # a box or a cylinder: the edge's deepest point in it
                     la = wp.transform_point(inv2, a)
                     lb = wp.transform_point(inv2, b)
-                    at = la + (lb - la) * _deepest_on_segment(CYLINDER, s2, la, lb)
-                    dist, out_n = _cylinder_distance(s2, at)
-                    hit = 1
+                    at = la + (lb - la) * _deepest_on_segment(t2, s2, la, lb)
+                    dist, out_n = _distance_and_normal(t2, s2, at)
                     n = -wp.quat_rotate(wp.transform_get_rotation(x2), out_n)
                     pos = wp.transform_point(x2, at) + n * (0.5 * dist)
-                if hit != 0 and dist < margin:
-                    _emit(e, pair, key + edge_keys + (va * 7 + vb) % (32 - edge_keys), pos, n,
-                          dist, margin, out)
+                if dist < margin:
+                    edge = wp.mesh_get_index(bvh, ia) * 7 + wp.mesh_get_index(bvh, ib)
+                    _emit(e, pair, key + edge_keys + edge % (32 - edge_keys), pos, n, dist,
+                          margin, out)
                     extra += 1
 
 

@@ -15,11 +15,11 @@ against it (`narrowphase._trimesh`):
   (`face_plane`): a foot in the corner of a step touches the tread and the riser, not only the
   nearer of the two.
 - The mesh's ridges (edges whose faces bend away, or an open surface's rims:
-  `build.ridge_edges`) into boxes, capsules and cylinders (a box: `clip_to_box`, `box_depth`;
-  a capsule: segment to segment; a cylinder: golden section on its signed distance along the
-  edge): an edge or vertex of the mesh under a face of the shape, between the shape's own
-  probes (a box lying over a table's edge, a shank across a step's edge), makes a contact at
-  its deepest point in the shape. Up to 16 contacts past the probes' per pair.
+  `build.ridge_edges`) into boxes, capsules and cylinders (a capsule: segment to segment; a box
+  or a cylinder: golden section on its signed distance along the edge): an edge or vertex of
+  the mesh under a face of the shape, between the shape's own probes (a box lying over a
+  table's edge, a shank across a step's edge), makes a contact at its deepest point in the
+  shape. Up to 16 contacts past the probes' per pair.
 
 What it does not see: a mesh edge crossing a convex mesh's face between its vertices (its
 probes are its vertices) or an ellipsoid's side, and a shape pushed through a thin wall
@@ -30,6 +30,29 @@ open surface such as terrain has an inside, the side its triangles face away fro
 """
 
 import warp as wp
+
+@wp.func
+def local_winding(bvh: wp.uint64, local: wp.vec3, reach: float):
+    """The winding number about `local` (mesh frame) of the faces whose bounds come within
+    `reach` of it: the sum of their solid angles over 4π (Van Oosterom and Strackee), positive
+    seen from behind. Only these faces: an open surface (a bin, terrain) has no winding number
+    that tells its sides apart far from it, but the faces around a point do: by an edge where
+    the inside spans an angle θ (π on a face), 1 - θ/2π inside and -θ/2π outside."""
+    near = wp.vec3(reach, reach, reach)
+    query = wp.mesh_query_aabb(bvh, local - near, local + near)
+    face = int(0)
+    angle = float(0.0)
+    while wp.mesh_query_aabb_next(query, face):
+        a = wp.mesh_get_point(bvh, 3 * face) - local
+        b = wp.mesh_get_point(bvh, 3 * face + 1) - local
+        c = wp.mesh_get_point(bvh, 3 * face + 2) - local
+        la = wp.length(a)
+        lb = wp.length(b)
+        lc = wp.length(c)
+        angle += 2.0 * wp.atan2(wp.dot(a, wp.cross(b, c)),
+                                la * lb * lc + wp.dot(a, b) * lc + wp.dot(b, c) * la
+                                + wp.dot(c, a) * lb)
+    return angle / (4.0 * wp.pi)
 
 
 @wp.func
@@ -44,10 +67,17 @@ def surface_point(bvh: wp.uint64, x: wp.transform, point: wp.vec3, reach: float)
     closest = wp.mesh_eval_position(bvh, query.face, query.u, query.v)
     d = local - closest
     length = wp.length(d)
+    sign = query.sign
+    if sign < 0.0 and length > 1.0e-4 and local_winding(bvh, local, 3.0 * length) <= 0.0:
+        # inside, by the angle-weighted normal at the closest feature, which cancels where the
+        # surface folds back on itself (a height field's vertices moved under their neighbours
+        # make fins of two opposite faces: a point 16 cm above one was taken to be inside, and
+        # an ANYmal's shank was thrown); the faces around the point do not hold it
+        sign = 1.0
     n = wp.mesh_eval_face_normal(bvh, query.face)
     if length > 1.0e-9:
-        n = d * (query.sign / length)     # inside, d points inward: the normal is -d
-    return 1, wp.quat_rotate(wp.transform_get_rotation(x), n), length * query.sign, query.face
+        n = d * (sign / length)     # inside, d points inward: the normal is -d
+    return 1, wp.quat_rotate(wp.transform_get_rotation(x), n), length * sign, query.face
 
 
 @wp.func
@@ -72,46 +102,3 @@ def face_plane(bvh: wp.uint64, face: int, local: wp.vec3):
     if wp.dot(wp.cross(a - c, local - c), n) < 0.0:
         inside = 0
     return inside, n, wp.dot(local - a, n)
-
-
-@wp.func
-def box_depth(half: wp.vec3, local: wp.vec3):
-    """(how deep `local` (box frame) lies inside the box: the least distance to a face,
-    negative outside; the outward normal of that face, box frame)."""
-    depth = float(1.0e30)
-    n = wp.vec3()
-    for i in range(3):
-        d = half[i] - wp.abs(local[i])
-        if d < depth:
-            depth = d
-            n = wp.vec3()
-            if local[i] >= 0.0:
-                n[i] = 1.0
-            else:
-                n[i] = -1.0
-    return depth, n
-
-
-@wp.func
-def clip_to_box(half: wp.vec3, a: wp.vec3, b: wp.vec3):
-    """(hit, t0, t1): the part a + t·(b - a), t in [t0, t1], of a segment (box frame) inside
-    the box (Liang-Barsky); hit 0 when the segment misses it."""
-    t0 = float(0.0)
-    t1 = float(1.0)
-    d = b - a
-    for i in range(3):
-        if wp.abs(d[i]) < 1.0e-12:
-            if wp.abs(a[i]) > half[i]:
-                return 0, 0.0, 0.0
-        else:
-            lo = (-half[i] - a[i]) / d[i]
-            hi = (half[i] - a[i]) / d[i]
-            if lo > hi:
-                swap = lo
-                lo = hi
-                hi = swap
-            t0 = wp.max(t0, lo)
-            t1 = wp.min(t1, hi)
-            if t0 > t1:
-                return 0, 0.0, 0.0
-    return 1, t0, t1
