@@ -2140,6 +2140,7 @@ def _myriad_params(params: SimParams):
         contact_offset=float(px.contact_offset), rest_offset=float(px.rest_offset),
         bounce_threshold_velocity=float(px.bounce_threshold_velocity),
         max_depenetration_velocity=float(px.max_depenetration_velocity),
+        max_correction_velocity=float(px.max_depenetration_velocity),
         max_joint_velocity=_DEFAULT_MAX_JOINT_VELOCITY)
 
 

@@ -114,6 +114,7 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
     opt.rest_offset = params.rest_offset
     opt.bounce_threshold = params.bounce_threshold_velocity
     opt.max_depenetration = params.max_depenetration_velocity
+    opt.max_correction = params.max_correction_velocity
     opt.limit_jnt = wp.array(np.asarray(limited, np.int32), dtype=wp.int32, device=dev)
     opt.limit_tendon = wp.array(np.asarray(limited_tendons, np.int32), dtype=wp.int32, device=dev)
 

@@ -22,7 +22,14 @@ class SimParams:
     contact_offset: float = 0.02          # shapes closer than this generate contacts (m)
     rest_offset: float = 0.0              # shapes come to rest at this separation (m)
     bounce_threshold_velocity: float = 0.2    # no restitution below this approach speed (m/s)
-    max_depenetration_velocity: float = 10.0  # cap on the speed that resolves penetration (m/s)
+    # caps on the speeds at which the solver undoes errors (m/s; rad/s for a hinge's limit):
+    # a contact's penetration, 1 m/s as Isaac Lab's robots (G1, H1, ANYmal) set it: at 10, a
+    # G1 under random torques pumped energy through contacts between neighbouring links that
+    # a limit held in place (1000x in 2 s in 2 of 40 envs; `benchmarks/robot_stress.py`).
+    # Limits and equalities keep 10: capped at 1, TALOS's mimic grippers lagged past their
+    # limits. A task's `physx.max_depenetration_velocity` (Isaac Gym's one setting) sets both
+    max_depenetration_velocity: float = 1.0
+    max_correction_velocity: float = 10.0
     max_joint_velocity: float = 100.0     # default per-dof speed cap (PhysX's default), rad/s or m/s
     contacts_per_env: int = 64            # contact capacity of each env
     constraints: bool = True              # False: smooth dynamics only (no contacts, no limits)
@@ -47,7 +54,8 @@ class SimParams:
         if self.gravity is not None and np.shape(self.gravity) != (3,):
             bad("gravity", "must be three numbers (x, y, z) or None")
         for name in ("contact_offset", "rest_offset", "bounce_threshold_velocity",
-                     "max_depenetration_velocity", "max_joint_velocity"):
+                     "max_depenetration_velocity", "max_correction_velocity",
+                     "max_joint_velocity"):
             if not math.isfinite(getattr(self, name)) or getattr(self, name) < 0:
                 bad(name, "must be a finite number >= 0")
         if self.rest_offset > self.contact_offset:

@@ -254,6 +254,7 @@ class Options:
     rest_offset: float            # shapes come to rest this far apart (m)
     bounce_threshold: float       # no restitution below this approach speed (m/s)
     max_depenetration: float      # cap on the speed that resolves a penetration (m/s)
+    max_correction: float         # cap on the speed that undoes a limit's or an equality's error
     limit_jnt: wp.array(dtype=wp.int32)     # the limited joints, in the order of their rows
     limit_tendon: wp.array(dtype=wp.int32)  # the limited tendons, in the order of their rows
 

@@ -51,9 +51,12 @@ def sim_params(sim_cfg: dict) -> SimParams:
     unknown = sorted(set(physx) - set(keys))
     if unknown:
         raise KeyError(f"sim.physx: unknown keys {unknown}; valid: {sorted(keys) + ['solver_type']}")
+    values = {keys[k]: v for k, v in physx.items()}
+    if "max_depenetration_velocity" in values:     # PhysX's one cap: contacts and joints
+        values["max_correction_velocity"] = values["max_depenetration_velocity"]
     return SimParams(dt=float(sim_cfg["dt"]), substeps=int(sim_cfg.get("substeps", 1)),
                      gravity=tuple(sim_cfg.get("gravity", (0.0, 0.0, -9.81))), solver=solver,
-                     **{keys[k]: v for k, v in physx.items()})
+                     **values)
 
 
 def box_spec(name: str, size, density: float = 1000.0, rgba=(0.6, 0.6, 0.6, 1.0)) -> mujoco.MjSpec:

@@ -109,9 +109,12 @@ def _wait(ln: wp.vec2i):
 def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: int,
            tendon_limits: wp.vec2i, c: Contacts, limit_jnt: wp.array(dtype=wp.int32),
            first: int, biased: int, tgs: int, hs: float,
-           h: float, max_depenetration: float, factor: wp.array2d(dtype=float), rows: Rows,
+           h: float, max_depenetration: float, max_correction: float,
+           factor: wp.array2d(dtype=float), rows: Rows,
            v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
     """One Gauss-Seidel sweep over the rows in use, updating v and the impulses rows.lam.
+    Penetrations are undone at up to `max_depenetration`, limits and equalities at up to
+    `max_correction` (`Options`).
 
     The contacts' normal rows, patch by patch, and the tendon limits; the contacts' friction
     rows, whose bounds then hold this sweep's normal impulses; the joint limits, solved
@@ -139,14 +142,14 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
                 break
         k = end
     for r in range(tendon_limits[0], tendon_limits[1]):
-        _normal_row(m, e, ln, r, biased, tgs, hs, h, max_depenetration, factor, rows, v, dq)
+        _normal_row(m, e, ln, r, biased, tgs, hs, h, max_correction, factor, rows, v, dq)
     for k in range(ncontact):
         _friction_rows(e, ln, 3 * k + 1, biased, tgs, hs, rows, c, v, dq)
     # the joint limits last of the one-sided rows: a joint's mechanical stop has the last word
     # over contacts (a UR5's overlapping link meshes pushed its wrist 0.26 rad past its limit
     # when the limits came before the friction rows)
     _wait(ln)
-    _limit_rows(m, e, ln, layout, limit_jnt, first, biased, tgs, hs, h, max_depenetration,
+    _limit_rows(m, e, ln, layout, limit_jnt, first, biased, tgs, hs, h, max_correction,
                 factor, rows, v, dq)
     _wait(ln)
     if first != 0:
@@ -170,7 +173,7 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
         # equalities last: the sweep ends with them holding, whatever the rows before did
         if layout.springs > layout.equalities:
             for i in range(m.neq):
-                _equality(m, e, layout.equalities, i, biased, tgs, hs, max_depenetration, rows,
+                _equality(m, e, layout.equalities, i, biased, tgs, hs, max_correction, rows,
                           v, dq)
     _wait(ln)
 
@@ -659,6 +662,7 @@ def solve(m: ModelArrays, opt: Options, layout: RowLayout,
     velocity_iterations = opt.velocity_iterations
     tgs = opt.tgs
     max_depenetration = opt.max_depenetration
+    max_correction = opt.max_correction
     nv = m.nv
     for i in range(lane, nv, lanes):
         s.qd_before[e, i] = s.qd[e, i]
@@ -684,7 +688,7 @@ def solve(m: ModelArrays, opt: Options, layout: RowLayout,
         hs = h / float(position_iterations)
     for it in range(position_iterations):
         _sweep(m, e, ln, layout, ncontact, tendon_limits, c, limit_jnt, int(it == 0), 1, tgs,
-               hs, h, max_depenetration, d.factor, rows, s.qd, s.dq)
+               hs, h, max_depenetration, max_correction, d.factor, rows, s.qd, s.dq)
         if tgs != 0:
             for i in range(lane, nv, lanes):
                 s.dq[e, i] = s.dq[e, i] + hs * s.qd[e, i]
@@ -693,7 +697,7 @@ def solve(m: ModelArrays, opt: Options, layout: RowLayout,
             s.dq[e, i] = h * s.qd[e, i]
     for it in range(velocity_iterations):
         _sweep(m, e, ln, layout, ncontact, tendon_limits, c, limit_jnt, 0, 0, tgs, hs, h,
-               max_depenetration, d.factor, rows, s.qd, s.dq)
+               max_depenetration, max_correction, d.factor, rows, s.qd, s.dq)
     # the speed caps hold exactly: a dof's row is swept before the contacts that follow it can
     # push the dof past its cap again, and one velocity sweep leaves that overshoot in place.
     # A G1 with hands curled up on itself under random torques (hundreds of contacts between

@@ -10,7 +10,8 @@ against it (`narrowphase._trimesh`):
   convex mesh's first hull vertices; an ellipsoid's point deepest along the normal under its
   center): each finds the closest point of the whole mesh (`surface_point`), and its signed
   distance is exact, the sign from the angle-weighted normal at the closest feature (face, edge
-  or vertex), which stays right across creases and ridges. A round probe (a sphere's center, a
+  or vertex), which stays right across creases and ridges; an inside is confirmed by the
+  winding of the faces round the point (`local_winding`: a fold's normals cancel). A round probe (a sphere's center, a
   capsule's points) also meets every other face whose prism it stands in, within its radius
   (`face_plane`): a foot in the corner of a step touches the tread and the riser, not only the
   nearer of the two.
