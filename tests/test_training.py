@@ -333,3 +333,18 @@ def test_bfloat16_mlps_keep_float32_outputs_weights_and_checkpoint_keys():
     assert torch.allclose(out, plain, atol=0.05 * plain.abs().max().item()), (out - plain).abs().max()
     out.square().mean().backward()
     assert all(p.grad is not None and p.grad.dtype == torch.float32 for p in net.parameters())
+
+
+def test_contacts_past_the_slots_are_counted_and_warned_with_the_capacity_to_set(tmp_path):
+    """Ant with 2 contact slots per env: once its feet are down, the contacts past them are
+    dropped. Training warns with the number to set and summary.json counts the env-steps."""
+    with pytest.warns(RuntimeWarning, match=r"Raise task.sim.physx.contacts_per_env to \d+"):
+        assert cli.main(["train", *train_args(tmp_path, "max_iterations=2", "experiment=few",
+                                              "+task.sim.physx.contacts_per_env=2")]) == 0
+    summary = json.loads((tmp_path / "few" / "summary.json").read_text())
+    assert 0 < summary["contact_overflow_steps"] <= 32 * 16 * 2
+    task = myriad.make("Ant", num_envs=2, **{"sim.physx.contacts_per_env": 2})
+    for _ in range(60):                     # 1 s: the ant lands on its feet
+        task.step(torch.zeros(2, 8))
+    over, most = task.take_contact_overflow()
+    assert over > 0 and most > 2 and task.take_contact_overflow() == (0, 0)

@@ -270,6 +270,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.best_saved_reward = -math.inf  # reward of the policy in nn/<Task>.pth
         self.restored_best = None
         self.nonfinite_actions = 0          # env-steps whose action had a NaN or inf
+        self.contact_overflow_steps = 0     # env-steps that found more contacts than slots
         self.checkpoint_epoch = None        # the epoch nn/last.pth holds
         self.frames_not_counted = 0         # this epoch's env-steps, before rl_games adds them
         self.stop_signal = None
@@ -435,6 +436,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             "best_mean_reward": self.best_mean_reward,
             "best_saved_reward": self.best_saved_reward,
             "nonfinite_actions": self.nonfinite_actions,
+            "contact_overflow_steps": self.contact_overflow_steps,
             "task": getattr(self.vec_env.env, "training_state", dict)(),
             "task_by_rank": self.task_states,    # several processes: as of the last epoch's end
             "rng": {"torch": torch.get_rng_state(), "cuda": cuda,
@@ -453,6 +455,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.best_saved_reward = ours["best_saved_reward"]
         self.restored_best = self.best_saved_reward
         self.nonfinite_actions = ours["nonfinite_actions"]
+        self.contact_overflow_steps = ours.get("contact_overflow_steps", 0)
         task = self.own_task_state(ours)
         if task:
             self.vec_env.env.load_training_state(task)
@@ -557,6 +560,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
                           "progress.csv and TensorBoard (myriad/nonfinite_actions).",
                           RuntimeWarning, stacklevel=2)
         self.nonfinite_actions += bad_now
+        self.note_contact_overflow()
         self.metrics = self.share_task_state()
         if self.writes_files:
             self.report_epoch(env_steps, total_time, wall, mean, bad_now,
@@ -620,6 +624,19 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             f"update diverged); {kept}. Lower train.params.config.learning_rate or check the "
             "task's observations and rewards.")
 
+    def note_contact_overflow(self):
+        """Contacts past an env's slots are dropped (a foot goes through the ground): the first
+        epoch that saw it warns with the capacity to set; summary.json keeps the count."""
+        env = self.vec_env.env
+        over, most = env.take_contact_overflow()
+        if over and not self.contact_overflow_steps and self.writes_files:
+            capacity = env.envs.sim.contact_capacity
+            warnings.warn(f"epoch {self.epoch_num}: {over} env-steps found more contacts than "
+                          f"their {capacity} slots (most: {most}); the rest were dropped. Raise "
+                          f"task.sim.physx.contacts_per_env to {most} or more.",
+                          RuntimeWarning, stacklevel=2)
+        self.contact_overflow_steps += over
+
     def write_summary(self, env_steps, wall, mean):
         atomic_json(os.path.join(self.experiment_dir, "summary.json"), {
             **self.run_cfg["describe"], "epochs": self.epoch_num, "env_steps": int(env_steps),
@@ -628,6 +645,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             "env_steps_per_s": round(env_steps / max(wall, 1e-9)),
             **{k: round(v, 2) for k, v in self.time_split.items()},
             "nonfinite_actions": self.nonfinite_actions,
+            "contact_overflow_steps": self.contact_overflow_steps,
             **{k: round(v, 4) for k, v in getattr(self, "metrics", {}).items()},
             "checkpoint": os.path.join(self.nn_dir, "last.pth"),
             "checkpoint_epoch": self.checkpoint_epoch})

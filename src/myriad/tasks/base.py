@@ -134,6 +134,10 @@ class VecTask:
         # env-steps whose action held a NaN or inf, per env, since the last take (on the device:
         # counting never syncs with the host)
         self.nonfinite_action_count = torch.zeros(N, dtype=torch.long, device=dev)
+        # env-steps that found more contacts than the env's slots (the rest were dropped), and
+        # the most contacts an env found, since the last take (`take_contact_overflow`)
+        self.contact_overflow_count = torch.zeros(N, dtype=torch.long, device=dev)
+        self.most_contacts = torch.zeros(N, dtype=torch.long, device=dev)
         self.extras: dict = {}
         self.obs_dict: dict = {}
         # what the episodes reached, per env, as the task records it in each step before that
@@ -245,6 +249,9 @@ class VecTask:
                 dr.apply_random_forces(new_draws=i == 0)
             self.envs.step()
         self.progress_buf += 1
+        found = self.envs.sim.contact_count.long()
+        self.contact_overflow_count += (found > self.envs.sim.contact_capacity).long()
+        torch.maximum(self.most_contacts, found, out=self.most_contacts)
         if dr is not None:
             dr.on_step()
         self.post_physics_step()
@@ -340,6 +347,15 @@ class VecTask:
         count = int(self.nonfinite_action_count.sum())
         self.nonfinite_action_count.zero_()
         return count
+
+    def take_contact_overflow(self) -> tuple[int, int]:
+        """(env-steps whose contacts did not all fit the env's slots, the most contacts an env
+        found) since the last call; reads the device once."""
+        counts = torch.stack([self.contact_overflow_count.sum(), self.most_contacts.max()])
+        over, most = (int(x) for x in counts.tolist())
+        self.contact_overflow_count.zero_()
+        self.most_contacts.zero_()
+        return over, most
 
     def get_number_of_agents(self) -> int:
         return 1
