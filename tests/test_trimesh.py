@@ -105,13 +105,16 @@ def test_a_sphere_beside_a_ridge_is_measured_to_the_edge(device):
     sim = _simulator(_mesh_xml(RIDGE_VERTICES, RIDGE_TRIANGLES,
                                f'<body pos="{center[0]} {center[1]} {center[2]}"><freejoint/>'
                                f'<geom type="sphere" size="{r}"/></body>'), device=device)
-    sim.collide()
-    n = int(sim.contact_count[0])
-    assert n == 1
     edge = np.array([0.0, 0.0, 0.1])
-    expected = np.linalg.norm(center - edge) - r
-    assert float(sim.contact_dist[0, 0]) == pytest.approx(expected, abs=1e-5)
-    normal = (center - edge) / np.linalg.norm(center - edge)
+    _one_contact(sim, np.linalg.norm(center - edge) - r,
+                 (center - edge) / np.linalg.norm(center - edge))
+
+
+def _one_contact(sim, dist, normal):
+    """After collide(): env 0 has exactly one contact, at `dist` along `normal` (1e-5)."""
+    sim.collide()
+    assert int(sim.contact_count[0]) == 1
+    assert float(sim.contact_dist[0, 0]) == pytest.approx(dist, abs=1e-5)
     np.testing.assert_allclose(sim.contact_normal[0, 0].cpu().numpy(), normal, atol=1e-5)
 
 
@@ -181,11 +184,7 @@ def test_a_sphere_above_a_folded_fin_is_outside(device):
     sim = _simulator(_mesh_xml(FIN_VERTICES, FIN_TRIANGLES,
                                f'<body pos="0 0 {0.02 + r + 0.01}"><freejoint/>'
                                f'<geom type="sphere" size="{r}"/></body>'), device=device)
-    sim.collide()
-    n = int(sim.contact_count[0])
-    assert n == 1
-    assert float(sim.contact_dist[0, 0]) == pytest.approx(0.01, abs=1e-5)
-    np.testing.assert_allclose(sim.contact_normal[0, 0].cpu().numpy(), [0, 0, 1], atol=1e-5)
+    _one_contact(sim, 0.01, [0, 0, 1])
 
 
 def test_a_sphere_pressed_on_a_thin_wall_meets_its_near_face_only(device):
@@ -198,11 +197,7 @@ def test_a_sphere_pressed_on_a_thin_wall_meets_its_near_face_only(device):
     triangles = [[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7]]
     sim = _simulator(_mesh_xml(vertices, triangles, '<body pos="-0.02 0 0"><freejoint/>'
                                '<geom type="sphere" size="0.03"/></body>'), device=device)
-    sim.collide()
-    n = int(sim.contact_count[0])
-    assert n == 1
-    assert float(sim.contact_dist[0, 0]) == pytest.approx(-0.01, abs=1e-5)
-    np.testing.assert_allclose(sim.contact_normal[0, 0].cpu().numpy(), [-1, 0, 0], atol=1e-5)
+    _one_contact(sim, -0.01, [-1, 0, 0])
 
 
 def test_a_box_over_a_table_edge_rests_on_the_edge(device):
