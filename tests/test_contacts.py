@@ -322,3 +322,29 @@ def test_sphere_rolls_down_a_height_field_ramp_at_five_sevenths_g_sin(device):
     accel = np.linalg.norm(sim.qd[0, :3].cpu().numpy() - v0) / 0.5
     assert accel == pytest.approx(5 / 7 * 9.81 * np.sin(theta), rel=0.03)
     assert sim.qd[0, 0].item() < 0  # downhill, toward -x
+
+
+@pytest.mark.parametrize("caps, contact_speed, limit_speed", [
+    ({}, 1.0, 10.0),                                       # the defaults
+    ({"max_depenetration_velocity": 4.0, "max_correction_velocity": 2.0}, 4.0, 2.0)])
+def test_penetration_and_limit_errors_are_undone_at_their_own_capped_speeds(
+        caps, contact_speed, limit_speed, device):
+    """A box 5 cm into the ground and a hinge 0.5 rad past its limit, no gravity, one substep
+    of 1/120 s: each is pushed out at its cap (contacts: max_depenetration_velocity, limits:
+    max_correction_velocity), which the error asks for many times over (5 cm or 0.5 rad in a
+    2 ms sweep), so each moves by its cap times the substep."""
+    model = myriad.load_xml("""<mujoco><option gravity="0 0 0"/><worldbody>
+      <geom type="plane" size="5 5 0.1"/>
+      <body pos="0 0 0.05"><freejoint/><geom type="box" size="0.1 0.1 0.1" mass="1"/></body>
+      <body pos="2 0 1"><joint type="hinge" axis="0 0 1" range="-0.5 0.5" limited="true"/>
+        <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.03" mass="1"/></body>
+      </worldbody></mujoco>""", "caps")
+    h = 1 / 120
+    sim = myriad.Simulator(model, num_envs=1, device=device,
+                           params=myriad.SimParams(dt=h, substeps=1, **caps))
+    q = sim.q.clone()
+    q[0, 7] = 1.0                          # the hinge: 0.5 rad past its upper limit
+    sim.q = q
+    sim.step()
+    assert sim.q[0, 2].item() - 0.05 == pytest.approx(contact_speed * h, rel=1e-3)  # the box
+    assert 1.0 - sim.q[0, 7].item() == pytest.approx(limit_speed * h, rel=1e-3)     # the hinge
