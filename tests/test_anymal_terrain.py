@@ -241,6 +241,18 @@ def test_the_robot_stands_on_every_kind_of_tile(device, surface):
     assert height.min() > 0.3, height       # standing: 0.51 on flat ground
 
 
+@pytest.mark.parametrize("surface", ["height field", "mesh"])
+def test_friction_is_drawn_for_every_robot_geom_and_not_for_the_terrain(device, surface):
+    """frictionRange applies to all of the robot's geoms, its base's too; the terrain keeps
+    staticFriction (the mesh, named triangle_mesh0, once got the robot's draw)."""
+    task = make(device, num_envs=2, **{"env.frictionRange": [0.7, 0.7]},
+                **(AS_MESH if surface == "mesh" else {}))
+    body = torch.as_tensor(task.envs.model.geom_body)
+    friction = task.envs.sim.geom_friction.cpu()
+    assert (body == 0).any() and torch.allclose(friction[:, body >= 0], torch.tensor(0.7))
+    assert torch.allclose(friction[:, body < 0], torch.tensor(1.0))
+
+
 def test_the_robot_slides_but_is_not_thrown_on_the_slippery_rough_mesh(device):
     """Zero actions on the rough slope at level 6 of the original's triangle mesh, everything
     at friction 0.5: the robot lands, crouches and slides down (0.4 m/s at most), and is never

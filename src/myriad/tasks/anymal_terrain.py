@@ -88,7 +88,7 @@ class AnymalTerrain(TerrainCurriculum, VecTask):
         lo, hi = env["frictionRange"]
         buckets = torch.empty(int(env["frictionBuckets"]), device=dev).uniform_(lo, hi)
         # the robot's geoms: on its bodies, not the world's (the ground, a height field, a mesh)
-        robot_geoms = torch.nonzero(torch.as_tensor(e.model.geom_body) > 0).flatten().tolist()
+        robot_geoms = torch.nonzero(torch.as_tensor(e.model.geom_body) >= 0).flatten().tolist()
         e.sim.geom_friction[:, robot_geoms] = buckets[torch.arange(N, device=dev)
                                                       % len(buckets)][:, None]
 
