@@ -39,6 +39,10 @@ def main() -> None:
     ap.add_argument("model", help="a corpus name, e.g. g1/g1_29dof_with_hand_rev_1_0")
     ap.add_argument("--envs", type=int, default=40)
     ap.add_argument("--seconds", type=float, default=2.0)
+    ap.add_argument("--trace", type=int, metavar="ENV",
+                    help="also print, for env ENV, the steps whose energy rose most: the "
+                         "contacts then (bodies, depth, force), the joints past their limits "
+                         "and the dofs at their speed cap")
     ap.add_argument("params", nargs="*", help="SimParams overrides, key=value")
     args = ap.parse_args()
     overrides = {}
@@ -73,6 +77,7 @@ def main() -> None:
     longest = torch.zeros_like(streak)
     deepest = torch.full((args.envs,), math.inf)
     overflow = 0
+    trace = []
     start = time.perf_counter()
     for step in range(steps):
         if step % hold == 0:
@@ -88,7 +93,11 @@ def main() -> None:
         overflow += int((count > sim.contact_capacity).sum())
         used = torch.arange(sim.contact_capacity) < count[:, None]
         deepest = torch.minimum(deepest, torch.where(used, sim.contact_dist, math.inf).amin(1))
-        e_max = torch.maximum(e_max, energy().nan_to_num(math.inf))
+        now = energy().nan_to_num(math.inf)
+        e_max = torch.maximum(e_max, now)
+        if args.trace is not None:
+            trace.append(_snapshot(sim, model, args.trace, step, float(now[args.trace]), over,
+                                   joints, at_cap))
     wall = time.perf_counter() - start
     per_env = excess.amax(1)
     runaway = e_max > 1.5 * e0.abs().clamp(min=1.0)
@@ -98,7 +107,8 @@ def main() -> None:
     print(f"  deepest contact: worst {float(deepest.min()) * 1e3:.1f} mm, median env "
           f"{float(deepest.median()) * 1e3:.1f} mm")
     print(f"  energy runaway (> 1.5x start): {int(runaway.sum())}/{args.envs} envs, "
-          f"worst {float((e_max / e0.abs().clamp(min=1.0)).max()):.0f}x")
+          f"worst {float((e_max / e0.abs().clamp(min=1.0)).max()):.0f}x"
+          + (f" (envs {torch.nonzero(runaway).flatten().tolist()[:8]})" if runaway.any() else ""))
     print(f"  longest run at a speed cap: {int(longest.max())} steps; contact-slot overflow in "
           f"{overflow} of {steps * args.envs} env-steps (capacity {sim.contact_capacity})")
     worst = torch.argsort(excess.amax(0), descending=True)
@@ -107,6 +117,39 @@ def main() -> None:
             break
         print(f"    {model.joint_names[joints[i]]}: {float(excess[:, i].max()):.3f} past its limit "
               f"(env {int(excess[:, i].argmax())})")
+    if trace:
+        _print_trace(trace, float(e0[args.trace]))
+
+
+def _body(model, geom: int) -> str:
+    b = int(model.geom_body[geom])
+    return "world" if b < 0 else (model.body_names[b] or f"body {b}")
+
+
+def _snapshot(sim, model, env: int, step: int, energy: float, over, joints, at_cap) -> dict:
+    """What env `env` holds after `step`: its energy, contacts, limit excess and capped dofs."""
+    n = min(int(sim.contact_count[env]), sim.contact_capacity)
+    contacts = [(f"{_body(model, g1)}-{_body(model, g2)}", float(d), float(f.norm()))
+                for (g1, g2), d, f in zip(sim.contact_geom[env, :n].tolist(),
+                                          sim.contact_dist[env, :n], sim.contact_force[env, :n])]
+    past = [(model.joint_names[joints[i]], float(over[env, i]))
+            for i in torch.nonzero(over[env] > 0.01).flatten().tolist()]
+    capped = torch.nonzero(at_cap[env]).flatten().tolist()
+    return {"step": step, "energy": energy, "contacts": contacts, "past": past, "capped": capped}
+
+
+def _print_trace(trace: list, e0: float) -> None:
+    """The 5 steps whose energy rose most, with what the env held then."""
+    rises = sorted(range(1, len(trace)), key=lambda k: trace[k - 1]["energy"] - trace[k]["energy"])
+    print(f"  trace: energy {e0:.1f} J at the start, {trace[-1]['energy']:.1f} J at the end")
+    for k in sorted(rises[:5]):
+        t = trace[k]
+        print(f"    step {t['step']}: {trace[k - 1]['energy']:.1f} -> {t['energy']:.1f} J; "
+              f"{len(t['contacts'])} contacts, dofs at their cap {t['capped']}")
+        for pair, depth, force in sorted(t["contacts"], key=lambda c: -c[2])[:6]:
+            print(f"      {pair}: {depth * 1e3:.1f} mm, {force:.0f} N")
+        for name, excess in t["past"]:
+            print(f"      {name}: {excess:.3f} past its limit")
 
 
 if __name__ == "__main__":
