@@ -505,3 +505,24 @@ def test_the_gpus_collision_path_keeps_the_cpus_contacts_whatever_its_atomics_di
         np.testing.assert_array_equal(getattr(c, name).numpy()[:, :slots],
                                       getattr(cpu.data.contacts, name).numpy()[:, :slots],
                                       err_msg=name)
+
+
+def test_a_body_and_its_grandparent_collide_only_when_asked():
+    """SimParams.filter_ancestors: 2 (the default) skips a body's grandparent as well as its
+    parent; 1 keeps MuJoCo's and PhysX's parent-only filter (the tasks' and Isaac Gym's)."""
+    model = myriad.load_xml("""<mujoco><worldbody><body name="a"><freejoint/>
+      <geom name="ga" type="sphere" size="0.1"/>
+      <body name="b" pos="0.3 0 0"><joint type="hinge"/><geom name="gb" type="sphere" size="0.1"/>
+        <body name="c" pos="0.3 0 0"><joint type="hinge"/><geom name="gc" type="sphere" size="0.1"/>
+          <body name="d" pos="0.3 0 0"><joint type="hinge"/><geom name="gd" type="sphere" size="0.1"/>
+      </body></body></body></body></worldbody></mujoco>""", "chain")
+    g = {name: model.geom_names.index(name) for name in ("ga", "gb", "gc", "gd")}
+
+    def pairs(ancestors):
+        return {tuple(sorted(p)) for p in candidate_pairs(model, True, ancestors).tolist()}
+    assert pairs(1) == {tuple(sorted((g[x], g[y]))) for x, y in
+                        (("ga", "gc"), ("ga", "gd"), ("gb", "gd"))}
+    assert pairs(2) == {tuple(sorted((g["ga"], g["gd"])))}
+    assert myriad.SimParams().filter_ancestors == 2
+    with pytest.raises(ValueError, match="filter_ancestors"):
+        myriad.SimParams(filter_ancestors=0)

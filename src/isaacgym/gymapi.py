@@ -2141,7 +2141,8 @@ def _myriad_params(params: SimParams):
         bounce_threshold_velocity=float(px.bounce_threshold_velocity),
         max_depenetration_velocity=float(px.max_depenetration_velocity),
         max_correction_velocity=float(px.max_depenetration_velocity),
-        max_joint_velocity=_DEFAULT_MAX_JOINT_VELOCITY)
+        max_joint_velocity=_DEFAULT_MAX_JOINT_VELOCITY,
+        filter_ancestors=1)            # PhysX filters a link's parent alone
 
 
 # options honoured, accepted because they only draw or import, and refused when not default

@@ -82,8 +82,8 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
     m, dev = model, device
     # model-wide collision data: candidate pairs fixed now (with the friction of the explicit
     # ones, in ModelArrays), shapes, meshes, height fields
-    pairs = (pair_rules.candidate_pairs(model, params.self_collisions) if params.constraints
-             else np.zeros((0, 2), np.int32))
+    pairs = (pair_rules.candidate_pairs(model, params.self_collisions, params.filter_ancestors)
+             if params.constraints else np.zeros((0, 2), np.int32))
     contact_capacity = params.contacts_per_env if len(pairs) else 0
     meshes, hfields, triangle_meshes = shape_data(model, dev)
 

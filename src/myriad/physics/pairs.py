@@ -38,15 +38,33 @@ import numpy as np
 from .types import EqualityType, GeomType, JointType
 
 
-def candidate_pairs(model, self_collision=True) -> np.ndarray:
+def _near_ancestors(body_parent: np.ndarray, generations: int) -> set:
+    """{(body, ancestor)} for the ancestors 2 to `generations` generations above each body (the
+    parent is filtered on its own, explicit pairs aside)."""
+    near = set()
+    for b in range(len(body_parent)):
+        a = int(body_parent[b])
+        for _ in range(generations - 1):
+            if a < 0:
+                break
+            a = int(body_parent[a])
+            if a >= 0:
+                near.add((b, a))
+    return near
+
+
+def candidate_pairs(model, self_collision=True, ancestors: int = 1) -> np.ndarray:
     """[npair, 2] geom indices of every pair that may collide, the model's explicit pairs
     among them (`pair_friction` gives their friction, per candidate pair).
 
     `self_collision`: whether the bodies of one articulation (a tree below the world) collide with
     each other: one bool for all trees, or one per tree root body (a dict {root body: bool}).
+    `ancestors`: a body does not collide with its parent, nor, from 2, with the bodies up to
+    that many generations above it (`SimParams.filter_ancestors`).
     """
     body = model.geom_body
     parent = np.where(body >= 0, model.body_parent[np.maximum(body, 0)], -2)
+    near = _near_ancestors(model.body_parent, ancestors)
     root = np.where(body >= 0, model.body_root[np.maximum(body, 0)], -1)
     excluded = {tuple(sorted(p)) for p in model.exclude_body_pairs.tolist()}
     jointed = np.isin(model.eq_type, (EqualityType.CONNECT, EqualityType.WELD))
@@ -67,6 +85,8 @@ def candidate_pairs(model, self_collision=True) -> np.ndarray:
                     continue
                 if (b1 >= 0 and parent[g2] == b1) or (b2 >= 0 and parent[g1] == b2):
                     continue                   # parent and child (the world is nobody's parent here)
+                if (b1, b2) in near or (b2, b1) in near:
+                    continue                   # a grandparent or nearer, with ancestors >= 2
                 if tuple(sorted((b1, b2))) in excluded:
                     continue
             if b1 >= 0 and root[g1] == root[g2]:

@@ -34,6 +34,12 @@ class SimParams:
     contacts_per_env: int = 64            # contact capacity of each env
     constraints: bool = True              # False: smooth dynamics only (no contacts, no limits)
     self_collisions: bool = True          # bodies of one articulation collide with each other
+    # a body does not collide with its ancestors up to this many generations above it: 1, its
+    # parent only (MuJoCo's and PhysX's filter); 2 also skips its grandparent, whose contacts
+    # with it (across the link between them: a pelvis and an upper torso, a torso and an upper
+    # arm) fought the two joints and ran TALOS's energy away in 14 of 120 envs
+    # (`benchmarks/robot_stress.py`). A task's settings and Isaac Gym's keep 1
+    filter_ancestors: int = 2
 
     def __post_init__(self):
         def bad(field, why):
@@ -41,7 +47,7 @@ class SimParams:
 
         if not (isinstance(self.dt, (int, float)) and math.isfinite(self.dt) and self.dt > 0):
             bad("dt", "must be a positive, finite number of seconds")
-        for name in ("substeps", "position_iterations"):
+        for name in ("substeps", "position_iterations", "filter_ancestors"):
             v = getattr(self, name)
             if not isinstance(v, int) or isinstance(v, bool) or v < 1:
                 bad(name, "must be an integer >= 1")

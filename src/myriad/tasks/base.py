@@ -56,7 +56,7 @@ def sim_params(sim_cfg: dict) -> SimParams:
         values["max_correction_velocity"] = values["max_depenetration_velocity"]
     return SimParams(dt=float(sim_cfg["dt"]), substeps=int(sim_cfg.get("substeps", 1)),
                      gravity=tuple(sim_cfg.get("gravity", (0.0, 0.0, -9.81))), solver=solver,
-                     **values)
+                     filter_ancestors=1, **values)     # PhysX filters the parent alone
 
 
 def box_spec(name: str, size, density: float = 1000.0, rgba=(0.6, 0.6, 0.6, 1.0)) -> mujoco.MjSpec:
