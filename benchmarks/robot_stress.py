@@ -108,7 +108,8 @@ def main() -> None:
           f"{float(deepest.median()) * 1e3:.1f} mm")
     print(f"  energy runaway (> 1.5x start): {int(runaway.sum())}/{args.envs} envs, "
           f"worst {float((e_max / e0.abs().clamp(min=1.0)).max()):.0f}x"
-          + (f" (envs {torch.nonzero(runaway).flatten().tolist()[:8]})" if runaway.any() else ""))
+          + (f" (envs {torch.nonzero(runaway).flatten().tolist()[:8]})"
+             if runaway.any() else ""))
     print(f"  longest run at a speed cap: {int(longest.max())} steps; contact-slot overflow in "
           f"{overflow} of {steps * args.envs} env-steps (capacity {sim.contact_capacity})")
     worst = torch.argsort(excess.amax(0), descending=True)

@@ -3,8 +3,9 @@
 A pair (g1, g2) can touch when its geoms are on different bodies, not both static (on the world
 or on bodies joined to it by no joint: a fixed-base table and the wall beside it), pass the
 contype/conaffinity test ((contype1 & conaffinity2) | (contype2 & conaffinity1)), are not a
-parent-child body pair (unless the parent is the world), and are not excluded by an MJCF
-<exclude>. Bodies joined by a connect or weld equality do not collide either (PhysX's default
+parent-child body pair (unless the parent is the world) nor, with
+`SimParams.filter_ancestors=2` (the default; tasks and Isaac Gym keep MuJoCo's and PhysX's 1),
+a body and its grandparent, and are not excluded by an MJCF <exclude>. Bodies joined by a connect or weld equality do not collide either (PhysX's default
 for jointed bodies: a weld holding two touching bodies together left their contact nothing to
 do but push harder each step, and a driven arm carrying a welded tool blew up). Pairs are
 ordered so that geom type 1 <= geom type 2, a static triangle mesh (TRIMESH) counted as a
@@ -19,7 +20,7 @@ geoms on one body (or both static) is dropped, since it cannot push anything; th
 rule on overlaps at rest below. A pair's own margin and gap are not used: every pair has the
 simulator's one contact_offset (PhysX's semantics).
 
-One rule MuJoCo does not have: two geoms of one articulation that overlap (by more than 0.1 mm)
+One more rule MuJoCo does not have: two geoms of one articulation that overlap (by more than 0.1 mm)
 in the model's initial pose (qpos0), or a fixed-base robot's link that overlaps the static
 geometry it is mounted on, are not a pair, and a warning names them. Robot files often overlap
 a link's collision mesh with its grandparent's (a hip mesh reaching into the base): MuJoCo's
@@ -39,17 +40,16 @@ from .types import EqualityType, GeomType, JointType
 
 
 def _near_ancestors(body_parent: np.ndarray, generations: int) -> set:
-    """{(body, ancestor)} for the ancestors 2 to `generations` generations above each body (the
-    parent is filtered on its own, explicit pairs aside)."""
+    """{(body, ancestor)} for the ancestors up to `generations` generations above each body
+    (1: its parent), the world not among them."""
     near = set()
     for b in range(len(body_parent)):
         a = int(body_parent[b])
-        for _ in range(generations - 1):
+        for _ in range(generations):
             if a < 0:
                 break
+            near.add((b, a))
             a = int(body_parent[a])
-            if a >= 0:
-                near.add((b, a))
     return near
 
 
@@ -63,7 +63,6 @@ def candidate_pairs(model, self_collision=True, ancestors: int = 1) -> np.ndarra
     that many generations above it (`SimParams.filter_ancestors`).
     """
     body = model.geom_body
-    parent = np.where(body >= 0, model.body_parent[np.maximum(body, 0)], -2)
     near = _near_ancestors(model.body_parent, ancestors)
     root = np.where(body >= 0, model.body_root[np.maximum(body, 0)], -1)
     excluded = {tuple(sorted(p)) for p in model.exclude_body_pairs.tolist()}
@@ -83,10 +82,8 @@ def candidate_pairs(model, self_collision=True, ancestors: int = 1) -> np.ndarra
                 if not ((model.geom_contype[g1] & model.geom_conaffinity[g2])
                         or (model.geom_contype[g2] & model.geom_conaffinity[g1])):
                     continue
-                if (b1 >= 0 and parent[g2] == b1) or (b2 >= 0 and parent[g1] == b2):
-                    continue                   # parent and child (the world is nobody's parent here)
                 if (b1, b2) in near or (b2, b1) in near:
-                    continue                   # a grandparent or nearer, with ancestors >= 2
+                    continue       # a parent (a grandparent too, with ancestors >= 2)
                 if tuple(sorted((b1, b2))) in excluded:
                     continue
             if b1 >= 0 and root[g1] == root[g2]:

@@ -85,12 +85,7 @@ class AnymalTerrain(TerrainCurriculum, VecTask):
         self.init_levels(env)
 
         # the robot's friction: one of `frictionBuckets` values per env (env i: bucket i mod B)
-        lo, hi = env["frictionRange"]
-        buckets = torch.empty(int(env["frictionBuckets"]), device=dev).uniform_(lo, hi)
-        # the robot's geoms: on its bodies, not the world's (the ground, a height field, a mesh)
-        robot_geoms = torch.nonzero(torch.as_tensor(e.model.geom_body) >= 0).flatten().tolist()
-        e.sim.geom_friction[:, robot_geoms] = buckets[torch.arange(N, device=dev)
-                                                      % len(buckets)][:, None]
+        self.draw_robot_friction(env["frictionRange"], env["frictionBuckets"])
 
         self.commands = torch.zeros(N, 3, device=dev)          # vx, vy, yaw rate
         self.heading_command = torch.zeros(N, device=dev)

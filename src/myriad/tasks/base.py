@@ -348,6 +348,17 @@ class VecTask:
         self.nonfinite_action_count.zero_()
         return count
 
+    def draw_robot_friction(self, friction_range, bucket_count: int) -> None:
+        """The robot's friction, as the ANYmal and G1 tasks randomize it: `bucket_count` values
+        drawn uniformly from `friction_range`, env i taking bucket i mod the count, on every
+        geom of the robot's bodies (not the world's: the ground, a height field, a mesh)."""
+        e, dev = self.envs, self.device
+        lo, hi = friction_range
+        buckets = torch.empty(int(bucket_count), device=dev).uniform_(lo, hi)
+        robot_geoms = torch.nonzero(torch.as_tensor(e.model.geom_body) >= 0).flatten().tolist()
+        e.sim.geom_friction[:, robot_geoms] = buckets[torch.arange(self.num_envs, device=dev)
+                                                      % len(buckets)][:, None]
+
     def take_contact_overflow(self) -> tuple[int, int]:
         """(env-steps whose contacts did not all fit the env's slots, the most contacts an env
         found) since the last call; reads the device once."""

@@ -103,12 +103,7 @@ class G1Velocity(VecTask):
         self.reward_scales = {k: v * self.dt for k, v in self.learn.items()
                               if k.endswith("RewardScale")}
 
-        lo, hi = env["frictionRange"]
-        buckets = torch.empty(int(env["frictionBuckets"]), device=dev).uniform_(lo, hi)
-        # the robot's geoms: on its bodies, not the world's (the ground, a height field, a mesh)
-        robot_geoms = torch.nonzero(torch.as_tensor(e.model.geom_body) >= 0).flatten().tolist()
-        e.sim.geom_friction[:, robot_geoms] = buckets[torch.arange(N, device=dev)
-                                                      % len(buckets)][:, None]
+        self.draw_robot_friction(env["frictionRange"], env["frictionBuckets"])
 
         self.commands = torch.zeros(N, 3, device=dev)          # vx, vy, yaw rate
         self.command_scale = torch.tensor([self.learn["linearVelocityScale"]] * 2

@@ -11,10 +11,10 @@ against it (`narrowphase._trimesh`):
   center): each finds the closest point of the whole mesh (`surface_point`), and its signed
   distance is exact, the sign from the angle-weighted normal at the closest feature (face, edge
   or vertex), which stays right across creases and ridges; an inside is confirmed by the
-  winding of the faces round the point (`local_winding`: a fold's normals cancel). A round probe (a sphere's center, a
-  capsule's points) also meets every other face whose prism it stands in, within its radius
-  (`face_plane`): a foot in the corner of a step touches the tread and the riser, not only the
-  nearer of the two.
+  winding of the faces round the point (`local_winding`: a fold's normals cancel). A round
+  probe (a sphere's center, a capsule's points) also meets every other face whose prism it
+  stands in, within its radius (`face_plane`): a foot in the corner of a step touches the
+  tread and the riser, not only the nearer of the two.
 - The mesh's ridges (edges whose faces bend away, or an open surface's rims:
   `build.ridge_edges`) into boxes, capsules and cylinders (a capsule: segment to segment; a box
   or a cylinder: golden section on its signed distance along the edge): an edge or vertex of
@@ -31,6 +31,7 @@ open surface such as terrain has an inside, the side its triangles face away fro
 """
 
 import warp as wp
+
 
 @wp.func
 def local_winding(bvh: wp.uint64, local: wp.vec3, reach: float):
