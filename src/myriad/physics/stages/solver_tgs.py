@@ -105,7 +105,7 @@ def _wait(ln: wp.vec2i):
         sync()
 
 
-@wp.func
+@wp.func(inline=True)
 def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: int,
            tendon_limits: wp.vec2i, c: Contacts, limit_jnt: wp.array(dtype=wp.int32),
            first: int, biased: int, tgs: int, hs: float,
