@@ -271,8 +271,18 @@ def test_the_cpu_step_flushes_denormals_and_restores_the_callers_mode():
         assert out.numpy()[0] == 0.0           # flushed
     wp.launch(_halve, 1, [a, out], device="cpu")
     assert out.numpy()[0] == pytest.approx(5e-39, rel=1e-6)
+    # a CPU graph's replay runs on the calling thread, in the caller's mode (the step replays
+    # one from its second call inside the flush)
+    with wp.ScopedCapture(device="cpu") as capture:
+        wp.launch(_halve, 1, [a, out], device="cpu")
+    out.zero_()
+    with float_mode.flushing_denormals(saved):
+        wp.capture_launch(capture.graph)
+        assert out.numpy()[0] == 0.0
     sim = myriad.Simulator(myriad.load(ANT), num_envs=2, cpu_threads=1)
-    sim.step()                                 # on this thread
+    for _ in range(3):
+        sim.step()                             # on this thread, the last two replayed
+    assert sim.runtime.replaying
     assert tiny * np.float32(0.5) == pytest.approx(5e-39, rel=1e-6)
     wp.launch(_halve, 1, [a, out], device="cpu")
     assert out.numpy()[0] == pytest.approx(5e-39, rel=1e-6)

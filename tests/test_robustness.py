@@ -132,25 +132,29 @@ def test_non_finite_force_on_a_body_no_dof_moves_is_flagged(device):
 
 @pytest.mark.parametrize("asset", ["ant.xml", "humanoid.xml"])
 def test_cpu_threads_give_bit_identical_results(asset, device):
-    """Envs split into uneven shards, one CPU thread each, step exactly as one thread does."""
+    """Envs split into uneven shards, one CPU thread each, step exactly as one thread does;
+    and each shard's replayed CPU graph (from the second step on) exactly as its launches made
+    one by one (a timed step launches them so)."""
     if device != "cpu":
         pytest.skip("CPU threading only")
     model = myriad.load(myriad.asset_path(asset))
     params = myriad.SimParams(dt=1 / 60, substeps=2)
-    sims = [myriad.Simulator(model, 11, params=params, cpu_threads=k) for k in (1, 3)]
+    sims = [myriad.Simulator(model, 11, params=params, cpu_threads=k) for k in (1, 3, 3)]
     assert len(sims[1].runtime.shards) == 3
     torch.manual_seed(0)
     for step in range(40):
         ctrl = torch.rand(11, model.nu) * 2 - 1
         push = torch.randn(11, model.nbody, 6)
-        for sim in sims:
+        for k, sim in enumerate(sims):
             sim.ctrl = ctrl
             sim.body_force = push
-            sim.step()
-    a, b = sims
+            sim.step(timings={} if k == 2 else None)
+    a, b, eager = sims
+    assert a.runtime.replaying and b.runtime.replaying and not eager.runtime.replaying
     for name in ("q", "qd", "sensor_wrench", "net_contact_force", "contact_count",
                  "dof_constraint_force", "body_pose"):
         assert torch.equal(getattr(a, name), getattr(b, name)), name
+        assert torch.equal(getattr(b, name), getattr(eager, name)), name
     assert int(a.contact_count.sum()) > 0, "the comparison includes contacts"
     b.forward(), a.forward()
     assert torch.equal(a.mass_matrix, b.mass_matrix)
