@@ -64,6 +64,21 @@ def test_the_page_is_served_and_shows_each_env_where_the_simulation_has_it():
             starts = envs.sim.contact_pos[env, :count].double() + torch.tensor(
                 [0.0, k * viewer.spacing, 0.0], dtype=torch.float64)
             torch.testing.assert_close(segments[:, 0].double(), starts, atol=1e-5, rtol=0)
+            # along the force, 1 mm per newton by default (at least 2 cm)
+            force = envs.sim.contact_force[env, :count].double()
+            length = (segments[:, 1] - segments[:, 0]).double().norm(dim=-1)
+            torch.testing.assert_close(length, (force.norm(dim=-1) * 1e-3).clamp(min=0.02),
+                                       atol=1e-5, rtol=1e-5)
+        # the page's scale slider: 1 cm per newton
+        viewer.force_scale.value = -2.0
+        viewer.draw()
+        for k, env in enumerate(viewer.shown_envs):
+            count = int(envs.sim.contact_count[env])
+            segments = torch.as_tensor(viewer.contacts[k].points).double()
+            force = envs.sim.contact_force[env, :count].double()
+            torch.testing.assert_close((segments[:, 1] - segments[:, 0]).norm(dim=-1),
+                                       (force.norm(dim=-1) * 1e-2).clamp(min=0.02),
+                                       atol=1e-5, rtol=1e-5)
         with pytest.raises(ValueError, match="first=9: the envs are 0..4"):
             Viewer(envs, port=0, first=9)
 

@@ -154,6 +154,10 @@ class Viewer:
         self.follow = gui.add_dropdown("camera follows", names,
                                        initial_value=names[min(1, len(names) - 1)])
         self.show_contacts = gui.add_checkbox("contact points and forces", False)
+        # a hand's contacts carry a few newtons, a humanoid's feet several hundred: the
+        # segments' scale is the user's to set (log10 of metres per newton)
+        self.force_scale = gui.add_slider("contact force scale, log10 m/N", min=-5.0, max=-1.0,
+                                          step=0.25, initial_value=-3.0)
         self.show_joints = gui.add_checkbox("joint frames", False)
         self.show_markers = gui.add_checkbox("markers", True)
         self.first_env.on_update(lambda _: self._event("first env", int(self.first_env.value)))
@@ -300,7 +304,8 @@ class Viewer:
         return [h.numpy() for h in host]
 
     def _draw_contacts(self, k, count, pos, force) -> None:
-        """Contact points as short segments along their force (1 cm per 10 N, at least 2 cm)."""
+        """Contact points as segments along their force, 10^`force_scale` m per newton (the
+        default: 1 cm per 10 N), at least 2 cm long."""
         used = min(int(count), len(force))
         if used == 0:
             if self.contacts[k] is not None:
@@ -310,7 +315,8 @@ class Viewer:
         f = force[:used]
         length = np.linalg.norm(f, axis=-1, keepdims=True)
         direction = np.where(length > 1e-9, f / np.maximum(length, 1e-9), [0.0, 0.0, 1.0])
-        end = start + direction * np.maximum(length * 1e-3, 0.02)
+        metres_per_newton = 10.0 ** float(self.force_scale.value)
+        end = start + direction * np.maximum(length * metres_per_newton, 0.02)
         points = np.stack([start, end], axis=1).astype(np.float32)
         if self.contacts[k] is not None:
             self.contacts[k].remove()
