@@ -443,8 +443,11 @@ def _host_arrays(fields: dict) -> dict:
         layout[name] = (size, nbytes, shape + inner, scalar, dtype)
         size += -(-nbytes // 64) * 64
     memory = _host_memory(size)
+    # an empty field gets no address: sharing the next field's would alias the two for Warp's
+    # CPU graph capture, which keys memory by address (AnymalTerrain's second shard)
     return {name: wp.array(memory[at:at + nbytes].view(scalar).reshape(full), dtype=dtype,
-                           device="cpu", copy=False)
+                           device="cpu", copy=False) if nbytes
+            else wp.zeros(fields[name][0], dtype=dtype, device="cpu")
             for name, (at, nbytes, full, scalar, dtype) in layout.items()}
 
 

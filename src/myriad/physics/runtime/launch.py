@@ -253,8 +253,19 @@ class Runtime:
                 self._cpu_graphs = graphs
             self._steps_run += 1
             if self._cpu_graphs is not None:
+                eager = launches
+
                 def launches(k, key):       # noqa: F811 (the replay replaces the launches)
-                    wp.capture_launch(self._cpu_graphs[k])
+                    if self._cpu_graphs[k] is None:
+                        return eager(k, key)
+                    try:
+                        wp.capture_launch(self._cpu_graphs[k])
+                    except RuntimeError:
+                        # Warp could not bind an argument's memory (it did so for two arrays
+                        # at one address: build._host_arrays); it checks every launch's
+                        # arguments before running any, so this shard just runs eagerly
+                        self._cpu_graphs[k] = None
+                        eager(k, key)
 
         def run(k, key):
             # outside the graph: its replay does not keep a control word set inside it
@@ -269,8 +280,9 @@ class Runtime:
 
     @property
     def replaying(self) -> bool:
-        """Whether the step now replays a captured graph (CUDA, or the CPU's per shard)."""
-        return self._graph is not None or self._cpu_graphs is not None
+        """Whether the step now replays a captured graph (CUDA's, or every CPU shard's)."""
+        return self._graph is not None or (
+            self._cpu_graphs is not None and all(g is not None for g in self._cpu_graphs))
 
     def synchronize(self) -> None:
         if self.device.is_cuda:
