@@ -342,6 +342,41 @@ def test_a_humanoid_that_falls_ends_its_episode(device):
     assert ended.all()
 
 
+def test_eval_measures_speed_falls_and_pose_error_and_the_clip_comes_back(device):
+    """`myriad eval`'s measure of an AMP policy (`WalkProbe`): the root's straight-line speed
+    over the episode, falls (not time-outs) and the pose's distance to the nearest clip frame;
+    and the clip a checkpoint was trained on is restored from its task state."""
+    from myriad.rl.evaluate import WalkProbe, probe_for, run_episodes
+
+    task = _task(device, stateInit="Start")
+    probe = probe_for("HumanoidAMP", task)
+    assert isinstance(probe, WalkProbe) and probe.primary == "speed"
+    probe.reset()
+    # teleported 3 m along x and 4 m along y in the clip's first pose: one live step
+    first = task.motion.state(torch.zeros(4, dtype=torch.long, device=device),
+                              torch.zeros(4, device=device))
+    root = task.envs.root_states.clone()
+    root[:, 0, :2] += torch.tensor([3.0, 4.0], device=device)
+    task.envs.set_root_states(root)
+    task.envs.set_dof_state(first.dof_pos, first.dof_vel)
+    out = probe.after_step(torch.zeros(4, dtype=torch.bool, device=device))
+    torch.testing.assert_close(out["speed"], torch.full((4,), 5.0 / task.dt, device=device,
+                                                        dtype=torch.float64), rtol=1e-5, atol=0)
+    assert float(out["pose_error"].max()) < 1e-5
+    # the default pose topples with its drives at 0: every first episode ends in a fall
+    task = _task(device, stateInit="Default")
+    zeros = torch.zeros(4, 28, device=device)
+    values = run_episodes(task, lambda obs, done: zeros, 4, probe_for("HumanoidAMP", task))
+    values = values["values"]
+    assert values["fell"] == [1.0] * 4
+    assert all(0.0 <= v < 1.0 for v in values["speed"]) and min(values["pose_error"]) > 0.0
+    # a walk checkpoint's task state brings its clip back to a task built with another
+    assert task.training_state() == {"motion_file": "walk"}
+    walk_frames = int(task.motion.num_frames.sum())
+    task.load_training_state({"motion_file": "run"})
+    assert task.motion_file == "run" and int(task.motion.num_frames.sum()) != walk_frames
+
+
 def test_bad_task_settings_are_named(device):
     with pytest.raises(ValueError, match="stateInit='Sideways'"):
         _task(device, stateInit="Sideways")

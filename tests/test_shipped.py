@@ -49,6 +49,10 @@ def test_every_shipped_policy_does_what_its_manifest_says(task, tmp_path):
     100-episode figure (LOOSE); the extras each task needs must be installed (CI has them)."""
     entry = shipped.manifest()[task]
     primary = entry["eval"]["primary"]
+    if primary == "terrain_level":
+        # levels are the training's state, restored only at the run's env count: on 4 envs
+        # every episode is played at level 0, so the tracking error is what can be compared
+        primary = "tracking_error_lin"
     out = tmp_path / "eval.json"
     assert cli.main(["eval", f"task={task}", "device=cpu", "checkpoint=shipped", "episodes=4",
                      "num_envs=4", "seed=1", f"output={out}"]) == 0

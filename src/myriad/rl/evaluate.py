@@ -17,7 +17,10 @@ episodes):
     episode's steps (as benchmarks/anymal_tracking.py measures them, but over whole episodes);
     the terrain tasks also `terrain_level`, the curriculum level each episode was played at (and
     the envs' mean level at the end); the G1 tasks also `fell`, the share of episodes that
-    ended in a fall.
+    ended in a fall;
+  - HumanoidAMP: `speed` (m/s, the root's straight-line horizontal distance over the episode
+    per second), `fell` and `pose_error` (rad, to the nearest clip frame), not the
+    discriminator's reward (`WalkProbe`).
 
 Episodes: each env contributes at most ceil(episodes / num_envs) episodes, its first ones, and
 the evaluation stops once `episodes` are collected (the envs keep running meanwhile). Taking the
@@ -299,7 +302,60 @@ class TrackingProbe(Probe):
         return {"final_mean_terrain_level": float(self.task.levels.float().mean())}
 
 
+class WalkProbe(Probe):
+    """HumanoidAMP: how far and how steadily the policy walks, and how close its poses stay to
+    the clips'. Per episode: `speed` (m/s), the root's straight-line horizontal distance from
+    the episode's first state to its last over the time between; `fell`, 1 when the episode
+    ended by the task's fall (a body other than the feet on the ground), not its time limit;
+    `pose_error` (rad), over the episode's steps the mean |q - q_clip| over the DoFs to the
+    clip frame nearest the pose (3-DoF joints as their exponential-map coordinates)."""
+    primary = "speed"
+
+    def __init__(self, task):
+        super().__init__(task)
+        n, dev, motion = task.num_envs, task.device, task.motion
+        poses = []
+        for clip, frames in enumerate(motion.num_frames.tolist()):
+            ids = torch.full((frames,), clip, device=dev)
+            poses.append(motion.state(ids, torch.arange(frames, device=dev) * motion.dt[clip])
+                         .dof_pos)
+        self.clip_poses = torch.cat(poses)                        # [frames, dofs]
+        self.start = torch.zeros(n, 2, device=dev)
+        self.last = torch.zeros(n, 2, device=dev)
+        self.steps = torch.zeros(n, dtype=torch.float64, device=dev)
+        self.pose = torch.zeros(n, dtype=torch.float64, device=dev)
+
+    def _xy(self):
+        return self.task.envs.root_states[:, 0, :2].clone()
+
+    def reset(self):
+        out = super().reset()
+        self.start, self.last = self._xy(), self._xy()
+        return out
+
+    def after_step(self, done):
+        xy, live = self._xy(), ~done
+        # a finished env's state is already its next episode's: its last live state stands
+        self.last = torch.where(live[:, None], xy, self.last)
+        self.steps += live.double()
+        q = self.task.envs.dof_pos
+        nearest = torch.cdist(q, self.clip_poses).argmin(dim=1)
+        error = (q - self.clip_poses[nearest]).abs().mean(dim=1).double()
+        self.pose += live.double() * error
+        steps = self.steps.clamp(min=1.0)
+        out = {"speed": torch.norm(self.last - self.start, dim=1).double() / (steps * self.task.dt),
+               "fell": self.task.episode_outcomes["fell"].double(),
+               "pose_error": self.pose / steps}
+        self.start = torch.where(done[:, None], xy, self.start)
+        self.last = torch.where(done[:, None], xy, self.last)
+        for buf in (self.steps, self.pose):
+            buf.masked_fill_(done, 0.0)
+        return out
+
+
 def probe_for(name: str, task) -> Probe:
+    if name == "HumanoidAMP":
+        return WalkProbe(task)
     if name in HAND_TASKS:
         return HandProbe(task)
     if name in SUCCESS_RATE_TASKS:

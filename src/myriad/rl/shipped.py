@@ -85,17 +85,21 @@ def stripped(state: dict, fp16: bool) -> dict:
     return out
 
 
-def _evaluate(task: str, path: str, episodes: int, output: str) -> dict:
+def _evaluate(task: str, path: str, episodes: int, output: str,
+              num_envs: int | None = None) -> dict:
     from .evaluate import evaluate
     evaluate([f"task={task}", f"checkpoint={path}", f"episodes={episodes}", "seed=0",
-              f"output={output}"])
+              f"output={output}"] + ([f"num_envs={num_envs}"] if num_envs else []))
     with open(output) as f:
         return json.load(f)
 
 
 def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
-         rev: str | None = None, machine: str | None = None) -> dict:
-    """Write `checkpoint`'s policy as its task's shipped policy, evaluated, into the manifest."""
+         rev: str | None = None, machine: str | None = None,
+         num_envs: int | None = None) -> dict:
+    """Write `checkpoint`'s policy as its task's shipped policy, evaluated, into the manifest.
+    `num_envs`: the evaluation's (default: eval's own); the run's own count restores what
+    spans episodes in training (AnymalTerrain's levels), which another count cannot."""
     from .evaluate import checkpoint_task
     from .export import read_checkpoint
     from .run import revision
@@ -117,7 +121,7 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
             torch.save(stripped(state, fp16), path)
             print(f"evaluating the {'float16' if fp16 else 'float32'} policy ...", flush=True)
             with contextlib.redirect_stdout(io.StringIO()):
-                figures[fp16] = _evaluate(task, path, episodes, path + ".json")
+                figures[fp16] = _evaluate(task, path, episodes, path + ".json", num_envs)
         full, half = (figures[f]["results"][figures[f]["primary"]] for f in (False, True))
         # float16 when its mean lies within the float32 policy's own 95 % interval
         fp16 = full["half_width"] is not None and abs(half["mean"] - full["mean"]) <= \
@@ -142,7 +146,7 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
         "seed": summary.get("seed"), "env_steps": summary.get("env_steps"),
         "wall_s": summary.get("wall_s"), "training_mean_reward": summary.get("mean_reward"),
         "eval": {"command": f"myriad eval task={task} checkpoint=shipped episodes={episodes} "
-                            "seed=0",
+                            + (f"num_envs={num_envs} " if num_envs else "") + "seed=0",
                  "primary": report["primary"], "results": report["results"],
                  "episodes": report["episodes"], "num_envs": report["num_envs"],
                  "device": report["device"],
@@ -168,8 +172,11 @@ def main() -> None:
     ap.add_argument("--revision", help="the code revision it was trained with (default: its "
                     "summary's, else this tree's)")
     ap.add_argument("--machine", help="the machine it was trained on (default: its summary's)")
+    ap.add_argument("--num-envs", type=int, help="envs of the evaluation (default: eval's; "
+                    "the run's own count restores AnymalTerrain's levels)")
     args = ap.parse_args()
-    ship(args.checkpoint, args.command, args.episodes, args.revision, args.machine)
+    ship(args.checkpoint, args.command, args.episodes, args.revision, args.machine,
+         args.num_envs)
 
 
 if __name__ == "__main__":

@@ -86,17 +86,19 @@ class HumanoidAMP(VecTask):
 
     num_obs = NUM_OBS
     num_actions = NUM_DOF
+    # the clip a policy learned: play, eval and a resumed run restore it from the checkpoint
+    # (a walk policy started from the default run clip's poses would be judged on another task)
+    checkpointed = ("motion_file",)
 
     def __init__(self, cfg: dict, device: str = "cpu"):
-        from .motion import MotionLib
-
         env = cfg["env"]
         if env["stateInit"] not in STATE_INITS:
             raise ValueError(f"env.stateInit={env['stateInit']!r}: expected one of {STATE_INITS}")
         self.state_init = env["stateInit"]
         self.hybrid_init_prob = float(env["hybridInitProb"])
         self.termination_height = float(env["terminationHeight"])
-        self.motion = MotionLib([env["motion_file"]], device=device)
+        self.device = device
+        self.motion_file = env["motion_file"]
         super().__init__(cfg, device)
         e, dev = self.envs, self.device
         self.key_bodies = torch.tensor([e.body_index(f"humanoid/{b}") for b in AMP_KEY_BODIES],
@@ -110,8 +112,26 @@ class HumanoidAMP(VecTask):
         self.pd_offset = torch.where(three, 0.0, 0.5 * (lower + upper))
         self.pd_scale = torch.where(three, torch.pi, 0.7 * (upper - lower))
         self.amp_obs = torch.zeros(self.num_envs, 2, NUM_OBS, device=dev)
+        self.episode_outcomes["fell"] = torch.zeros(self.num_envs, dtype=torch.bool, device=dev)
         self.default_root = e.root_states.clone()
         self.reset()
+
+    @property
+    def motion_file(self) -> str:
+        """The clip (a name or a path) the resets and the discriminator's demos come from."""
+        return self._motion_file
+
+    @motion_file.setter
+    def motion_file(self, clip: str) -> None:
+        from .motion import MotionLib
+
+        if clip == getattr(self, "_motion_file", None):
+            return
+        if hasattr(self, "_motion_file"):
+            print(f"HumanoidAMP: the checkpoint was trained on the clip {clip!r}: its episodes "
+                  f"start from it (not {self._motion_file!r})", flush=True)
+        self.motion = MotionLib([clip], device=self.device)
+        self._motion_file = str(clip)
 
     def create_envs(self):
         plane = self.cfg["env"]["plane"]
@@ -133,7 +153,9 @@ class HumanoidAMP(VecTask):
         body = e.rigid_body_states[:, self.non_feet]
         touching = (e.net_contact_force[:, self.non_feet].abs() > 0.1).any(dim=-1)
         fallen = (touching & (body[..., 2] < self.termination_height)).any(dim=-1)
-        self.reset_buf[:] = (fallen & (self.progress_buf > 1)).long()
+        terminated = fallen & (self.progress_buf > 1)
+        self.reset_buf[:] = terminated.long()
+        self.episode_outcomes["fell"] = terminated
         self.amp_obs[:, 1] = self.amp_obs[:, 0]
         self.amp_obs[:, 0] = self.obs_buf
         # a copy: the reset that may follow in this step rewrites the history in place
