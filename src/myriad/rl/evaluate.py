@@ -440,7 +440,7 @@ def evaluate(overrides: list[str]) -> int:
     from ..tasks import TASKS, config_int
     from . import run, shipped
     from .export import load_network, read_checkpoint
-    from .policy import policy_from_network
+    from .policy import policy_from_network, restore_task_state
     from .train import atomic_json
 
     cfg = run.compose(overrides)
@@ -486,16 +486,7 @@ def evaluate(overrides: list[str]) -> int:
     import numpy as np
     np.random.seed(seed % 2**32)
     task = TASKS[name](task_cfg, device=device)
-    # what spans episodes in training (AnymalTerrain's levels, a randomization schedule) as the
-    # checkpoint left it, where its shapes fit these envs (the same num_envs)
-    saved = (state.get("myriad") or {}).get("task") or {}
-    restored = None
-    if saved:
-        try:
-            task.load_training_state(saved)
-            restored = sorted(saved)
-        except ValueError as err:
-            print(f"note: the checkpoint's task state is not restored: {err}", flush=True)
+    restored = restore_task_state(task, state)
     network, _ = load_network(state, train_cfgs, task.num_obs, task.num_actions, name,
                               checkpoint)
     policy = policy_from_network(network, task)

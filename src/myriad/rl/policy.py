@@ -31,6 +31,22 @@ def load_policy(checkpoint: str, train_cfg: dict, task):
     return policy_from_network(network, task)
 
 
+def restore_task_state(task, state: dict) -> list[str] | None:
+    """Give `task` what spanned episodes in the training that wrote the checkpoint `state`
+    (AnymalTerrain's levels, HumanoidAMP's clip, a randomization schedule), where its shapes fit
+    this task's envs; returns the names restored, or None (a note says why, when there were
+    some)."""
+    saved = (state.get("myriad") or {}).get("task") or {}
+    if not saved:
+        return None
+    try:
+        task.load_training_state(saved)
+    except ValueError as err:
+        print(f"note: the checkpoint's task state is not restored: {err}", flush=True)
+        return None
+    return sorted(saved)
+
+
 def policy_from_network(network, task):
     """`load_policy`'s function for a network that already holds its weights (`myriad eval`
     picks the network the checkpoint fits with `export.load_network`)."""

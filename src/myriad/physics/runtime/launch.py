@@ -239,36 +239,38 @@ class Runtime:
         identical."""
         keys = self.shards or [None]
 
-        def launches(k, key):
+        def eager(k, key):
             with self.in_shard(*key) if key else contextlib.nullcontext():
                 fn()
 
+        def replay(k, key):
+            if self._cpu_graphs[k] is None:
+                return eager(k, key)
+            try:
+                wp.capture_launch(self._cpu_graphs[k])
+            except RuntimeError:
+                # Warp could not bind an argument's memory (as it could not for two arrays at
+                # one address: build._host_arrays); it checks every launch's arguments before
+                # running any, so this shard runs its launches eagerly from now on
+                self._cpu_graphs[k] = None
+                eager(k, key)
+
+        launches = eager
         if step:
             if self._cpu_graphs is None and self._steps_run >= 1:
                 graphs = []
                 for k, key in enumerate(keys):
                     with wp.ScopedCapture(device=self.device) as capture:
-                        launches(k, key)
+                        eager(k, key)
                     graphs.append(capture.graph)
                 self._cpu_graphs = graphs
             self._steps_run += 1
             if self._cpu_graphs is not None:
-                eager = launches
-
-                def launches(k, key):       # noqa: F811 (the replay replaces the launches)
-                    if self._cpu_graphs[k] is None:
-                        return eager(k, key)
-                    try:
-                        wp.capture_launch(self._cpu_graphs[k])
-                    except RuntimeError:
-                        # Warp could not bind an argument's memory (it did so for two arrays
-                        # at one address: build._host_arrays); it checks every launch's
-                        # arguments before running any, so this shard just runs eagerly
-                        self._cpu_graphs[k] = None
-                        eager(k, key)
+                launches = replay
 
         def run(k, key):
-            # outside the graph: its replay does not keep a control word set inside it
+            # around the replay, not inside the graph: a replay runs on this thread, in the
+            # mode this sets (tests/test_api.py)
             with float_mode.flushing_denormals(self._control_words[k:k + 1]):
                 launches(k, key)
 
