@@ -7,11 +7,12 @@ from rl_games.algos_torch import torch_ext
 from rl_games.algos_torch.model_builder import ModelBuilder
 
 
-def load_policy(checkpoint: str, train_cfg: dict, task):
+def load_policy(checkpoint: str, train_cfg: dict, task, restore_task: bool = False):
     """The policy's mean action (clamped to [-1, 1]) for a batch of observations of `task`:
     `policy(obs, new_episode=None)`. A recurrent policy (an `rnn` section) carries its state
     from call to call, one per env, zero at the start and for the envs that `new_episode` [N]
-    (bool: the `done` of the step that produced `obs`) marks."""
+    (bool: the `done` of the step that produced `obs`) marks. `restore_task`: also give `task`
+    the checkpoint's task state (`restore_task_state`), from the same read."""
     params = train_cfg["params"]
     config = params["config"]
     network = ModelBuilder().load(params).build({
@@ -28,6 +29,8 @@ def load_policy(checkpoint: str, train_cfg: dict, task):
     except (RuntimeError, KeyError) as err:
         raise ValueError(f"checkpoint {checkpoint} does not fit the {type(task).__name__} network "
                          f"of the train config ({config.get('name')}): {err}") from err
+    if restore_task:
+        restore_task_state(task, state)
     return policy_from_network(network, task)
 
 

@@ -590,8 +590,7 @@ def play(overrides: list[str]) -> int:
     import torch
 
     from ..tasks import TASKS
-    from .export import read_checkpoint
-    from .policy import load_policy, restore_task_state
+    from .policy import load_policy
     from .video import VideoWriter
 
     cfg = compose(overrides)
@@ -602,10 +601,9 @@ def play(overrides: list[str]) -> int:
     watching = cfg.viewer is not None
     task_cfg["env"]["numEnvs"] = int(cfg.num_envs or (cfg.viewer_envs if watching else 1))
     task = TASKS[name](task_cfg, device=device)
-    policy = load_policy(checkpoint, train_cfg, task)
     # the task as training left it where it fits (HumanoidAMP's clip; AnymalTerrain's levels
     # at the run's env count), as eval does
-    restore_task_state(task, read_checkpoint(checkpoint))
+    policy = load_policy(checkpoint, train_cfg, task, restore_task=True)
     video = cfg.video or output_beside(checkpoint, cfg.train_dir, f"{name}.mp4")
     steps = None if watching and "num_steps" not in given else int(cfg.num_steps)
     fps = round(1.0 / task.dt)
