@@ -15,14 +15,17 @@ seed); trailing key=value pairs override `myriad.SimParams`.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import time
 import warnings
 
 import torch
+import warp as wp
 
 import corpus
 import myriad
+from myriad.physics.structs import Control, State
 
 
 def load(name: str):
@@ -42,14 +45,16 @@ def main() -> None:
     ap.add_argument("--trace", type=int, metavar="ENV",
                     help="also print, for env ENV, the steps whose energy rose most: the "
                          "contacts then (bodies, depth, force), the joints past their limits "
-                         "and the dofs at their speed cap")
+                         "and the dofs at their speed cap, and each step's energy change "
+                         "split into the inputs' work, the smooth dynamics' integration (the "
+                         "same state stepped without constraints) and the constraints")
     ap.add_argument("params", nargs="*", help="SimParams overrides, key=value")
     args = ap.parse_args()
     overrides = {}
     for item in args.params:
         key, value = item.split("=", 1)
-        overrides[key] = value if value in ("tgs", "pgs") else float(value) if "." in value \
-            else int(value)
+        overrides[key] = (value if value.isalpha() else float(value) if "." in value
+                          else int(value))
     params = myriad.SimParams(**overrides)
     model = load(args.model)
     sim = myriad.Simulator(model, num_envs=args.envs, params=params)
@@ -63,12 +68,12 @@ def main() -> None:
     q0 = sim.q[:, qadr]
     start_over = torch.maximum(q0 - hi, lo - q0).clamp(min=0)   # a model's own start outside
     cap = sim.dof_max_velocity.clone()
-    mass = sim.body_mass.clone()
 
-    def energy():
-        qd = sim.qd
-        kinetic = 0.5 * torch.einsum("ei,eij,ej->e", qd, sim.mass_matrix, qd)
-        return kinetic - (mass[..., None] * sim.body_com * sim.gravity[:, None, :]).sum((1, 2))
+    def energy(s=sim):
+        qd = s.qd
+        kinetic = 0.5 * torch.einsum("ei,eij,ej->e", qd, s.mass_matrix, qd)
+        weight = s.body_mass[..., None] * s.gravity[:, None, :]
+        return kinetic - (weight * s.body_com).sum((1, 2))
 
     e0 = energy()
     e_max = e0.clone()
@@ -78,10 +83,16 @@ def main() -> None:
     deepest = torch.full((args.envs,), math.inf)
     overflow = 0
     trace = []
+    probe = None
+    if args.trace is not None:
+        probe = myriad.Simulator(model, num_envs=1, params=dataclasses.replace(
+            params, constraints=False))
     start = time.perf_counter()
     for step in range(steps):
         if step % hold == 0:
             setattr(sim, kind, inputs[step // hold])
+        if probe is not None:
+            split = _energy_split(sim, probe, args.trace, energy, params.dt)
         sim.step()
         q = sim.q[:, qadr]
         over = (torch.maximum(q - hi, lo - q) - start_over).nan_to_num(math.inf).clamp(min=0)
@@ -97,7 +108,7 @@ def main() -> None:
         e_max = torch.maximum(e_max, now)
         if args.trace is not None:
             trace.append(_snapshot(sim, model, args.trace, step, float(now[args.trace]), over,
-                                   joints, at_cap))
+                                   joints, at_cap) | split(float(now[args.trace])))
     wall = time.perf_counter() - start
     per_env = excess.amax(1)
     runaway = e_max > 1.5 * e0.abs().clamp(min=1.0)
@@ -122,6 +133,34 @@ def main() -> None:
         _print_trace(trace, float(e0[args.trace]))
 
 
+def _work(sim, env: int, qd_before: torch.Tensor, dt: float) -> float:
+    """The inputs' work on env `env` over the step just taken (joint forces and actuators,
+    at the mean of the step's start and end speeds)."""
+    force = sim.joint_force[env] + sim.dof_actuator_force[env]
+    return float(force @ (qd_before + sim.qd[env])) * dt / 2
+
+
+def _energy_split(sim, probe, env: int, energy, dt: float):
+    """Step `probe` (one env, no constraints) from env `env`'s state and inputs now; returns
+    the function that, given the env's energy after its own step, splits the change into the
+    inputs' work, the smooth integration's gain (the probe's change less its inputs' work) and
+    the constraints' (the rest)."""
+    theirs = {(struct, name): array for struct, name, array in sim.data.arrays()}
+    for struct, name, ours in probe.data.arrays():
+        if struct in (State, Control) and theirs[struct, name].shape[1:] == ours.shape[1:]:
+            wp.to_torch(ours)[0].copy_(wp.to_torch(theirs[struct, name])[env])
+    probe.forward()
+    before = float(energy(probe)[0])
+    qd = sim.qd[env].clone()
+    probe.step()
+    smooth = float(energy(probe)[0]) - before - _work(probe, 0, qd, dt)
+
+    def split(after: float) -> dict:
+        work = _work(sim, env, qd, dt)
+        return {"work": work, "smooth": smooth, "constraints": after - before - work - smooth}
+    return split
+
+
 def _body(model, geom: int) -> str:
     b = int(model.geom_body[geom])
     return "world" if b < 0 else (model.body_names[b] or f"body {b}")
@@ -140,13 +179,19 @@ def _snapshot(sim, model, env: int, step: int, energy: float, over, joints, at_c
 
 
 def _print_trace(trace: list, e0: float) -> None:
-    """The 5 steps whose energy rose most, with what the env held then."""
+    """The 5 steps whose energy rose most, with what the env held then, and where all the
+    energy gained came from."""
     rises = sorted(range(1, len(trace)), key=lambda k: trace[k - 1]["energy"] - trace[k]["energy"])
-    print(f"  trace: energy {e0:.1f} J at the start, {trace[-1]['energy']:.1f} J at the end")
+    print(f"  trace: energy {e0:.1f} J at the start, {trace[-1]['energy']:.1f} J at the end; "
+          "summed over the steps that gained: "
+          + ", ".join(f"{part} {sum(max(t[part], 0.0) for t in trace):.1f} J"
+                      for part in ("work", "smooth", "constraints")))
     for k in sorted(rises[:5]):
         t = trace[k]
-        print(f"    step {t['step']}: {trace[k - 1]['energy']:.1f} -> {t['energy']:.1f} J; "
-              f"{len(t['contacts'])} contacts, dofs at their cap {t['capped']}")
+        print(f"    step {t['step']}: {trace[k - 1]['energy']:.1f} -> {t['energy']:.1f} J "
+              f"(work {t['work']:+.1f}, smooth {t['smooth']:+.1f}, constraints "
+              f"{t['constraints']:+.1f}); {len(t['contacts'])} contacts, dofs at their cap "
+              f"{t['capped']}")
         for pair, depth, force in sorted(t["contacts"], key=lambda c: -c[2])[:6]:
             print(f"      {pair}: {depth * 1e3:.1f} mm, {force:.0f} N")
         for name, excess in t["past"]:

@@ -68,6 +68,12 @@ def test_bad_constructor_arguments(ant):
         myriad.SimParams(substeps=0)
     with pytest.raises(ValueError, match="dt"):
         myriad.SimParams(dt=-1.0)
+    with pytest.raises(ValueError, match=r"integrator='rk4': must be 'euler' or 'implicit'"):
+        myriad.SimParams(integrator="rk4")
+    with pytest.raises(ValueError, match=r"self_collisions=0: must be True or False"):
+        myriad.SimParams(self_collisions=0)
+    with pytest.raises(ValueError, match=r"constraints='no': must be True or False"):
+        myriad.SimParams(constraints="no")
     with pytest.raises(ValueError, match="not available"):
         myriad.Simulator(ant, device="cuda:7")
     with pytest.raises(TypeError, match="myriad.Model"):

@@ -5,6 +5,7 @@ batching is checked along with the physics. Tolerances are float32-sized, stated
 relative to the scale of the quantity where it spans orders of magnitude.
 """
 
+import copy
 import importlib.util
 
 import mujoco
@@ -240,6 +241,76 @@ def test_free_motion_matches_mujoco(model, device):
     d = datas[0]
     mujoco.mj_kinematics(mj, d)
     np.testing.assert_allclose(sim.body_pose[0, :, :3].cpu().numpy(), d.xpos[1:], atol=1e-3)
+
+
+def test_implicit_integrator_is_mujocos_implicit(model, device):
+    """integrator="implicit": one substep from random states with fast joints (qd ~ 10 rad/s)
+    gives MuJoCo's "implicit" velocities (the Coriolis and centrifugal forces' derivative in
+    qd, dof damping), which differ from Euler's by far more than the tolerance."""
+    h = 1.0 / 120.0
+    mj, _ = free_motion_mujoco(model, h)
+    mj.opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICIT
+    sim = myriad.Simulator(model, num_envs=NUM_ENVS, device=device, params=myriad.SimParams(
+        dt=h, substeps=1, constraints=False, integrator="implicit"))
+    datas = _set_random_states(model, sim, seed=3)
+    euler = []
+    for e, d in enumerate(datas):
+        d.qvel[:] *= 10.0
+        sim.qd[e] = torch.as_tensor(d.qvel, dtype=torch.float32)
+        explicit = copy.deepcopy(d)
+        mj.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+        mujoco.mj_step(mj, explicit)
+        euler.append(explicit.qvel.copy())
+        mj.opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICIT
+        mujoco.mj_step(mj, d)
+    sim.step()
+    qd = sim.qd.cpu().numpy()
+    apart = []
+    for e, d in enumerate(datas):
+        scale = 1 + np.abs(d.qvel).max()
+        np.testing.assert_allclose(qd[e], d.qvel, atol=1e-4 * scale)
+        apart.append(np.abs(euler[e] - d.qvel).max() / scale)
+    assert max(apart) > 20 * 1e-4      # the check above tells the two integrators apart
+
+
+def test_implicit_integrator_keeps_a_fast_spin_bounded(device):
+    """A free box with a flapping two-link tail, no gravity, 2 s at h = 1/120 s: explicit
+    Euler (MuJoCo's alike) feeds the velocity-product forces back into the spin without bound;
+    the implicit integrator never gains energy and loses what MuJoCo's implicit loses."""
+    xml = """<mujoco><option gravity="0 0 0"/><worldbody><body><freejoint/>
+      <geom type="box" size="0.2 0.05 0.02" mass="1"/>
+      <body pos="0.2 0 0"><joint type="hinge" axis="0 0 1"/>
+        <geom type="capsule" fromto="0 0 0 0.1 0 0" size="0.01" mass="0.05"/>
+        <body pos="0.1 0 0"><joint type="hinge" axis="0 1 0"/>
+          <geom type="capsule" fromto="0 0 0 0.05 0 0" size="0.008" mass="0.01"/></body>
+      </body></body></worldbody></mujoco>"""
+    model = myriad.load_xml(xml, "spinning_tail")
+    qd0 = [0.0, 0.0, 0.0, 3.0, 20.0, 5.0, 30.0, -40.0]
+    mj = copy.deepcopy(model.mj_model)
+    mj.opt.timestep = 1.0 / 120.0
+    mj.opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICIT
+    d = mujoco.MjData(mj)
+    d.qvel[:] = qd0
+    mujoco.mj_step(mj, d, nstep=240)
+    kinetic = {}
+    for integrator in ("euler", "implicit"):
+        sim = myriad.Simulator(model, num_envs=1, device=device, params=myriad.SimParams(
+            dt=1.0 / 60.0, substeps=2, constraints=False, integrator=integrator))
+        sim.qd[:] = torch.tensor([qd0])
+        energy = []
+        for _ in range(120):
+            sim.step()
+            qd = sim.qd[0].double()
+            energy.append(float(0.5 * qd @ sim.mass_matrix[0].double() @ qd))
+        kinetic[integrator] = np.nan_to_num(np.asarray(energy), nan=np.inf)
+    rest = mujoco.MjData(mj)
+    mujoco.mj_forward(mj, rest)
+    start = 0.5 * np.asarray(qd0) @ full_mass_matrix(mj, rest) @ np.asarray(qd0)
+    mujoco.mj_forward(mj, d)
+    mj_end = 0.5 * d.qvel @ full_mass_matrix(mj, d) @ d.qvel
+    assert kinetic["euler"].max() > 100 * start
+    assert kinetic["implicit"].max() <= start * (1 + 1e-3)
+    assert abs(kinetic["implicit"][-1] - mj_end) < 0.02 * start
 
 
 def test_gravity_compensation_is_mujocos_gravcomp(device):

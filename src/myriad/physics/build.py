@@ -45,6 +45,7 @@ class DeviceModel:
     sensor_site_body: wp.array   # [nsensor_site] int32: their bodies
     sensor_accelerations: bool   # a sensor reads accelerations or forces between bodies
     activations: bool         # an actuator has activation dynamics (`forces.integrate_activations`)
+    implicit: bool            # SimParams.integrator == "implicit" (`dynamics.implicit_acceleration`)
     mass_entries: np.ndarray  # [2, nmass] (row, column) of each stored mass-matrix entry
     initial: dict             # per-env struct -> {field: one env's initial value}
 
@@ -134,6 +135,10 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
                  row_width=row_width(dof_span, tendon_dofs), nmass=len(mass_col),
                  nlimit=2 * len(limited), neq=m.neq, neqrow=equality_rownum,
                  nlane=block_threads(dev))
+    implicit = params.integrator == "implicit"
+    tree_width = int((dof_span[:, 1] - dof_span[:, 0]).max()) if m.nv else 0
+    sizes.update(nbody_implicit=m.nbody if implicit else 0, nv_implicit=m.nv if implicit else 0,
+                 tree_implicit=tree_width if implicit else 0)
     mocap = np.argsort(np.where(m.body_mocapid >= 0, m.body_mocapid, m.nbody))[:m.nmocap]
     gravity = m.gravity if params.gravity is None else np.asarray(params.gravity)
     initial = {
@@ -165,7 +170,7 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
                                   if sensor_sites else np.zeros(0, np.int32),
                                   dtype=wp.int32, device=dev),
         sensor_accelerations=sensor_accelerations,
-        activations=bool(np.any(m.actuator_dyntype != 0)),
+        activations=bool(np.any(m.actuator_dyntype != 0)), implicit=implicit,
         mass_entries=np.stack([np.repeat(np.arange(m.nv), mnum), mass_col]), initial=initial)
 
 
@@ -184,6 +189,30 @@ def tree_spans(model) -> tuple[np.ndarray, np.ndarray]:
     moved = model.body_last_dof >= 0
     body_span[moved] = dof_span[model.body_last_dof[moved]]
     return dof_span, body_span
+
+
+def subtree_ends(body_parent: np.ndarray) -> np.ndarray:
+    """[nbody] int32: body b's subtree is the bodies b .. end - 1 (MuJoCo orders bodies depth
+    first: a body's descendants follow it, before its next sibling)."""
+    n = len(body_parent)
+    children = [[] for _ in range(n)]
+    for b in range(n):
+        if body_parent[b] >= 0:
+            children[body_parent[b]].append(b)
+    order, end, stack = [], np.zeros(n, np.int32), [b for b in range(n - 1, -1, -1)
+                                                     if body_parent[b] < 0]
+    while stack:                               # depth first, children in index order
+        b = stack.pop()
+        if b < 0:
+            end[~b] = len(order)
+            continue
+        order.append(b)
+        stack.append(~b)
+        stack.extend(reversed(children[b]))
+    if order != list(range(n)):
+        raise ValueError("bodies are not in depth-first order (a body's descendants right after "
+                         "it), as MuJoCo compiles them")
+    return end
 
 
 def mass_matrix_layout(dof_parent: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -257,6 +286,7 @@ def model_arrays(model, device, pair_friction=None) -> ModelArrays:
     slot = [sites.index(int(o)) if t in (SensorType.FORCE, SensorType.TORQUE) else -1
             for t, o in zip(model.sensor_type, model.sensor_objid)]
     derived = dict(dof_tree_span=dof_span, body_tree_span=body_span,
+                   body_subtree_end=subtree_ends(model.body_parent),
                    dof_madr=madr, dof_mnum=mnum, mass_col=mass_col,
                    **equality_rows(model), **tree_levels(model),
                    sensor_slot=np.asarray(slot, np.int32),

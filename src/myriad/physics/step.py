@@ -87,6 +87,9 @@ def run_solve_unconstrained(rt, dm, d) -> None:
     rt.launch_lanes(dynamics.solve_acceleration, BLOCK_DIM.bodies, [
         dm.m, d.env_params, d.state, d.dynamics,
         d.state.qacc.reshape((rt.num_envs, 1, dm.sizes["nv"]))])
+    if dm.implicit:
+        rt.launch(dynamics.implicit_acceleration, rt.num_envs,
+                  [dm.m, d.env_params, dm.opt, d.state, d.dynamics])
 
 
 def run_constraint_rows(rt, dm, d) -> None:

@@ -95,6 +95,8 @@ class ModelArrays:
     body_jntadr: wp.array(dtype=wp.int32)
     body_jntnum: wp.array(dtype=wp.int32)
     body_last_dof: wp.array(dtype=wp.int32)
+    body_subtree_end: wp.array(dtype=wp.int32)   # b's subtree is the bodies [b, end) (MuJoCo's
+                                                 # depth-first order)
     body_gravcomp: wp.array(dtype=float)
     body_mocapid: wp.array(dtype=wp.int32)     # a mocap body's row of State.mocap_pos, else -1
     body_geomadr: wp.array(dtype=wp.int32)     # its geoms: geom_adr .. + geomnum (MuJoCo's)
@@ -426,6 +428,16 @@ class Dynamics:
     crb_i = per_env("nbody", dtype=wp.mat33, doc="CRBA: subtree inertia")
     articulated = per_env("nbody", dtype=wp.spatial_matrix, doc="articulated-body inertia of "
                           "each body's subtree at its tree's reference point (factor scratch)")
+    # the implicit integrator's scratch (`dynamics.implicit_acceleration`; empty for "euler")
+    coriolis_frc = per_env("nbody_implicit", dtype=wp.spatial_vector, doc="implicit: the "
+                           "derivative of each body's subtree force (RNEA) in one dof's speed")
+    coriolis_inertia = per_env("nbody_implicit", dtype=wp.spatial_matrix, doc="implicit: each "
+                               "body's spatial inertia at its tree's reference point")
+    coriolis_momentum = per_env("nbody_implicit", dtype=wp.spatial_vector, doc="implicit: each "
+                                "body's spatial momentum I·cvel")
+    coriolis_deriv = per_env("nv_implicit", "tree_implicit", doc="implicit: row j holds column j "
+                             "of ∂bias/∂qd over j's dof tree, then of (M + implicit_diag)⁻¹ "
+                             "times it, then of the matrix the solve eliminates")
 
 
 @declared

@@ -22,8 +22,10 @@ of at most 15 (243 in all, against 729 for its square block).
 import warp as wp
 
 from ..lanes import level_body, level_range, stop, sync, world_lane
-from ..spatial import force_cross, inertia_about_point, inertia_matrix, inertia_times
-from ..structs import Dynamics, EnvParams, ModelArrays, State
+from ..spatial import (force_cross, inertia_about_point, inertia_matrix, inertia_times,
+                       motion_cross)
+from ..structs import Dynamics, EnvParams, ModelArrays, Options, State
+from ..types import BALL, FREE
 
 
 @wp.func
@@ -275,3 +277,113 @@ def solve_acceleration(m: ModelArrays, p: EnvParams,
         for i in range(tree[0], tree[1]):
             qacc[e, 0, i] = d.qfrc[e, i]
         solve_span(m, e, d.factor, qacc, 0, 1, tree[0], tree[1], tree[0])
+
+
+@wp.func
+def _group_end(m: ModelArrays, j: int):
+    """One past the last dof whose velocity sums with dof j's before any later dof's motion
+    subspace moves (`kinematics`): a ball's or a free joint's rotation triple together."""
+    jnt = m.dof_jnt[j]
+    da = m.jnt_dofadr[jnt]
+    t = m.jnt_type[jnt]
+    end = j + 1
+    if t == BALL:
+        end = da + 3
+    elif t == FREE and j - da >= 3:
+        end = da + 6
+    return end
+
+
+@wp.kernel
+def implicit_acceleration(m: ModelArrays, p: EnvParams, opt: Options,
+                          s: State,     # in: body_x, body_com, body_iframe, qd, cvel, cdof,
+                                        # cdof_dot; in and out: qacc
+                          d: Dynamics):  # in: factor; scratch: coriolis_frc, coriolis_deriv
+    """qacc <- (M + implicit_diag + h·∂bias/∂qd)⁻¹ qfrc, from the explicit qacc = (M +
+    implicit_diag)⁻¹ qfrc: MuJoCo's "implicit" integrator for the velocity-product forces
+    (its `mjd_rne_vel`), dof damping implicit as before. One thread per world.
+
+    Column j of ∂bias/∂qd, by differentiating Newton-Euler (`newton_euler`) in qd_j: only the
+    subtree of j's body moves with it, each of its bodies with velocity derivative cdof_j and
+    acceleration derivative cdof_j × (cvel_b - w_j) + cdof_dot_j (w_j: the velocity of j's body
+    up to j's own dofs); their force derivatives I·δa + δv ×* I·v + v ×* I·δv sum up the
+    subtree and on to j's ancestors (no other body's force changes); row i reads cdof_i · the
+    sum at i's body. Then, per dof tree (the matrix couples no two), B = (M +
+    implicit_diag)⁻¹ ∂bias/∂qd column by column with the factor, and (I + h·B) qacc_new =
+    qacc by Gaussian elimination with partial pivoting: O(n³) in the tree's n dofs."""
+    e = wp.tid()
+    h = opt.h
+    for b in range(m.nbody):
+        mass, hm, rot = body_inertia(m, p, s, e, b)
+        inertia = inertia_matrix(mass, hm, rot)
+        d.coriolis_inertia[e, b] = inertia
+        d.coriolis_momentum[e, b] = inertia * s.cvel[e, b]
+    for t in range(m.ntree):
+        span = m.tree_dofs[t]
+        lo = span[0]
+        n = span[1] - lo
+        for j in range(lo, span[1]):
+            bj = m.dof_body[j]
+            cj = s.cdof[e, j]
+            w = wp.spatial_vector()
+            if m.body_parent[bj] >= 0:
+                w = s.cvel[e, m.body_parent[bj]]
+            for k in range(m.jnt_dofadr[m.body_jntadr[bj]], _group_end(m, j)):
+                w = w + s.cdof[e, k] * s.qd[e, k]
+            for b in range(m.nbody):
+                d.coriolis_frc[e, b] = wp.spatial_vector()
+            last = m.body_subtree_end[bj]
+            for b in range(bj, last):
+                inertia = d.coriolis_inertia[e, b]
+                v = s.cvel[e, b]
+                da = motion_cross(cj, v - w) + s.cdof_dot[e, j]
+                d.coriolis_frc[e, b] = (inertia * da + force_cross(cj, d.coriolis_momentum[e, b])
+                                        + force_cross(v, inertia * cj))
+            for k in range(last - 1 - bj):
+                b = last - 1 - k
+                parent = m.body_parent[b]
+                d.coriolis_frc[e, parent] = d.coriolis_frc[e, parent] + d.coriolis_frc[e, b]
+            a = m.body_parent[bj]
+            while a >= 0:
+                d.coriolis_frc[e, a] = d.coriolis_frc[e, bj]
+                a = m.body_parent[a]
+            for i in range(lo, span[1]):
+                d.coriolis_deriv[e, j, i - lo] = wp.dot(s.cdof[e, i],
+                                                        d.coriolis_frc[e, m.dof_body[i]])
+            solve_span(m, e, d.factor, d.coriolis_deriv, j, 1, lo, span[1], 0)
+        # A = I + h·B, A[r, c] kept at coriolis_deriv[lo + c, r]; eliminate with row pivoting
+        for c in range(n):
+            for r in range(n):
+                x = h * d.coriolis_deriv[e, lo + c, r]
+                if r == c:
+                    x = x + 1.0
+                d.coriolis_deriv[e, lo + c, r] = x
+        for c in range(n):
+            pivot = c
+            best = wp.abs(d.coriolis_deriv[e, lo + c, c])
+            for r in range(c + 1, n):
+                if wp.abs(d.coriolis_deriv[e, lo + c, r]) > best:
+                    best = wp.abs(d.coriolis_deriv[e, lo + c, r])
+                    pivot = r
+            if pivot != c:
+                for k in range(n):
+                    x = d.coriolis_deriv[e, lo + k, c]
+                    d.coriolis_deriv[e, lo + k, c] = d.coriolis_deriv[e, lo + k, pivot]
+                    d.coriolis_deriv[e, lo + k, pivot] = x
+                x = s.qacc[e, lo + c]
+                s.qacc[e, lo + c] = s.qacc[e, lo + pivot]
+                s.qacc[e, lo + pivot] = x
+            diag = d.coriolis_deriv[e, lo + c, c]
+            for r in range(c + 1, n):
+                f = d.coriolis_deriv[e, lo + c, r] / diag
+                if f != 0.0:
+                    for k in range(c, n):
+                        d.coriolis_deriv[e, lo + k, r] = (d.coriolis_deriv[e, lo + k, r]
+                                                          - f * d.coriolis_deriv[e, lo + k, c])
+                    s.qacc[e, lo + r] = s.qacc[e, lo + r] - f * s.qacc[e, lo + c]
+        for cc in range(n):
+            r = n - 1 - cc
+            x = s.qacc[e, lo + r]
+            for k in range(r + 1, n):
+                x = x - d.coriolis_deriv[e, lo + k, r] * s.qacc[e, lo + k]
+            s.qacc[e, lo + r] = x / d.coriolis_deriv[e, lo + r, r]
