@@ -409,8 +409,11 @@ def main() -> None:
     parser.add_argument("--list", action="store_true", help="print the corpus names and exit")
     parser.add_argument("--no-self-collisions", action="store_true",
                         help="Myriad's SimParams(self_collisions=False) (MuJoCo unchanged)")
+    parser.add_argument("--integrator", choices=("euler", "implicit"), default="euler",
+                        help="Myriad's SimParams(integrator=...) (MuJoCo unchanged)")
     args = parser.parse_args()
-    params = myriad.SimParams(self_collisions=not args.no_self_collisions)
+    params = myriad.SimParams(self_collisions=not args.no_self_collisions,
+                              integrator=args.integrator)
 
     wp.config.quiet = True
     wp.config.log_level = wp.LOG_WARNING
@@ -425,7 +428,8 @@ def main() -> None:
     mujoco.set_mju_user_warning(MUJOCO_WARNINGS.append)   # into the notes, not the table
     print(f"engine: {myriad.__file__}; {args.envs} envs, {args.seconds:g} s each, "
           f"dt {params.dt:.4g} s in {params.substeps} substeps, "
-          f"self-collisions {'on' if params.self_collisions else 'off'}\n")
+          f"self-collisions {'on' if params.self_collisions else 'off'}, "
+          f"integrator {params.integrator}\n")
     print("| " + " | ".join(COLUMNS) + " |")
     print("|" + "---|" * len(COLUMNS), flush=True)
     start = time.perf_counter()
