@@ -313,6 +313,30 @@ def test_implicit_integrator_keeps_a_fast_spin_bounded(device):
     assert abs(kinetic["implicit"][-1] - mj_end) < 0.02 * start
 
 
+def test_implicit_integrator_keeps_contact_impulses(device):
+    """The implicit step rescales a substep's whole velocity change, contact impulses
+    included: a box resting on the ground stays at rest and its contacts carry its weight,
+    spinning or not (a box spun at 20 rad/s about the vertical keeps spinning, slowed by friction
+    alone, and stays on the ground)."""
+    xml = """<mujoco><worldbody><geom type="plane" size="5 5 0.1" friction="0.05"/>
+      <body pos="0 0 0.05"><freejoint/>
+        <geom type="box" size="0.2 0.1 0.05" mass="2" friction="0.05"/></body>
+      </worldbody></mujoco>"""
+    model = myriad.load_xml(xml, "resting_box")
+    sim = myriad.Simulator(model, num_envs=2, device=device,
+                           params=myriad.SimParams(integrator="implicit"))
+    sim.qd[1, 5] = 20.0
+    for _ in range(60):
+        sim.step()
+    qd = sim.qd.cpu()
+    assert qd[0].abs().max() < 1e-3
+    weight = 2.0 * 9.81
+    force = sim.contact_force[0, :int(sim.contact_count[0])].cpu().sum(0)
+    assert abs(float(force[2]) - weight) < 0.01 * weight
+    assert abs(float(sim.q[1, 2]) - 0.05) < 2e-3         # on the ground
+    assert 0.0 < float(qd[1, 5]) < 20.0 and qd[1, :5].abs().max() < 0.05
+
+
 def test_gravity_compensation_is_mujocos_gravcomp(device):
     """A body's gravcomp cancels that share of its weight (Isaac Gym's disable_gravity is 1):
     the bias force is MuJoCo's qfrc_bias less its qfrc_gravcomp, and a fully compensated arm
