@@ -58,6 +58,8 @@ def main():
     parser.add_argument("--epochs", type=int, default=4, help="epochs per variant per round")
     parser.add_argument("--fps", type=float, default=None, help="the page's frame rate "
                         "(default: the viewer's)")
+    parser.add_argument("--budget", type=float, default=None, help="the share of one core the "
+                        "drawing may take (default: what `myriad train viewer=web` gives it)")
     args = parser.parse_args()
     if args.rounds < 2:
         parser.error(f"--rounds {args.rounds}: at least 2 (the spread between rounds is printed)")
@@ -65,6 +67,7 @@ def main():
     import threading
 
     from myriad.viewer import Viewer
+    from myriad.viewer.web import TRAINING_BUDGET
     from update_floor import training_agent
 
     task, agent, _, epoch = training_agent([f"task={args.task}", "device=cpu"])
@@ -91,8 +94,10 @@ def main():
         if name == "no viewer":
             return epochs()
         before = {t.native_id for t in threading.enumerate()}
-        with Viewer(task.envs, port=0, **({} if args.fps is None else {"fps": args.fps})) \
-                as viewer:
+        options = dict(budget=TRAINING_BUDGET if args.budget is None else args.budget)
+        if args.fps is not None:
+            options["fps"] = args.fps
+        with Viewer(task.envs, port=0, **options) as viewer:
             # the viewer's threads: its drawing thread and viser's server
             ours = {t.native_id for t in threading.enumerate()} - before
             if name == "served, no page":

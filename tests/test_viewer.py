@@ -81,6 +81,8 @@ def test_the_page_is_served_and_shows_each_env_where_the_simulation_has_it():
                                        atol=1e-5, rtol=1e-5)
         with pytest.raises(ValueError, match="first=9: the envs are 0..4"):
             Viewer(envs, port=0, first=9)
+        with pytest.raises(ValueError, match=r"budget=1.5: a share of one core, in \(0, 1\]"):
+            Viewer(envs, port=0, budget=1.5)
 
 
 def test_without_a_page_nothing_is_drawn_and_a_page_starts_and_stops_the_drawing():

@@ -573,6 +573,7 @@ def open_viewer(cfg, task, controls: bool):
     if cfg.viewer != "web":
         raise ValueError(f"viewer={cfg.viewer}: the one viewer is `web` (a page in the browser)")
     from ..viewer import require_viser, serve
+    from ..viewer.web import TRAINING_BUDGET
 
     try:
         require_viser()
@@ -580,7 +581,8 @@ def open_viewer(cfg, task, controls: bool):
         raise ValueError(str(err)) from None
     return serve(task.envs, port=int(cfg.viewer_port), host=str(cfg.viewer_host),
                  shown=int(cfg.viewer_envs), controls=controls,
-                 markers=getattr(task, "video_markers", None))
+                 markers=getattr(task, "video_markers", None),
+                 budget=None if controls else TRAINING_BUDGET)    # training runs beside it
 
 
 def play(overrides: list[str]) -> int:

@@ -31,6 +31,10 @@ import torch
 from .shapes import shapes
 
 INSTALL = 'pip install "myriad[viewer]"   (or: pip install viser)'
+# the share of one core the drawing may take while training runs (`Viewer(budget=...)`): drawing
+# holds Python's lock, which the training thread then waits for; at 20 frames/s a page cost
+# Ant's training 8.4 % (`benchmarks/viewer_cost.py`, docs/performance.md)
+TRAINING_BUDGET = 0.04
 
 
 def require_viser():
@@ -72,7 +76,7 @@ class Viewer:
 
     def __init__(self, envs, port: int = 8080, host: str = "127.0.0.1", shown: int = 4,
                  first: int = 0, spacing: float | None = None, controls: bool = False,
-                 markers=None, fps: float = 20.0):
+                 markers=None, fps: float = 20.0, budget: float | None = None):
         viser = require_viser()
         n = envs.num_envs
         if not 1 <= shown:
@@ -81,6 +85,9 @@ class Viewer:
             raise ValueError(f"viewer: first={first}: the envs are 0..{n - 1}")
         if not fps > 0:
             raise ValueError(f"viewer: fps={fps}: must be > 0")
+        if budget is not None and not 0 < budget <= 1:
+            raise ValueError(f"viewer: budget={budget}: a share of one core, in (0, 1]")
+        self.budget = budget
         self.envs, self.mj = envs, envs.model.mj_model
         self.count = min(shown, n)
         self.first = min(first, n - self.count)
@@ -90,6 +97,8 @@ class Viewer:
         # where each shown env is drawn: beside the one before it, along y
         self.offsets = np.outer(np.arange(self.count), [0.0, self.spacing, 0.0])
         self._data = [mujoco.MjData(self.mj) for _ in range(self.count)]
+        # our joint positions -> MuJoCo's layout (quaternions w first), as an index, once
+        self._to_mujoco = np.asarray(envs.model.qpos_to_mujoco(np.arange(envs.model.nq)))
         self._events: queue.SimpleQueue = queue.SimpleQueue()
         self._lock = threading.Lock()
         self._closed = threading.Event()
@@ -260,7 +269,7 @@ class Viewer:
         read = [sim.q[rows]] + ([sim.contact_count[rows], sim.contact_pos[rows],
                                  sim.contact_force[rows]] if show_contacts else [])
         read = self._to_host(read)
-        qpos = self.envs.model.qpos_to_mujoco(read[0].astype(np.float64))
+        qpos = read[0][:, self._to_mujoco].astype(np.float64)
         if show_contacts:
             count, pos, force = read[1:]
         m, g = self.mj, self.geoms
@@ -353,7 +362,10 @@ class Viewer:
             self.look_at(self.body_poses[0, b, :3])
 
     def _pump(self) -> None:
-        """Draw at `fps` while a page is connected; with none, wait (no work at all)."""
+        """Draw at `fps` while a page is connected, or less often when a frame takes more than
+        `budget` of the time between frames (its wall time: waiting for Python's lock counts,
+        so a busy trainer slows the page, not the page the trainer); with none, wait (no work
+        at all)."""
         while not self._closed.is_set():
             if not self._connected.wait(timeout=0.2):
                 continue
@@ -366,7 +378,11 @@ class Viewer:
                     return
                 self.show_progress(f"**the viewer stopped drawing:** {type(err).__name__}: {err}")
                 return
-            self._closed.wait(max(0.0, 1.0 / self.fps - (time.monotonic() - start)))
+            took = time.monotonic() - start
+            period = 1.0 / self.fps
+            if self.budget is not None:
+                period = max(period, took / self.budget)
+            self._closed.wait(max(0.0, period - took))
 
     def close(self, message: str = "the run ended: this page no longer updates") -> None:
         """Stop drawing and serving; open pages keep the last picture and say `message`."""
