@@ -394,8 +394,11 @@ def test_tendon_properties_take_physx_semantics(tmp_path):
     assert props[0].limit_stiffness == 1.0 and props[0].is_limited     # the options' default
     props[0].limit_stiffness, props[0].damping = 30.0, 0.1             # as ShadowHand sets them
     assert gym.set_asset_tendon_properties(asset, props)
-    props[0].upper_limit = 0.5
-    with pytest.raises(NotImplementedError, match="upper_limit"):
+    props[0].is_limited = False
+    with pytest.raises(NotImplementedError, match="is_limited"):
+        gym.set_asset_tendon_properties(asset, props)
+    props[0].is_limited, props[0].lower_limit = True, 0.01
+    with pytest.raises(ValueError, match="lower_limit 0.01 above upper_limit 0.001"):
         gym.set_asset_tendon_properties(asset, props)
     envs = envs_with(gym, sim, asset, [gymapi.Transform()] * 2)
     # an actor's own values, in its env alone: env 1's damping before prepare_sim, env 0's
@@ -415,6 +418,37 @@ def test_tendon_properties_take_physx_semantics(tmp_path):
     torch.testing.assert_close(own.tendon_limit_stiffness[:, t], torch.tensor([10.0, 30.0]))
     torch.testing.assert_close(own.tendon_damping[:, t], torch.tensor([0.1, 0.5]))
     assert gym.get_actor_tendon_properties(envs[1], 0)[0].damping == pytest.approx(0.5)
+
+
+def test_tendon_limits_and_spring_per_actor(tmp_path):
+    """An actor's own tendon limits and spring stiffness hold in its env alone: the coupled
+    joints' tendon length (0.007·(q1 - q2)) pushed by opposite torques stops at env 1's wider
+    limit, and env 0 keeps the file's."""
+    gym, sim, asset, _ = fixed_base_asset(tmp_path, "finger.xml", TENDON_HAND)
+    props = gym.get_asset_tendon_properties(asset)
+    props[0].limit_stiffness = 0.0                      # hard limits (Myriad's 0)
+    gym.set_asset_tendon_properties(asset, props)
+    envs = envs_with(gym, sim, asset, [gymapi.Transform()] * 2)
+    wide = gym.get_actor_tendon_properties(envs[1], 0)
+    wide[0].lower_limit, wide[0].upper_limit = -0.003, 0.003
+    wide[0].fixed_spring_stiffness = 0.0
+    gym.set_actor_tendon_properties(envs[1], 0, wide)
+    gym.prepare_sim(sim)
+    own = sim.myriad.sim
+    t = sim.myriad.model.tendon_names.index("a0/couple")
+    torch.testing.assert_close(own.tendon_range[:, t].cpu(),
+                               torch.tensor([[-0.001, 0.001], [-0.003, 0.003]]))
+    dofs = gym.acquire_dof_state_tensor(sim)
+    state = gymtorch.wrap_tensor(dofs).view(2, 2, 2)
+    effort = torch.tensor([0.02, -0.02]).repeat(2, 1)
+    for _ in range(120):
+        gym.set_dof_actuation_force_tensor(sim, gymtorch.unwrap_tensor(effort.reshape(-1)))
+        gym.simulate(sim)
+        gym.fetch_results(sim, True)
+        gym.refresh_dof_state_tensor(sim)
+    length = 0.007 * (state[:, 0, 0] - state[:, 1, 0])
+    assert abs(float(length[0]) - 0.001) < 2e-4
+    assert abs(float(length[1]) - 0.003) < 5e-4
 
 
 # ------------------------------------------------------------------ convex decomposition

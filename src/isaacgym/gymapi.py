@@ -2722,33 +2722,42 @@ def _apply_attractor_targets(sim: Sim, envs: list) -> None:
 
 
 def _checked_tendon_props(call: str, asset: Asset, props: list) -> list:
-    """A copy of `props` for the asset's tendons: limit stiffness and damping may change, the
-    rest must stay the asset's."""
+    """A copy of `props` for the asset's tendons: limit stiffness, damping, spring stiffness and
+    the limits may change (per actor: Myriad's per-env tendon parameters); whether a tendon is
+    limited and its joints must stay the asset's (they decide the rows the engine builds)."""
     if len(props) != len(asset.tendon_props):
         raise ValueError(f"gym.{call}: {len(props)} entries for {len(asset.tendon_props)} "
                          f"tendons of {asset.source}")
     for i, (new, old) in enumerate(zip(props, asset.tendon_props)):
-        for name in ("fixed_spring_stiffness", "is_limited", "lower_limit", "upper_limit",
-                     "num_joints"):
-            if getattr(new, name) != getattr(old, name):
-                raise _unsupported(f"gym.{call} changing {name} of tendon "
-                                   f"{asset.tendon_names[i]!r}",
-                                   "limit_stiffness and damping can change")
-        if not (new.limit_stiffness >= 0 and new.damping >= 0):
-            raise ValueError(f"gym.{call}: tendon {asset.tendon_names[i]!r}: limit_stiffness "
-                             f"and damping must be >= 0")
+        name = asset.tendon_names[i]
+        for field in ("is_limited", "num_joints"):
+            if getattr(new, field) != getattr(old, field):
+                raise _unsupported(f"gym.{call} changing {field} of tendon {name!r}",
+                                   "limit_stiffness, damping, fixed_spring_stiffness, "
+                                   "lower_limit and upper_limit can change")
+        if not (new.limit_stiffness >= 0 and new.damping >= 0
+                and new.fixed_spring_stiffness >= 0):
+            raise ValueError(f"gym.{call}: tendon {name!r}: limit_stiffness, damping and "
+                             f"fixed_spring_stiffness must be >= 0")
+        if not new.lower_limit <= new.upper_limit:
+            raise ValueError(f"gym.{call}: tendon {name!r}: lower_limit {new.lower_limit} above "
+                             f"upper_limit {new.upper_limit}")
     return copy.deepcopy(list(props))
 
 
 def _apply_tendon_props(sim: Sim, actors: list) -> None:
-    """Each actor's tendon limit stiffness and damping into its env's parameters."""
+    """Each actor's tendon properties into its env's parameters."""
     built = sim.myriad
     names, s = built.model.tendon_names, built.sim
     for actor in actors:
+        e = actor.env.index
         for name, props in zip(actor.asset.tendon_names, actor.tendon_props):
             t = names.index(f"a{actor.index}/{name}")
-            s.tendon_limit_stiffness[actor.env.index, t] = float(props.limit_stiffness)
-            s.tendon_damping[actor.env.index, t] = float(props.damping)
+            s.tendon_limit_stiffness[e, t] = float(props.limit_stiffness)
+            s.tendon_damping[e, t] = float(props.damping)
+            s.tendon_stiffness[e, t] = float(props.fixed_spring_stiffness)
+            s.tendon_range[e, t] = torch.tensor([float(props.lower_limit),
+                                                 float(props.upper_limit)])
 
 
 def _apply_dof_props(sim: Sim, actors: list) -> None:
