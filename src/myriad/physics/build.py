@@ -20,7 +20,7 @@ import numpy as np
 import warp as wp
 
 from . import pairs as pair_rules
-from .model import Model, dof_tree_spans
+from .model import Model, ModelError, dof_tree_spans
 from .params import SimParams
 from .runtime.launch import block_threads
 from .stages.collision import CANDIDATES_PER_SLOT
@@ -136,6 +136,9 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
                  nlimit=2 * len(limited), neq=m.neq, neqrow=equality_rownum,
                  nlane=block_threads(dev))
     implicit = params.integrator == "implicit"
+    if implicit and not depth_first(m.body_parent):     # its kernel walks subtrees as ranges
+        raise ModelError(f"{m.source}: integrator='implicit' needs the bodies in depth-first "
+                         "order (each one's descendants right after it), as MuJoCo compiles them")
     tree_width = int((dof_span[:, 1] - dof_span[:, 0]).max()) if m.nv else 0
     sizes.update(nbody_implicit=m.nbody if implicit else 0, nv_implicit=m.nv if implicit else 0,
                  tree_implicit=tree_width if implicit else 0)
@@ -192,27 +195,28 @@ def tree_spans(model) -> tuple[np.ndarray, np.ndarray]:
 
 
 def subtree_ends(body_parent: np.ndarray) -> np.ndarray:
-    """[nbody] int32: body b's subtree is the bodies b .. end - 1 (MuJoCo orders bodies depth
-    first: a body's descendants follow it, before its next sibling)."""
+    """[nbody] int32: one past the last descendant of each body. In MuJoCo's depth-first order
+    (`depth_first`) body b's subtree is the bodies b .. end - 1."""
+    end = np.arange(1, len(body_parent) + 1, dtype=np.int32)
+    for b in range(len(body_parent) - 1, -1, -1):      # children first, up to their parents
+        if body_parent[b] >= 0:
+            end[body_parent[b]] = max(end[body_parent[b]], end[b])
+    return end
+
+
+def depth_first(body_parent: np.ndarray) -> bool:
+    """Whether every body's descendants follow it directly (MuJoCo compiles bodies so)."""
     n = len(body_parent)
     children = [[] for _ in range(n)]
     for b in range(n):
         if body_parent[b] >= 0:
             children[body_parent[b]].append(b)
-    order, end, stack = [], np.zeros(n, np.int32), [b for b in range(n - 1, -1, -1)
-                                                     if body_parent[b] < 0]
-    while stack:                               # depth first, children in index order
+    order, stack = [], [b for b in range(n - 1, -1, -1) if body_parent[b] < 0]
+    while stack:
         b = stack.pop()
-        if b < 0:
-            end[~b] = len(order)
-            continue
         order.append(b)
-        stack.append(~b)
         stack.extend(reversed(children[b]))
-    if order != list(range(n)):
-        raise ValueError("bodies are not in depth-first order (a body's descendants right after "
-                         "it), as MuJoCo compiles them")
-    return end
+    return order == list(range(n))
 
 
 def mass_matrix_layout(dof_parent: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
