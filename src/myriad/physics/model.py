@@ -239,15 +239,17 @@ class Model:
     @property
     def quat_qpos_adr(self) -> np.ndarray:
         """qpos address of every quaternion (ball joints and the rotation of free joints)."""
-        adr = [a + (3 if t == JointType.FREE else 0) for t, a in zip(self.jnt_type, self.jnt_qposadr)
-               if t in (JointType.FREE, JointType.BALL)]
-        return np.asarray(adr, dtype=np.int64)
+        kind = np.asarray(self.jnt_type)
+        free = kind == JointType.FREE
+        adr = np.asarray(self.jnt_qposadr, dtype=np.int64) + 3 * free
+        return adr[free | (kind == JointType.BALL)]
 
     def _qpos_permutation(self, to_mujoco: bool) -> np.ndarray:
+        # ours (x, y, z, w) at a..a+3  <->  MuJoCo's (w, x, y, z); numpy, not a loop over the
+        # joints: the viewer and the videos convert every frame
         perm = np.arange(self.nq)
-        for a in self.quat_qpos_adr:
-            # ours (x, y, z, w) at a..a+3  <->  MuJoCo's (w, x, y, z)
-            perm[a:a + 4] = [a + 3, a, a + 1, a + 2] if to_mujoco else [a + 1, a + 2, a + 3, a]
+        adr = self.quat_qpos_adr[:, None]
+        perm[adr + np.arange(4)] = adr + np.array([3, 0, 1, 2] if to_mujoco else [1, 2, 3, 0])
         return perm
 
     def qpos_to_mujoco(self, q):

@@ -97,8 +97,6 @@ class Viewer:
         # where each shown env is drawn: beside the one before it, along y
         self.offsets = np.outer(np.arange(self.count), [0.0, self.spacing, 0.0])
         self._data = [mujoco.MjData(self.mj) for _ in range(self.count)]
-        # our joint positions -> MuJoCo's layout (quaternions w first), as an index, once
-        self._to_mujoco = np.asarray(envs.model.qpos_to_mujoco(np.arange(envs.model.nq)))
         self._events: queue.SimpleQueue = queue.SimpleQueue()
         self._lock = threading.Lock()
         self._closed = threading.Event()
@@ -269,7 +267,7 @@ class Viewer:
         read = [sim.q[rows]] + ([sim.contact_count[rows], sim.contact_pos[rows],
                                  sim.contact_force[rows]] if show_contacts else [])
         read = self._to_host(read)
-        qpos = read[0][:, self._to_mujoco].astype(np.float64)
+        qpos = self.envs.model.qpos_to_mujoco(read[0].astype(np.float64))
         if show_contacts:
             count, pos, force = read[1:]
         m, g = self.mj, self.geoms
