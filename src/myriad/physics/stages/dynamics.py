@@ -298,7 +298,7 @@ def _group_end(m: ModelArrays, j: int):
 def implicit_acceleration(m: ModelArrays, p: EnvParams, opt: Options,
                           s: State,     # in: body_x, body_com, body_iframe, qd, cvel, cdof,
                                         # cdof_dot; in and out: qacc
-                          d: Dynamics):  # in: factor; scratch: coriolis_frc, coriolis_deriv
+                          d: Dynamics):  # in: factor; scratch: coriolis_*
     """qacc <- (M + implicit_diag + h·∂bias/∂qd)⁻¹ qfrc, from the explicit qacc = (M +
     implicit_diag)⁻¹ qfrc: MuJoCo's "implicit" integrator for the velocity-product forces
     (its `mjd_rne_vel`), dof damping implicit as before. One thread per world.
@@ -307,10 +307,11 @@ def implicit_acceleration(m: ModelArrays, p: EnvParams, opt: Options,
     subtree of j's body moves with it, each of its bodies with velocity derivative cdof_j and
     acceleration derivative cdof_j × (cvel_b - w_j) + cdof_dot_j (w_j: the velocity of j's body
     up to j's own dofs); their force derivatives I·δa + δv ×* I·v + v ×* I·δv sum up the
-    subtree and on to j's ancestors (no other body's force changes); row i reads cdof_i · the
-    sum at i's body. Then, per dof tree (the matrix couples no two), B = (M +
-    implicit_diag)⁻¹ ∂bias/∂qd column by column with the factor, and (I + h·B) qacc_new =
-    qacc by Gaussian elimination with partial pivoting: O(n³) in the tree's n dofs."""
+    subtree; row i reads cdof_i · that sum at i's body when it moves with j, at j's body when
+    i's is an ancestor (no other body's force changes), and 0 otherwise. Then, per dof tree
+    (the matrix couples no two), B = (M + implicit_diag)⁻¹ ∂bias/∂qd column by column with the
+    factor, and (I + h·B) qacc_new = qacc by Gaussian elimination with partial pivoting: O(n³)
+    in the tree's n dofs."""
     e = wp.tid()
     h = opt.h
     for b in range(m.nbody):
@@ -330,8 +331,6 @@ def implicit_acceleration(m: ModelArrays, p: EnvParams, opt: Options,
                 w = s.cvel[e, m.body_parent[bj]]
             for k in range(m.jnt_dofadr[m.body_jntadr[bj]], _group_end(m, j)):
                 w = w + s.cdof[e, k] * s.qd[e, k]
-            for b in range(m.nbody):
-                d.coriolis_frc[e, b] = wp.spatial_vector()
             last = m.body_subtree_end[bj]
             for b in range(bj, last):
                 inertia = d.coriolis_inertia[e, b]
@@ -343,13 +342,14 @@ def implicit_acceleration(m: ModelArrays, p: EnvParams, opt: Options,
                 b = last - 1 - k
                 parent = m.body_parent[b]
                 d.coriolis_frc[e, parent] = d.coriolis_frc[e, parent] + d.coriolis_frc[e, b]
-            a = m.body_parent[bj]
-            while a >= 0:
-                d.coriolis_frc[e, a] = d.coriolis_frc[e, bj]
-                a = m.body_parent[a]
             for i in range(lo, span[1]):
-                d.coriolis_deriv[e, j, i - lo] = wp.dot(s.cdof[e, i],
-                                                        d.coriolis_frc[e, m.dof_body[i]])
+                bi = m.dof_body[i]
+                x = float(0.0)
+                if bi >= bj and bi < last:              # i's body moves with j
+                    x = wp.dot(s.cdof[e, i], d.coriolis_frc[e, bi])
+                elif bi < bj and m.body_subtree_end[bi] >= last:   # an ancestor: all of j's
+                    x = wp.dot(s.cdof[e, i], d.coriolis_frc[e, bj])
+                d.coriolis_deriv[e, j, i - lo] = x
             solve_span(m, e, d.factor, d.coriolis_deriv, j, 1, lo, span[1], 0)
         # A = I + h·B, A[r, c] kept at coriolis_deriv[lo + c, r]; eliminate with row pivoting
         for c in range(n):
