@@ -15,11 +15,13 @@ seed); trailing key=value pairs override `myriad.SimParams`.
 from __future__ import annotations
 
 import argparse
+import copy
 import dataclasses
 import math
 import time
 import warnings
 
+import mujoco
 import torch
 import warp as wp
 
@@ -83,16 +85,17 @@ def main() -> None:
     deepest = torch.full((args.envs,), math.inf)
     overflow = 0
     trace = []
-    probe = None
+    probe = oracle = None
     if args.trace is not None:
         probe = myriad.Simulator(model, num_envs=1, params=dataclasses.replace(
             params, constraints=False))
+        oracle = _smooth_mujoco(model, params)
     start = time.perf_counter()
     for step in range(steps):
         if step % hold == 0:
             setattr(sim, kind, inputs[step // hold])
         if probe is not None:
-            split = _energy_split(sim, probe, args.trace, energy, params.dt)
+            split = _energy_split(sim, probe, oracle, args.trace, energy, params.dt)
         sim.step()
         q = sim.q[:, qadr]
         over = (torch.maximum(q - hi, lo - q) - start_over).nan_to_num(math.inf).clamp(min=0)
@@ -140,11 +143,42 @@ def _work(sim, env: int, qd_before: torch.Tensor, dt: float) -> float:
     return float(force @ (qd_before + sim.qd[env])) * dt / 2
 
 
-def _energy_split(sim, probe, env: int, energy, dt: float):
-    """Step `probe` (one env, no constraints) from env `env`'s state and inputs now; returns
-    the function that, given the env's energy after its own step, splits the change into the
-    inputs' work, the smooth integration's gain (the probe's change less its inputs' work) and
-    the constraints' (the rest)."""
+def _smooth_mujoco(model, params):
+    """MuJoCo stepping the same model with the same integrator and substep and no constraints:
+    `(mj, substeps)`, the oracle of the trace's smooth part."""
+    mj = copy.deepcopy(model.mj_model)
+    mj.opt.timestep = params.dt / params.substeps
+    mj.opt.integrator = {"euler": mujoco.mjtIntegrator.mjINT_EULER,
+                         "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT}[params.integrator]
+    mj.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    mj.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
+    return mj, params.substeps
+
+
+def _mujoco_gain(model, oracle, q, qd, ctrl, force) -> float:
+    """MuJoCo's energy change (kinetic + potential) less the inputs' work over one step from
+    (q, qd) under `ctrl` and joint forces `force`, constraints off."""
+    mj, substeps = oracle
+    d = mujoco.MjData(mj)
+    d.qpos[:] = model.qpos_to_mujoco(q.double().numpy())
+    d.qvel[:] = qd.double().numpy()
+    d.ctrl[:] = ctrl.double().numpy()
+    d.qfrc_applied[:] = force.double().numpy()
+    mujoco.mj_forward(mj, d)
+    before, work = d.energy.sum(), 0.0
+    for _ in range(substeps):
+        speed = d.qvel.copy()
+        mujoco.mj_step(mj, d)
+        work += (d.qfrc_applied + d.qfrc_actuator) @ (speed + d.qvel) * mj.opt.timestep / 2
+    mujoco.mj_forward(mj, d)
+    return float(d.energy.sum() - before - work)
+
+
+def _energy_split(sim, probe, oracle, env: int, energy, dt: float):
+    """Step `probe` (one env, no constraints) from env `env`'s state and inputs now, and MuJoCo
+    (`oracle`) alike; returns the function that, given the env's energy after its own step,
+    splits the change into the inputs' work, the smooth integration's gain (the probe's change
+    less its inputs' work; MuJoCo's beside it) and the constraints' (the rest)."""
     theirs = {(struct, name): array for struct, name, array in sim.data.arrays()}
     for struct, name, ours in probe.data.arrays():
         if struct in (State, Control) and theirs[struct, name].shape[1:] == ours.shape[1:]:
@@ -152,12 +186,15 @@ def _energy_split(sim, probe, env: int, energy, dt: float):
     probe.forward()
     before = float(energy(probe)[0])
     qd = sim.qd[env].clone()
+    mujoco_smooth = _mujoco_gain(probe.model, oracle, sim.q[env], qd, sim.ctrl[env],
+                                 sim.joint_force[env])
     probe.step()
     smooth = float(energy(probe)[0]) - before - _work(probe, 0, qd, dt)
 
     def split(after: float) -> dict:
         work = _work(sim, env, qd, dt)
-        return {"work": work, "smooth": smooth, "constraints": after - before - work - smooth}
+        return {"work": work, "smooth": smooth, "mujoco_smooth": mujoco_smooth,
+                "constraints": after - before - work - smooth}
     return split
 
 
@@ -189,9 +226,9 @@ def _print_trace(trace: list, e0: float) -> None:
     for k in sorted(rises[:5]):
         t = trace[k]
         print(f"    step {t['step']}: {trace[k - 1]['energy']:.1f} -> {t['energy']:.1f} J "
-              f"(work {t['work']:+.1f}, smooth {t['smooth']:+.1f}, constraints "
-              f"{t['constraints']:+.1f}); {len(t['contacts'])} contacts, dofs at their cap "
-              f"{t['capped']}")
+              f"(work {t['work']:+.1f}, smooth {t['smooth']:+.1f} [MuJoCo from the same state "
+              f"{t['mujoco_smooth']:+.1f}], constraints {t['constraints']:+.1f}); "
+              f"{len(t['contacts'])} contacts, dofs at their cap {t['capped']}")
         for pair, depth, force in sorted(t["contacts"], key=lambda c: -c[2])[:6]:
             print(f"      {pair}: {depth * 1e3:.1f} mm, {force:.0f} N")
         for name, excess in t["past"]:

@@ -2,6 +2,8 @@
 
     python benchmarks/step_rate.py                  # this checkout's engine
     PYTHONPATH=/path/to/other/src python benchmarks/step_rate.py    # another version, same scenes
+    python benchmarks/step_rate.py --integrator implicit    # both engines' implicit integrator,
+                                                            # and Myriad's Euler beside them
 
 Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on); fresh random controls every
 step; MuJoCo steps the same compiled model twice per env step at 1/120 s with its own solver.
@@ -25,9 +27,10 @@ from contacts import boxes_xml
 
 
 class MyriadRun:
-    def __init__(self, model, envs: int, slots: int):
+    def __init__(self, model, envs: int, slots: int, integrator: str = "euler"):
         params = myriad.SimParams(dt=1 / 60, substeps=2, position_iterations=4,
-                                  velocity_iterations=0, contacts_per_env=slots)
+                                  velocity_iterations=0, contacts_per_env=slots,
+                                  integrator=integrator)
         self.sim = myriad.Simulator(model, num_envs=envs, params=params, cpu_threads=1)
         self.gen = torch.Generator().manual_seed(0)
         self.envs, self.nu = envs, model.nu
@@ -47,9 +50,11 @@ class MyriadRun:
 
 
 class MujocoRun:
-    def __init__(self, model):
+    def __init__(self, model, integrator: str = "euler"):
         self.mj = model.mj_model
         self.mj.opt.timestep = 1 / 120
+        self.mj.opt.integrator = {"euler": mujoco.mjtIntegrator.mjINT_EULER,
+                                  "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT}[integrator]
         self.d = mujoco.MjData(self.mj)
         self.rng = np.random.default_rng(0)
 
@@ -76,17 +81,28 @@ def rates(runs, rounds: int = 6, seconds: float = 0.5) -> list[float]:
 
 
 def main() -> None:
+    import argparse
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--integrator", choices=("euler", "implicit"), default="euler",
+                    help="both engines' (implicit: Myriad's Euler also runs, in the same slices)")
+    integrator = ap.parse_args().integrator
     wp.config.log_level = wp.LOG_WARNING
     torch.set_num_threads(1)
     scenes = [("ant", myriad.load(myriad.asset_path("ant.xml")), 1024, 64),
               ("humanoid", myriad.load(myriad.asset_path("humanoid.xml")), 1024, 64),
               ("64 boxes", myriad.load_xml(boxes_xml(), "64 boxes"), 16, 512)]
-    print(f"engine: {myriad.__file__}")
-    print("| scene | envs | Myriad env-steps/s (1 thread) | MuJoCo C env-steps/s (1 thread) | ratio |")
-    print("|---|---|---|---|---|")
+    print(f"engine: {myriad.__file__}; integrator {integrator}")
+    print("| scene | envs | Myriad env-steps/s (1 thread) | MuJoCo C env-steps/s (1 thread) | ratio |"
+          + (" Myriad's Euler env-steps/s | implicit / Euler time |" if integrator != "euler"
+             else ""))
+    print("|---|---|---|---|---|" + ("---|---|" if integrator != "euler" else ""))
     for name, model, envs, slots in scenes:
-        ours, theirs = rates([MyriadRun(model, envs, slots), MujocoRun(model)])
-        print(f"| {name} | {envs} | {ours:,.0f} | {theirs:,.0f} | {ours / theirs:.2f} |", flush=True)
+        runs = [MyriadRun(model, envs, slots, integrator), MujocoRun(model, integrator)]
+        if integrator != "euler":
+            runs.append(MyriadRun(model, envs, slots))
+        ours, theirs, *euler = rates(runs)
+        print(f"| {name} | {envs} | {ours:,.0f} | {theirs:,.0f} | {ours / theirs:.2f} |"
+              + "".join(f" {e:,.0f} | {e / ours:.2f} |" for e in euler), flush=True)
 
 
 if __name__ == "__main__":
