@@ -265,8 +265,10 @@ def test_unsupported_sensors_are_skipped_with_one_warning_naming_them():
 
 
 def test_force_torque_sensors_match_mujoco_inverse_dynamics(device):
-    """In free flight under random joint forces, each foot sensor reads what MuJoCo's sensors
-    read for the same state and acceleration (mj_inverse)."""
+    """In free flight under random joint forces and forces applied to the bodies, each foot
+    sensor reads what MuJoCo's sensors read for the same state, acceleration and applied
+    forces (mj_inverse, xfrc_applied): an applied force is external, as a contact is, not
+    something the joint carries."""
     model = myriad.load(myriad.asset_path("ant.xml"))
     h = 1 / 120
     sim = myriad.Simulator(model, num_envs=2, device=device,
@@ -274,6 +276,8 @@ def test_force_torque_sensors_match_mujoco_inverse_dynamics(device):
     gen = torch.Generator().manual_seed(0)
     for _ in range(20):
         sim.joint_force = (torch.randn(2, model.nv, generator=gen) * 0.5).to(sim.torch_device)
+        sim.body_force = (torch.randn(2, model.nbody, 6, generator=gen) * 0.3).to(
+            sim.torch_device)
         before = sim.qd.cpu().numpy().copy()
         sim.step()
     mj, d = free_motion_mujoco(model, h)
@@ -283,6 +287,7 @@ def test_force_torque_sensors_match_mujoco_inverse_dynamics(device):
         d.qpos[:] = model.qpos_to_mujoco(sim.q[e].cpu().numpy())
         d.qvel[:] = sim.qd[e].cpu().numpy()
         d.qacc[:] = (d.qvel - before[e]) / h
+        d.xfrc_applied[1:] = sim.body_force[e].cpu().numpy()
         mujoco.mj_inverse(mj, d)
         expected = d.sensordata
         scale = np.abs(expected).max()
@@ -332,3 +337,88 @@ def test_standing_ant_feet_carry_its_weight(device):
     np.testing.assert_allclose(ground, np.broadcast_to([0, 0, weight], ground.shape), atol=5e-2 * weight)
     np.testing.assert_allclose(sensed.mean(0), [0, 0, -9.81 * (total - feet_mass)], atol=2e-2 * weight)
     np.testing.assert_allclose(ground.mean(0), [0, 0, weight], atol=1e-2 * weight)
+
+
+# Two links hanging from a hinge each, a sensor at each joint; the force sensors also split
+# as PhysX's articulation sensors report them (Model.force_sensor_split, docs/isaacgym.md).
+CHAIN_XML = """<mujoco><option timestep="0.005"/><worldbody>
+  <body name="upper" pos="0 0 2"><joint type="hinge" axis="0 1 0" damping="0.5"/>
+    <geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.04" mass="1"/>
+    <site name="s_upper" pos="0 0 -0.1" euler="0 20 0"/>
+    <body name="lower" pos="0 0 -0.5"><joint type="hinge" axis="0 1 0" damping="0.5"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.04" mass="2"/>
+      <site name="s_lower"/>
+    </body></body></worldbody>
+  <sensor><force site="s_upper"/><torque site="s_upper"/><force site="s_lower"/></sensor>
+</mujoco>"""
+
+
+def test_split_force_sensors_read_physx_forward_dynamics_and_constraint_parts(device):
+    """Hanging at rest each link's forward-dynamics part is minus the weight of its subtree
+    (PhysX: minus the articulated zero-acceleration force) and the constraint part is 0
+    (joints act inside the articulation). Swinging, the leaf's forward part stays exactly its
+    weight in force (its joint wrench and its articulated inertia times its classical
+    acceleration differ by the external forces alone), the upper link's does not. The split
+    leaves the MuJoCo-meaning readings bit for bit as they were."""
+    plain = myriad.load_xml(CHAIN_XML, "chain")
+    split = myriad.load_xml(CHAIN_XML, "chain")
+    split.force_sensor_split = True
+    params = myriad.SimParams(dt=0.005, substeps=2)
+    sims = [myriad.Simulator(mdl, num_envs=2, device=device, params=params)
+            for mdl in (plain, split)]
+    assert sims[0].sensor_forward.shape == (2, 0, 6)     # nothing without the split
+    start = torch.tensor([[0.0, 0.0], [0.9, -1.2]], device=sims[1].torch_device)
+    for sim in sims:
+        sim.q = start
+        for _ in range(40):
+            sim.step()
+    torch.testing.assert_close(sims[1].sensor_wrench, sims[0].sensor_wrench, rtol=0, atol=0)
+    torch.testing.assert_close(sims[1].sensor_data, sims[0].sensor_data, rtol=0, atol=0)
+    sim = sims[1]
+    g = 9.81
+    forward = sim.sensor_forward.cpu().numpy()
+    constraint = sim.sensor_constraint.cpu().numpy()
+    assert np.abs(constraint).max() == 0.0              # no contacts in this scene
+    np.testing.assert_allclose(forward[0, :, :3], [[0, 0, -3 * g], [0, 0, -2 * g]], atol=1e-4)
+    np.testing.assert_allclose(forward[0, :, 3:], 0.0, atol=1e-4)   # sites on the vertical line
+    assert sim.qd[1].abs().min().item() > 0.5            # env 1 swings
+    np.testing.assert_allclose(forward[1, 1, :3], [0, 0, -2 * g], atol=1e-4 * g)
+    assert np.abs(forward[1, 0, :3] - [0, 0, -3 * g]).max() > 0.5
+    # the leaf's torque about its joint: its weight's moment about the site there
+    com = sim.body_com[1, 1].cpu().numpy()
+    site = sim.site_pose[1, sim.sensor_sites[1], :3].cpu().numpy()
+    np.testing.assert_allclose(forward[1, 1, 3:], np.cross(com - site, [0, 0, -2 * g]),
+                               atol=1e-4 * g)
+
+
+def test_split_force_sensors_on_a_standing_ants_feet(device):
+    """Each foot of an ant at rest on the ground: the constraint part is the ground's force on
+    that foot (what `net_contact_force` reports for it: the feet are leaves), the forward part
+    minus the foot's weight, and the two together minus the MuJoCo-meaning reading (the force
+    the parent gives the foot), as the foot is at rest."""
+    model = myriad.load(myriad.asset_path("ant.xml"))
+    model.force_sensor_split = True
+    sim = myriad.Simulator(model, num_envs=1, device=device)
+    for _ in range(600):
+        sim.step()
+    assert sim.qd.abs().max().item() < 2e-2
+    feet = [int(model.site_body[s]) for s in sim.sensor_sites]
+    assert all(not (model.body_parent == b).any() for b in feet)
+    weight = 9.81 * float(model.body_mass.sum())
+    constraint = sim.sensor_constraint[0].cpu().numpy()
+    forward = sim.sensor_forward[0].cpu().numpy()
+    np.testing.assert_allclose(constraint[:, :3], sim.net_contact_force[0, feet].cpu().numpy(),
+                               atol=1e-5 * weight)
+    assert constraint[:, 2].sum() == pytest.approx(weight, rel=0.05)
+    np.testing.assert_allclose(forward[:, :3], np.outer(-9.81 * model.body_mass[feet],
+                                                        [0, 0, 1]), atol=2e-3 * weight)
+    rot = sim.site_pose[0, sim.sensor_sites, 3:].cpu().numpy()
+    parent = np.stack([_rotate(q, w[:3]) for q, w in zip(rot, sim.sensor_wrench[0].cpu().numpy())])
+    np.testing.assert_allclose(forward[:, :3] + constraint[:, :3], -parent, atol=1e-2 * weight)
+
+
+def _rotate(q, v):
+    """v rotated by the quaternion q (x, y, z, w)."""
+    x, y, z, w = q
+    u = np.array([x, y, z])
+    return v + 2 * np.cross(u, np.cross(u, v) + w * v)

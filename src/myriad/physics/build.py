@@ -44,6 +44,7 @@ class DeviceModel:
     sensor_site: wp.array     # [nsensor_site] int32: those sites
     sensor_site_body: wp.array   # [nsensor_site] int32: their bodies
     sensor_accelerations: bool   # a sensor reads accelerations or forces between bodies
+    sensor_split: bool           # force sensors also split as PhysX reports them (Model.force_sensor_split)
     activations: bool         # an actuator has activation dynamics (`forces.integrate_activations`)
     implicit: bool            # SimParams.integrator == "implicit" (`dynamics.implicit_acceleration`)
     mass_entries: np.ndarray  # [2, nmass] (row, column) of each stored mass-matrix entry
@@ -130,6 +131,7 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
     sizes = dict(nq=m.nq, nv=m.nv, nbody=m.nbody, njnt=m.njnt, nu=m.nu, ntendon=m.ntendon,
                  nmocap=m.nmocap, nspatial=int((m.tendon_spatial >= 0).sum()),
                  ngeom=m.ngeom, nsite=m.nsite, nsensor_site=len(sensor_sites),
+                 nsensor_split=len(sensor_sites) if m.force_sensor_split else 0,
                  nsensordata=m.nsensordata, ncontact=contact_capacity,
                  ncandidate=CANDIDATES_PER_SLOT * contact_capacity, nrow=layout.end,
                  row_width=row_width(dof_span, tendon_dofs), nmass=len(mass_col),
@@ -173,6 +175,7 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
                                   if sensor_sites else np.zeros(0, np.int32),
                                   dtype=wp.int32, device=dev),
         sensor_accelerations=sensor_accelerations,
+        sensor_split=bool(m.force_sensor_split and sensor_sites),
         activations=bool(np.any(m.actuator_dyntype != 0)), implicit=implicit,
         mass_entries=np.stack([np.repeat(np.arange(m.nv), mnum), mass_col]), initial=initial)
 

@@ -235,6 +235,9 @@ class Model:
     viscosity: float = 0.0           # Pa·s (air 1.8e-5, water 9e-4)
     wind: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))   # m/s, world
     timestep: float = 1.0 / 60.0
+    # force/torque sensors also split as PhysX's articulation sensors report them
+    # (`sim.sensor_constraint`, `sim.sensor_forward`; `stages.sensors.force_sensors`)
+    force_sensor_split: bool = False
 
     @property
     def quat_qpos_adr(self) -> np.ndarray:

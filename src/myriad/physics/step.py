@@ -118,7 +118,7 @@ def run_constraint_outputs(rt, dm, d) -> None:
     if dm.sensor_accelerations:
         rt.launch_lanes(sensors.force_sensors, BLOCK_DIM.bodies, [
             dm.m, d.env_params, dm.opt, dm.sensor_site_body, dm.sensor_site, d.state,
-            d.contacts, d.dynamics])
+            d.control, d.contacts, d.dynamics, int(dm.sensor_split)])
     if dm.m.nsensor:
         rt.launch_lanes(sensors.sensor_readings, BLOCK_DIM.dofs,
                         [dm.m, d.env_params, d.state, d.contacts, d.dynamics])

@@ -376,6 +376,14 @@ class State:
                             "each force/torque sensor site's body receives from its parent, site "
                             "frame (MuJoCo's force/torque sensors; rows: sim.sensor_sites)",
                             public=True)
+    sensor_constraint = per_env("nsensor_split", dtype=wp.spatial_vector, doc="with "
+                                "Model.force_sensor_split: force then torque about each sensor "
+                                "site, world axes, of the contacts on its body's subtree (PhysX's "
+                                "constraint-solver part)", public=True)
+    sensor_forward = per_env("nsensor_split", dtype=wp.spatial_vector, doc="with "
+                             "Model.force_sensor_split: force then torque about each sensor site, "
+                             "world axes, minus the articulated zero-acceleration force of its "
+                             "body's subtree (PhysX's forward-dynamics part)", public=True)
     sensor_data = per_env("nsensordata", doc="every sensor's values after the last step, in "
                           "MuJoCo's sensordata order (Model.sensor_adr, sensor_dim; "
                           "quaternions w, x, y, z)", public=True)

@@ -68,12 +68,13 @@ def mass_matrix(m: ModelArrays, p: EnvParams,
 
 @wp.func(inline=True)
 def newton_euler(m: ModelArrays, p: EnvParams, s: State, e: int, lane: int, lanes: int,
-                 active: bool, qd_before: wp.array2d(dtype=float), inv_h: float, d: Dynamics):
+                 active: bool, qd_before: wp.array2d(dtype=float), inv_h: float,
+                 qacc: wp.array2d(dtype=float), from_qacc: bool, d: Dynamics):
     """Forward pass of Newton-Euler, level by level (parents first): each body's acceleration
     and the force it needs, I·a + v ×* I·v, into d.cacc and d.cfrc.
 
     Accelerations come from the velocity-product terms plus (qd - qd_before)·inv_h (inv_h = 0:
-    none, for the bias force). Gravity enters as an upward acceleration of the world, less the
+    none, for the bias force), or plus `qacc` when `from_qacc`. Gravity enters as an upward acceleration of the world, less the
     share `body_gravcomp` of each body's weight that an applied force at its centre of mass
     holds up (MuJoCo's gravcomp). (A function called once per thread, the bodies' work inline:
     a CPU build passes the structs to a function by value, a copy per call.)
@@ -91,8 +92,10 @@ def newton_euler(m: ModelArrays, p: EnvParams, s: State, e: int, lane: int, lane
                 a = d.cacc[e, parent]
             if m.body_jntnum[b] > 0:
                 for k in range(m.jnt_dofadr[m.body_jntadr[b]], m.body_last_dof[b] + 1):
-                    a = (a + s.cdof_dot[e, k] * s.qd[e, k]
-                         + s.cdof[e, k] * ((s.qd[e, k] - qd_before[e, k]) * inv_h))
+                    rate = (s.qd[e, k] - qd_before[e, k]) * inv_h
+                    if from_qacc:
+                        rate = qacc[e, k]
+                    a = a + s.cdof_dot[e, k] * s.qd[e, k] + s.cdof[e, k] * rate
             d.cacc[e, b] = a
             mass, h, rot_inertia = body_inertia(m, p, s, e, b)
             v = s.cvel[e, b]
@@ -137,7 +140,7 @@ def bias_forces(m: ModelArrays, p: EnvParams,
     """Recursive Newton-Euler at qdd = 0: Coriolis, centrifugal and gravity (MuJoCo's qfrc_bias)."""
     block, thread = wp.tid()
     e, lane, active = world_lane(block, thread, lanes, s.nonfinite.shape[0])
-    newton_euler(m, p, s, e, lane, lanes, active, s.qd, 0.0, d)
+    newton_euler(m, p, s, e, lane, lanes, active, s.qd, 0.0, s.qacc, False, d)
     subtree_sums(m, e, lane, lanes, active, d.cfrc)
     for i in range(lane, stop(m.nv, 0, active), lanes):
         d.bias[e, i] = wp.dot(s.cdof[e, i], d.cfrc[e, m.dof_body[i]])

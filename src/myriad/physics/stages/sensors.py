@@ -16,9 +16,9 @@ reads, and when:
 
 The accelerations come from `force_sensors`, launched only when a sensor needs them. A force/
 torque sensor on a site reads the wrench that the site's body receives from its parent: what the
-body's whole subtree needs, given its motion, minus what the outside world (contacts) supplies.
-It is the recursive Newton-Euler pass again, with the accelerations the step actually produced
-and the contact forces as external forces; the result is given at the site, in the site's
+body's whole subtree needs, given its motion, minus what the outside world (contacts and the
+applied `body_force`) supplies. It is the recursive Newton-Euler pass again, with the
+accelerations the step actually produced and those forces as external ones; the result is given at the site, in the site's
 frame. The same pass leaves each body's acceleration in `d.cacc` (gravity included as an upward
 acceleration of the world), which the accelerometers and frame accelerations read.
 """
@@ -26,10 +26,10 @@ acceleration of the world), which the accelerometers and frame accelerations rea
 import warp as wp
 
 from ..lanes import stop, sync, world_lane
-from .dynamics import newton_euler, subtree_sums
+from .dynamics import articulated_factor, body_inertia, newton_euler, subtree_sums
 from .kinematics import geom_frame
-from ..spatial import velocity_at
-from ..structs import Contacts, Dynamics, EnvParams, ModelArrays, Options, State
+from ..spatial import inertia_matrix, velocity_at
+from ..structs import Contacts, Control, Dynamics, EnvParams, ModelArrays, Options, State
 from ..types import (BOX, CAPSULE, CYLINDER, DATA_POSITIVE, DATA_REAL, ELLIPSOID, OBJ_BODY,
                     OBJ_GEOM, OBJ_SITE, OBJ_UNKNOWN, SENS_ACCELEROMETER, SENS_ACTUATORFRC,
                     SENS_FORCE, SENS_FRAMEANGACC, SENS_FRAMEANGVEL, SENS_FRAMELINACC,
@@ -42,46 +42,122 @@ from ..types import (BOX, CAPSULE, CYLINDER, DATA_POSITIVE, DATA_REAL, ELLIPSOID
 def force_sensors(m: ModelArrays, p: EnvParams, opt: Options,
                   sensor_site_body: wp.array(dtype=wp.int32),
                   sensor_site: wp.array(dtype=wp.int32),
-                  # in: body_x, body_com, body_iframe, cvel, cdof, cdof_dot, qd, qd_before, site_x;
-                  # out: sensor_wrench, [env, sensor site] (force, torque) in the site frame
+                  # in: body_x, body_com, body_iframe, cvel, cdof, cdof_dot, qd, qd_before, qacc,
+                  # site_x; out: sensor_wrench, [env, sensor site] (force, torque) in the site
+                  # frame; with `split`, also sensor_constraint and sensor_forward
                   s: State,
+                  u: Control,    # in: body_force
                   c: Contacts,   # in: count, geom, pos, force
-                  d: Dynamics,   # out: cacc (read by `sensor_readings`); scratch: cfrc
+                  # in: implicit_diag, wrench (`split`); out: cacc (read by `sensor_readings`);
+                  # scratch: cfrc, wrench, articulated, factor
+                  d: Dynamics,
+                  split: int,
                   lanes: int):
-    """A world's lanes take its bodies level by level, then its sensor sites."""
+    """A world's lanes take its bodies level by level, then its sensor sites.
+
+    With `split` (`Model.force_sensor_split`), first the two parts PhysX's articulation sensors
+    report, about the site, world axes (Isaac Gym's ForceSensorProperties; docs/isaacgym.md):
+    - forward dynamics: minus the articulated zero-acceleration force of the body's subtree,
+      IA·(a_smooth - gravity's) - w_smooth: IA the subtree's articulated-body inertia, a_smooth the body's acceleration under the unconstrained
+      dynamics (qacc), classical as PhysX's (its centre of mass's), w_smooth the wrench its joint carries under them (Newton-Euler with
+      qacc, less the applied and fluid forces). A link hanging at rest reads minus its
+      subtree's weight;
+    - constraint solver: the contact forces on the body's subtree (a foot's: its ground
+      reaction). Joint limits, drives and tendons, which act inside the articulation, add none.
+    """
     block, thread = wp.tid()
     e, lane, active = world_lane(block, thread, lanes, s.nonfinite.shape[0])
     h = opt.h
-    newton_euler(m, p, s, e, lane, lanes, active, s.qd_before, 1.0 / h, d)
-    if lanes > 1:
-        sync()
-    # contacts are external forces: each body subtracts what they supply it, in their order
-    # (the force on geom 2, minus it on geom 1); one lane takes each contact to its two bodies,
-    # lanes gather per body (the same sums)
     ncontact = int(0)
     if active:
         ncontact = wp.min(c.count[e], c.force.shape[1])
-    for i in range(stop(ncontact, 0, active and lanes == 1)):
-        for side in range(2):
-            contact_wrench_out(m, s, c, e, i, side, m.geom_body[c.geom[e, i][side]], d.cfrc)
-    for b in range(lane, stop(m.nbody, 0, active and lanes > 1), lanes):
-        for i in range(ncontact):
-            for side in range(2):
-                contact_wrench_out(m, s, c, e, i, side, b, d.cfrc)
+    if split != 0:
+        # the articulated inertias at the new poses, where the Newton-Euler passes run (the
+        # last substep's factor left them at its start; the next one builds its own)
+        articulated_factor(m, p, s, e, lane, lanes, active, d.implicit_diag, d.articulated,
+                           d.factor)
+        newton_euler(m, p, s, e, lane, lanes, active, s.qd_before, 0.0, s.qacc, True, d)
+        if lanes > 1:
+            sync()
+        subtree_sums(m, e, lane, lanes, active, d.cfrc)
+        gravity = wp.spatial_vector()
+        if active:
+            gravity = wp.spatial_vector(wp.vec3(), -p.gravity[e])
+        for i in range(lane, stop(sensor_site.shape[0], 0, active), lanes):
+            b = sensor_site_body[i]
+            ia = d.articulated[e, b]
+            if lanes > 1:    # the factor left each body's IA less its own dofs: add them back
+                mass, hh, rot_inertia = body_inertia(m, p, s, e, b)
+                ia = inertia_matrix(mass, hh, rot_inertia)
+                for k in range(m.body_child_adr[b], m.body_child_adr[b] + m.body_child_num[b]):
+                    ia = ia + d.articulated[e, m.body_child[k]]
+            # PhysX's link accelerations are classical: its centre of mass's, not the spatial
+            # acceleration's linear part (they differ by w × v_com, a uniform field)
+            ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
+            v = s.cvel[e, b]
+            classical = wp.spatial_vector(
+                wp.vec3(), wp.cross(wp.spatial_top(v), velocity_at(v, s.body_com[e, b] - ref)))
+            forward = (ia * (d.cacc[e, b] + classical - gravity)
+                       - (d.cfrc[e, b] - d.wrench[e, b]))
+            s.sensor_forward[e, i] = at_site(m, s, e, b, sensor_site[i], forward)
+        if lanes > 1:
+            sync()
+        for b in range(lane, stop(m.nbody, 0, active), lanes):
+            d.wrench[e, b] = wp.spatial_vector()
+        if lanes > 1:
+            sync()
+        subtract_contacts(m, s, c, e, lane, lanes, active, ncontact, d.wrench)
+        subtree_sums(m, e, lane, lanes, active, d.wrench)
+        for i in range(lane, stop(sensor_site.shape[0], 0, active), lanes):
+            b = sensor_site_body[i]
+            s.sensor_constraint[e, i] = at_site(m, s, e, b, sensor_site[i], -d.wrench[e, b])
+        if lanes > 1:
+            sync()
+    newton_euler(m, p, s, e, lane, lanes, active, s.qd_before, 1.0 / h, s.qacc, False, d)
+    # the applied forces are external too (MuJoCo's xfrc_applied in cfrc_ext)
+    for b in range(lane, stop(m.nbody, 0, active), lanes):
+        f = wp.spatial_top(u.body_force[e, b])
+        arm = s.body_com[e, b] - wp.transform_get_translation(s.body_x[e, m.body_root[b]])
+        d.cfrc[e, b] = d.cfrc[e, b] - wp.spatial_vector(
+            wp.spatial_bottom(u.body_force[e, b]) + wp.cross(arm, f), f)
     if lanes > 1:
         sync()
+    subtract_contacts(m, s, c, e, lane, lanes, active, ncontact, d.cfrc)
     subtree_sums(m, e, lane, lanes, active, d.cfrc)
     for i in range(lane, stop(sensor_site.shape[0], 0, active), lanes):
         b = sensor_site_body[i]
-        x = s.site_x[e, sensor_site[i]]
-        point = wp.transform_get_translation(x)
-        ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
-        total = d.cfrc[e, b]
-        force = wp.spatial_bottom(total)
-        torque = wp.spatial_top(total) - wp.cross(point - ref, force)  # about the site
-        rot = wp.transform_get_rotation(x)
-        s.sensor_wrench[e, i] = wp.spatial_vector(wp.quat_rotate_inv(rot, force),
-                                                  wp.quat_rotate_inv(rot, torque))
+        total = at_site(m, s, e, b, sensor_site[i], d.cfrc[e, b])
+        rot = wp.transform_get_rotation(s.site_x[e, sensor_site[i]])
+        s.sensor_wrench[e, i] = wp.spatial_vector(
+            wp.quat_rotate_inv(rot, wp.spatial_top(total)),
+            wp.quat_rotate_inv(rot, wp.spatial_bottom(total)))
+
+
+@wp.func(inline=True)
+def at_site(m: ModelArrays, s: State, e: int, b: int, site: int, w: wp.spatial_vector):
+    """A wrench of body b's tree (torque, force about the tree's reference point) as (force,
+    torque about the site), world axes."""
+    point = wp.transform_get_translation(s.site_x[e, site])
+    ref = wp.transform_get_translation(s.body_x[e, m.body_root[b]])
+    force = wp.spatial_bottom(w)
+    return wp.spatial_vector(force, wp.spatial_top(w) - wp.cross(point - ref, force))
+
+
+@wp.func(inline=True)
+def subtract_contacts(m: ModelArrays, s: State, c: Contacts, e: int, lane: int, lanes: int,
+                      active: bool, ncontact: int, x: wp.array2d(dtype=wp.spatial_vector)):
+    """x[b] -= the wrench the contacts put on body b, in their order (the force on geom 2, minus
+    it on geom 1): one lane takes each contact to its two bodies; lanes gather per body (the
+    same sums)."""
+    for i in range(stop(ncontact, 0, active and lanes == 1)):
+        for side in range(2):
+            contact_wrench_out(m, s, c, e, i, side, m.geom_body[c.geom[e, i][side]], x)
+    for b in range(lane, stop(m.nbody, 0, active and lanes > 1), lanes):
+        for i in range(ncontact):
+            for side in range(2):
+                contact_wrench_out(m, s, c, e, i, side, b, x)
+    if lanes > 1:
+        sync()
 
 
 @wp.func(inline=True)
