@@ -6,8 +6,6 @@ tensors acquired before prepare_sim (FrankaCubeStack), start poses (FrankaCabine
 (Trifinger). Physics is checked against closed forms or Myriad's own API on the same scene.
 """
 
-import math
-import warnings
 
 import numpy as np
 import pytest
@@ -15,8 +13,7 @@ import torch
 
 from isaacgym import gymapi, gymtorch, gymutil
 from isaacgym import terrain_utils as tu
-from isaacgym.gymapi import _myriad_params
-from myriad.api import Scene
+from isaacgym.torch_utils import quat_rotate, quat_rotate_inverse
 
 G = 9.81
 
@@ -196,38 +193,105 @@ PENDULUM = """<mujoco><worldbody>
 </mujoco>"""
 
 
-def test_a_force_sensor_reads_the_joint_force_as_myriads_own_sensor(tmp_path):
+def _props(forward=True, constraint=True, world=False):
+    props = gymapi.ForceSensorProperties()
+    props.enable_forward_dynamics_forces = forward
+    props.enable_constraint_solver_forces = constraint
+    props.use_world_frame = world
+    return props
+
+
+def test_force_sensors_read_physx_parts_on_a_swinging_pendulum(tmp_path):
+    """PhysX's articulation sensor on a bob swinging freely on a hinge (no contacts): the
+    forward-dynamics part is minus the articulated zero-acceleration force, for this leaf its
+    weight at its centre of mass (-m g), whatever its motion; the constraint part is 0 (the
+    joint acts inside the articulation); the default reads their sum in the sensor's frame."""
     gym, sim, asset, _ = fixed_base_asset(tmp_path, "pendulum.xml", PENDULUM,
                                           default_dof_drive_mode=gymapi.DOF_MODE_NONE)
     assert gym.get_asset_force_sensor_count(asset) == 0      # the file's sensors: not imported
     bob = gym.find_asset_rigid_body_index(asset, "bob")
     assert gym.create_asset_force_sensor(asset, bob, gymapi.Transform()) == 0
-    bad = gymapi.ForceSensorProperties()
-    bad.enable_forward_dynamics_forces = False
-    with pytest.raises(NotImplementedError, match="enable_forward_dynamics_forces=False"):
-        gym.create_asset_force_sensor(asset, bob, gymapi.Transform(), bad)
+    assert gym.create_asset_force_sensor(asset, bob, gymapi.Transform(),
+                                         _props(constraint=False, world=True)) == 1
+    assert gym.create_asset_force_sensor(asset, bob, gymapi.Transform(),
+                                         _props(forward=False, world=True)) == 2
+    with pytest.raises(TypeError, match="ForceSensorProperties"):
+        gym.create_asset_force_sensor(asset, bob, gymapi.Transform(), gymapi.Transform())
     envs = envs_with(gym, sim, asset, [gymapi.Transform()] * 3)
-    assert gym.get_sim_force_sensor_count(sim) == 3
-    assert gym.get_actor_force_sensor_count(envs[0], 0) == 1
+    assert gym.get_sim_force_sensor_count(sim) == 9
+    assert gym.get_actor_force_sensor_count(envs[0], 0) == 3
     gym.prepare_sim(sim)
     sensors = gymtorch.wrap_tensor(gym.acquire_force_sensor_tensor(sim))
+    bodies = gymtorch.wrap_tensor(gym.acquire_rigid_body_state_tensor(sim))
     dofs = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim))
     dofs[:, 0] = torch.tensor([0.0, 0.5, -1.0])
     gym.set_dof_state_tensor(sim, gymtorch.unwrap_tensor(dofs))
-    # the same scene on Myriad's own API, its file's sensor at the same site
-    own = Scene().add_actor("p", str(tmp_path / "pendulum.xml"), fix_base=True).build(
-        3, params=_myriad_params(sim.params))
-    own.set_dof_state(dofs[:, 0].reshape(3, 1).clone(), torch.zeros(3, 1))
     for _ in range(30):
         gym.simulate(sim)
-        own.step()
     gym.refresh_force_sensor_tensor(sim)
-    assert sensors.shape == (3, 6)
-    torch.testing.assert_close(sensors, own.force_sensors[:, 0], atol=1e-4, rtol=1e-4)
-    # at rest hanging straight down the joint carries the bob's weight: |F| = m g
+    gym.refresh_rigid_body_state_tensor(sim)
+    gym.refresh_dof_state_tensor(sim)
+    assert sensors.shape == (9, 6)
+    readings = sensors.reshape(3, 3, 6)
     mass = gym.get_actor_rigid_body_properties(envs[0], 0)[bob].mass
-    assert sensors[0, :3].norm().item() == pytest.approx(mass * G, rel=1e-3)
-    assert sensors[0, 3:].norm().item() < 1e-3 * mass * G
+    weight = torch.tensor([0.0, 0.0, -mass * G])
+    assert dofs[1:, 1].abs().min().item() > 0.5                # envs 1 and 2 swing
+    # forward dynamics, world axes: the weight, and its moment about the sensor (the joint)
+    quat = bodies.reshape(3, -1, 13)[:, bob, 3:7]
+    com = quat_rotate(quat, torch.tensor([[0.0, 0.0, -0.2]] * 3))   # the capsule's middle
+    torch.testing.assert_close(readings[:, 1, :3], weight.expand(3, 3), atol=1e-4 * mass * G,
+                               rtol=0)
+    torch.testing.assert_close(readings[:, 1, 3:], torch.cross(com, weight.expand(3, 3), dim=1),
+                               atol=1e-4 * mass * G, rtol=0)
+    assert readings[:, 2].abs().max().item() == 0.0              # no contacts
+    # the default: both parts, in the sensor's (the bob's) frame
+    torch.testing.assert_close(readings[:, 0, :3], quat_rotate_inverse(quat, readings[:, 1, :3]),
+                               atol=1e-4 * mass * G, rtol=0)
+    torch.testing.assert_close(readings[:, 0, 3:], quat_rotate_inverse(quat, readings[:, 1, 3:]),
+                               atol=1e-4 * mass * G, rtol=0)
+    # at rest hanging straight down: minus the bob's weight, no moment
+    torch.testing.assert_close(readings[0, 0], torch.cat([weight, torch.zeros(3)]),
+                               atol=1e-4 * mass * G, rtol=0)
+    # one sensor as an object: env 2's third sensor is row 2·3 + 2 of the tensor
+    sensor = gym.get_actor_force_sensor(envs[2], 0, 2)
+    assert sensor.get_global_index() == 8
+    data = sensor.get_forces()
+    assert [data.force.x, data.force.y, data.force.z, data.torque.x, data.torque.y,
+            data.torque.z] == pytest.approx(sensors[8].tolist(), abs=1e-6)
+    with pytest.raises(IndexError, match="has 3 force sensors; index 3"):
+        gym.get_actor_force_sensor(envs[0], 0, 3)
+
+
+def test_constraint_force_sensors_tell_standing_from_lifted(tmp_path):
+    """legged_gym's foot sensors (forward dynamics off, constraint solver on, world frame)
+    read the ground's force on the body: a box resting on the ground reads its weight up, one
+    held in the air (fixed to the world far above) reads 0, so `Fz > 1` tells contact; with
+    forward dynamics only, both read minus the weight."""
+    gym, sim = z_up_sim()
+    plane = gymapi.PlaneParams()
+    plane.normal = gymapi.Vec3(0, 0, 1)
+    gym.add_ground(sim, plane)
+    box = gym.create_box(sim, 0.2, 0.2, 0.2)
+    gym.create_asset_force_sensor(box, 0, gymapi.Transform(), _props(forward=False, world=True))
+    gym.create_asset_force_sensor(box, 0, gymapi.Transform(), _props(constraint=False,
+                                                                      world=True))
+    envs_with(gym, sim, box, [gymapi.Transform(gymapi.Vec3(0, 0, 0.1)),
+                              gymapi.Transform(gymapi.Vec3(0, 0, 0.1))])
+    gym.prepare_sim(sim)
+    sensors = gymtorch.wrap_tensor(gym.acquire_force_sensor_tensor(sim)).reshape(2, 2, 6)
+    root = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim))
+    mass = 0.2 ** 3 * 1000.0
+    for step in range(60):
+        root[1, 2], root[1, 7:] = 5.0, 0.0        # env 1's box held high, at rest
+        gym.set_actor_root_state_tensor(sim, gymtorch.unwrap_tensor(root))
+        gym.simulate(sim)
+        gym.refresh_actor_root_state_tensor(sim)
+    gym.refresh_force_sensor_tensor(sim)
+    assert sensors[0, 0, 2].item() == pytest.approx(mass * G, rel=0.02)
+    assert sensors[0, 0, 2].item() > 1 and abs(sensors[1, 0, 2].item()) < 1
+    assert sensors[1, 0].abs().max().item() == 0.0
+    torch.testing.assert_close(sensors[:, 1, :3],
+                               torch.tensor([[0.0, 0.0, -mass * G]] * 2), atol=1e-3, rtol=0)
 
 
 # ------------------------------------------------------------------ fixed joints

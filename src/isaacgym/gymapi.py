@@ -42,7 +42,7 @@ import mujoco
 import numpy as np
 import torch
 
-from myriad.torch_utils import quat_rotate
+from myriad.torch_utils import quat_rotate, quat_rotate_inverse
 
 _FLT_MAX = float(np.finfo(np.float32).max)
 _DOCS = "see docs/isaacgym.md in the Myriad repository"
@@ -463,6 +463,34 @@ class ForceSensorProperties(_Struct):
                    use_world_frame=False)
 
 
+class SpatialForce:
+    """A force and a torque (Vec3 each): what `ForceSensor.get_forces` returns."""
+
+    def __init__(self, force: Vec3 | None = None, torque: Vec3 | None = None):
+        self.force = Vec3() if force is None else force
+        self.torque = Vec3() if torque is None else torque
+
+    def __repr__(self):
+        return f"SpatialForce(force={self.force}, torque={self.torque})"
+
+
+class ForceSensor:
+    """One force sensor of a prepared sim (`gym.get_actor_force_sensor`)."""
+
+    def __init__(self, sim, row: int):
+        self._sim, self._row = sim, row
+
+    def get_global_index(self) -> int:
+        """Its row in the sim's force sensor tensor."""
+        return self._row
+
+    def get_forces(self) -> SpatialForce:
+        """Its reading after the last step (force, torque), as the tensor's row."""
+        _refresh_force_sensors(self._sim)
+        v = self._sim.sensor_readings.view(-1, 6)[self._row].tolist()
+        return SpatialForce(Vec3(*v[:3]), Vec3(*v[3:]))
+
+
 class HeightFieldParams(_Struct):
     _fields = dict(column_scale=1.0, row_scale=1.0, vertical_scale=1.0, nbRows=0, nbColumns=0,
                    transform=Transform(), static_friction=1.0, dynamic_friction=1.0,
@@ -540,6 +568,8 @@ class Asset:
         self.spec, self.options, self.source = spec, copy.deepcopy(options), source
         self.actuators = actuators or []
         self.force_sensors: list[str] = []     # site names, in create_asset_force_sensor order
+        # each one's ForceSensorProperties: (forward dynamics, constraint solver, world frame)
+        self.force_sensor_flags: list[tuple[bool, bool, bool]] = []
         self.fix_base = bool(options.fix_base_link)
         probe = spec.copy()
         probe.compiler.fusestatic = False       # Isaac Gym keeps fixed-joint links apart
@@ -1322,10 +1352,14 @@ class Gym:
 
     def create_asset_force_sensor(self, asset: Asset, body_idx: int, local_pose: Transform,
                                   props: ForceSensorProperties | None = None) -> int:
-        """A force sensor on the asset's body `body_idx` at `local_pose`: in every actor made
-        from the asset afterwards, it reads the force and torque the body receives through its
-        incoming joint, in the sensor's frame (MuJoCo's force/torque sensors at a site); returns
-        its index within the asset. Only the default properties are provided."""
+        """A force sensor on the asset's body `body_idx` at `local_pose` (in the body's frame):
+        in every actor made from the asset afterwards it reads, about that point, what PhysX's
+        articulation sensors read: with `enable_forward_dynamics_forces`, minus the articulated
+        zero-acceleration force of the body's subtree (gravity, applied forces, joint efforts,
+        velocity terms: a link hanging at rest reads minus its subtree's weight), with
+        `enable_constraint_solver_forces` the contact forces on the subtree (a foot's ground
+        reaction); in the sensor's frame, or in world axes with `use_world_frame`
+        (docs/isaacgym.md). Returns its index within the asset."""
         if not isinstance(asset, Asset):
             raise TypeError(f"gym.create_asset_force_sensor: expected an Asset, got "
                             f"{type(asset).__name__}")
@@ -1333,13 +1367,9 @@ class Gym:
             raise ValueError(f"gym.create_asset_force_sensor: body_idx={body_idx} is not a body "
                              f"of {asset.source} ({asset.num_bodies} bodies)")
         props = ForceSensorProperties() if props is None else props
-        d = ForceSensorProperties()
-        changed = [f"{k}={getattr(props, k)}" for k in d._fields
-                   if bool(getattr(props, k)) != bool(getattr(d, k))]
-        if changed:
-            raise _unsupported(f"gym.create_asset_force_sensor with {', '.join(changed)}",
-                               "force sensors read the whole joint wrench (dynamics and "
-                               "constraint forces) in the sensor's own frame")
+        if not isinstance(props, ForceSensorProperties):
+            raise TypeError(f"gym.create_asset_force_sensor: props must be a "
+                            f"gymapi.ForceSensorProperties, not {type(props).__name__}")
         body = asset.spec.body(asset.body_names[int(body_idx)])
         name = f"force_sensor_{len(asset.force_sensors)}"
         p, r = local_pose.p, local_pose.r.normalize()
@@ -1349,6 +1379,9 @@ class Gym:
         asset.spec.add_sensor(name=f"{name}_torque", type=mujoco.mjtSensor.mjSENS_TORQUE,
                               objtype=mujoco.mjtObj.mjOBJ_SITE, objname=name)
         asset.force_sensors.append(name)
+        asset.force_sensor_flags.append((bool(props.enable_forward_dynamics_forces),
+                                         bool(props.enable_constraint_solver_forces),
+                                         bool(props.use_world_frame)))
         return len(asset.force_sensors) - 1
 
     def create_rigid_body_attractor(self, env: Env, props: AttractorProperties) -> int:
@@ -1452,6 +1485,23 @@ class Gym:
     def get_actor_force_sensor_count(self, env: Env, handle: int) -> int:
         return len(self._actor(env, handle).asset.force_sensors)
 
+    def get_actor_force_sensor(self, env: Env, handle: int, index: int) -> ForceSensor:
+        """The actor's force sensor `index` (creation order in its asset), after prepare_sim:
+        `get_forces()` reads it from the sim's force sensor tensor (refreshed first), and
+        `get_global_index()` is its row there."""
+        actor = self._actor(env, handle)
+        count = len(actor.asset.force_sensors)
+        if not 0 <= int(index) < count:
+            raise IndexError(f"gym.get_actor_force_sensor: actor {actor.name!r} has {count} "
+                             f"force sensors; index {index} is not one")
+        sim = env.sim
+        if sim.myriad is None:
+            raise RuntimeError("gym.get_actor_force_sensor: call gym.prepare_sim first (the "
+                               "sensors read the prepared sim)")
+        before = sum(len(a.asset.force_sensors) for a in env.actors[:env.actors.index(actor)])
+        per_env = len(sim.sensor_flags)
+        return ForceSensor(sim, env.index * per_env + before + int(index))
+
     def get_sim_force_sensor_count(self, sim: Sim) -> int:
         return sum(len(a.asset.force_sensors) for env in sim.envs for a in env.actors)
 
@@ -1462,7 +1512,8 @@ class Gym:
         return Tensor(sim.myriad_views("force_sensor", envs))
 
     def refresh_force_sensor_tensor(self, sim: Sim) -> bool:
-        self._envs(sim, "refresh_force_sensor_tensor")      # a view of the simulator's
+        self._envs(sim, "refresh_force_sensor_tensor")
+        _refresh_force_sensors(sim)
         return True
 
     def get_asset_rigid_body_shape_indices(self, asset: Asset) -> list:
@@ -2535,6 +2586,7 @@ def _prepare(sim: Sim) -> None:
             model.jnt_actfrclimited[j] = limited
             model.jnt_actfrcrange[j] = (-value, value) if limited else (0.0, 0.0)
         from myriad.assets import physx_tendons
+        model.force_sensor_split = True         # PhysX's parts (`_refresh_force_sensors`)
         for k, a in enumerate(first.actors):
             for name, props in zip(a.asset.tendon_names, a.asset.tendon_props):
                 physx_tendons(model, [f"{names[k]}/{name}"], float(props.limit_stiffness),
@@ -2642,7 +2694,19 @@ def _index_maps(sim: Sim) -> None:
                                f"collision geoms built, {len(a.asset.shape_geoms)} in its asset")
         sim.actor_shape_geoms.append(geoms)
 
+    # force sensors: what each one's flags take of the parts, and which turn to its frame
+    flags = torch.tensor([f for a in first for f in a.asset.force_sensor_flags],
+                         dtype=torch.float32, device=dev).reshape(-1, 3)
+    if len(flags) != len(built.sim.sensor_sites):
+        raise RuntimeError(f"isaacgym on Myriad: {len(built.sim.sensor_sites)} force sensor "
+                           f"sites built, {len(flags)} sensors made (a bug: please report)")
+    sim.sensor_flags = flags
+    sim.sensor_readings = torch.zeros(N, len(flags), 6, device=dev)
+
     def views(kind, envs):
+        if kind == "force_sensor":
+            _refresh_force_sensors(sim)
+            return sim.sensor_readings.view(-1, 6)
         if kind not in sim._views:
             source = {"root": envs.root_states, "dof": envs.dof_state,
                       "body": envs.rigid_body_states, "contact": envs.net_contact_force,
@@ -2654,6 +2718,27 @@ def _index_maps(sim: Sim) -> None:
 
     sim._views = {}
     sim.myriad_views = views
+
+
+def _refresh_force_sensors(sim: Sim) -> None:
+    """The force sensor tensor from the step's parts (`myriad.Simulator.sensor_forward`,
+    `sensor_constraint`: about each sensor's point, world axes), as each sensor's
+    ForceSensorProperties take them, in place."""
+    if not len(sim.sensor_flags):
+        return
+    engine = sim.myriad.sim
+    forward, constraint = sim.sensor_flags[:, 0, None], sim.sensor_flags[:, 1, None]
+    world = engine.sensor_forward * forward + engine.sensor_constraint * constraint
+    quat = engine.site_pose[:, engine.sensor_sites, 3:]          # [N, sensors, 4] xyzw
+    local = sim.sensor_flags[:, 2] == 0
+    out = sim.sensor_readings
+    out.copy_(world)
+    if local.any():
+        q = quat[:, local]
+        for part in (slice(0, 3), slice(3, 6)):
+            out[:, local, part] = quat_rotate_inverse(q.reshape(-1, 4),
+                                                      world[:, local, part].reshape(-1, 3)
+                                                      ).reshape(q.shape[0], -1, 3)
 
 
 def _attractors(envs: list, names: list) -> list:
