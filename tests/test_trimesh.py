@@ -47,11 +47,11 @@ def _resting_height(geom: str, quat_xyzw) -> float:
     return float(np.abs(world_z_row) @ np.asarray(size))      # a box
 
 
-def _mesh_xml(vertices, triangles, bodies: str, pos="0 0 0") -> str:
+def _mesh_xml(vertices, triangles, bodies: str, pos="0 0 0", assets: str = "") -> str:
     verts = " ".join(f"{x:.9g}" for x in np.asarray(vertices).ravel())
     faces = " ".join(str(int(i)) for i in np.asarray(triangles).ravel())
     return (f'<mujoco><asset><mesh name="m" vertex="{verts}" face="{faces}" inertia="shell"/>'
-            f'</asset><worldbody><geom name="m" type="mesh" mesh="m" pos="{pos}" contype="0" '
+            f'{assets}</asset><worldbody><geom name="m" type="mesh" mesh="m" pos="{pos}" contype="0" '
             f'conaffinity="0"/>{bodies}</worldbody></mujoco>')
 
 
@@ -200,10 +200,23 @@ def test_a_sphere_pressed_on_a_thin_wall_meets_its_near_face_only(device):
     _one_contact(sim, -0.01, [-1, 0, 0])
 
 
-def test_a_box_over_a_table_edge_rests_on_the_edge(device):
+def _box(half, kind: str):
+    """A box geom of half-sizes `half` as a primitive, or as a convex mesh (its 8 corners; the
+    asset to add): (geom attributes, asset)."""
+    if kind == "box":
+        return f'type="box" size="{" ".join(map(str, half))}"', ""
+    corners = " ".join(f"{sx * half[0]} {sy * half[1]} {sz * half[2]}"
+                       for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1))
+    name = "box_" + "_".join(str(h).replace(".", "p") for h in half)
+    return f'type="mesh" mesh="{name}"', f'<mesh name="{name}" vertex="{corners}"/>'
+
+
+@pytest.mark.parametrize("kind", ["box", "mesh"])
+def test_a_box_over_a_table_edge_rests_on_the_edge(device, kind):
     """A box hanging 40 % over the edge of a table mesh (its center of mass over the table)
     rests level, held by its two corners on the table and the table's edge under its face; with
-    60 % over the edge it tips off. Corners alone would give no support under the overhang."""
+    60 % over the edge it tips off. Corners alone would give no support under the overhang: a
+    convex mesh box meets the edge too (the edge against its hull, GJK/EPA)."""
     # the table top: a 1 m square at z = 0, x in [-1, 0]; a closed slab 0.1 m thick
     top = [[-1, -0.5, 0], [0, -0.5, 0], [0, 0.5, 0], [-1, 0.5, 0]]
     bottom = [[x, y, -0.1] for x, y, _ in top]
@@ -212,10 +225,11 @@ def test_a_box_over_a_table_edge_rests_on_the_edge(device):
                  [1, 5, 6], [1, 6, 2], [0, 3, 7], [0, 7, 4],           # x = 0 (+x), x = -1
                  [0, 4, 5], [0, 5, 1], [3, 2, 6], [3, 6, 7]]           # y = -0.5, y = +0.5
     half = 0.1
+    geom, asset = _box((half, 0.05, 0.05), kind)
     bodies = "".join(f'<body pos="{half * (2 * share - 1)} {0.25 * k - 0.125} {0.05 + 0.001}">'
-                     f'<freejoint/><geom type="box" size="{half} 0.05 0.05" mass="1"/></body>'
+                     f'<freejoint/><geom {geom} mass="1"/></body>'
                      for k, share in enumerate((0.4, 0.6)))
-    sim = _simulator(_mesh_xml(vertices, triangles, bodies), device=device)
+    sim = _simulator(_mesh_xml(vertices, triangles, bodies, assets=asset), device=device)
     for _ in range(120):
         sim.step()
     q = sim.q[0].cpu().numpy().reshape(-1, 7)
@@ -226,18 +240,51 @@ def test_a_box_over_a_table_edge_rests_on_the_edge(device):
     assert q[1, 2] < -0.05
 
 
-def test_a_box_lands_on_a_spike(device):
+@pytest.mark.parametrize("kind", ["box", "mesh"])
+def test_a_box_lands_on_a_spike(device, kind):
     """A pyramid whose apex stands 0.2 m above a 1 m base: a box dropped onto the apex is held
     by it (a mesh vertex inside the box's face), not let through to the base as probes of the
-    box's corners alone would."""
+    box's corners alone would; a convex mesh box too."""
     vertices = [[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0], [0, 0, 0.2]]
     triangles = [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4], [0, 2, 1], [0, 3, 2]]
+    geom, asset = _box((0.05, 0.05, 0.02), kind)
     sim = _simulator(_mesh_xml(vertices, triangles,
-                               '<body pos="0 0 0.3"><freejoint/><geom type="box" '
-                               'size="0.05 0.05 0.02" mass="0.2"/></body>'), device=device)
+                               f'<body pos="0 0 0.3"><freejoint/><geom {geom} mass="0.2"/>'
+                               '</body>', assets=asset), device=device)
     for _ in range(30):
         sim.step()
     assert float(sim.q[0, 2]) == pytest.approx(0.22, abs=3e-3)
+
+
+def _slab(lo, hi, first: int):
+    """A closed box from corner lo to corner hi, triangles facing out, its vertices numbered from
+    `first`: (vertices, triangles)."""
+    (x0, y0, z0), (x1, y1, z1) = lo, hi
+    top = [[x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]]
+    vertices = top + [[x, y, z0] for x, y, _ in top]
+    triangles = [[0, 1, 2], [0, 2, 3], [4, 6, 5], [4, 7, 6], [1, 5, 6], [1, 6, 2],
+                 [0, 3, 7], [0, 7, 4], [0, 4, 5], [0, 5, 1], [3, 2, 6], [3, 6, 7]]
+    return vertices, [[first + i for i in t] for t in triangles]
+
+
+def test_an_ellipsoid_lies_across_two_rails(device):
+    """A cigar-shaped ellipsoid (radii 0.25, 0.04, 0.04 m) laid across two rails 0.2 m apart,
+    its middle over the gap: the rails' inner top edges reach into its sides, away from its
+    one probe (its point deepest toward the nearest surface, which sees one rail at most), and
+    hold it level at the height where they meet it (free to roll along the rails about its
+    round long axis, as it does)."""
+    left, t1 = _slab((-0.2, -0.5, -0.3), (-0.1, 0.5, 0.0), 0)
+    right, t2 = _slab((0.1, -0.5, -0.3), (0.2, 0.5, 0.0), 8)
+    sim = _simulator(_mesh_xml(left + right, t1 + t2,
+                               '<body pos="0 0 0.045"><freejoint/><geom type="ellipsoid" '
+                               'size="0.25 0.04 0.04" mass="0.5"/></body>'), device=device)
+    for _ in range(120):
+        sim.step()
+    q = sim.q[0].cpu().numpy()
+    rest = 0.04 * np.sqrt(1 - (0.1 / 0.25) ** 2)      # the surface's depth at x = ±0.1
+    assert q[2] == pytest.approx(rest, abs=2e-3)
+    x, y, z, w = q[3:7]
+    assert abs(2 * (x * z - w * y)) < 0.02 and abs(q[0]) < 0.01     # its long axis level
 
 
 def test_scene_places_a_triangle_mesh_for_every_env(device):

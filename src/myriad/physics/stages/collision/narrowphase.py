@@ -646,11 +646,13 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, m1: int, t2: in
              out: ContactSlots):
     """Contacts of a shape (type t2) with a static triangle mesh (see trimesh): its probe
     points against the surface; a round probe's other faces; a cylinder's lowest rim points;
-    the mesh's ridges that reach into a box, capsule or cylinder. At most
+    the mesh's ridges that reach into a box, capsule, cylinder, convex mesh or ellipsoid. At most
     TRIMESH_EDGES contacts past the probes'. Keys: a probe's index (0..31; an ellipsoid's
     support point 0), then 16 + (its face, or its edge's two vertices) mod 16 (a cylinder: 16,
     17 for its rims, 18 + ... mod 14 after them), so that a contact keeps its key, and its
-    friction anchors, from one substep to the next whatever else the mesh finds."""
+    friction anchors, from one substep to the next whatever else the mesh finds (a convex
+    mesh of more than 16 vertices shares keys 16..31 between probes and edges: a shared key's
+    anchors are a guess, `constraints`)."""
     bvh = meshes.bvh[m1]
     size = bounding_radius(t2, s2, m2, meshes)
     c2 = wp.transform_get_translation(x2)
@@ -727,10 +729,8 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, m1: int, t2: in
                     if hit != 0:
                         _emit(e, pair, key + 16 + side, point - normal * (0.5 * gap), normal,
                               gap, margin, out)
-    if t2 == SPHERE or t2 == MESH or t2 == ELLIPSOID:
-        # a sphere's closest point is exact; a mesh's probes use every key; an ellipsoid, its
-        # point deepest toward the surface (edges into its side are not seen)
-        return
+    if t2 == SPHERE:
+        return          # its closest point is exact
     # the mesh's ridges near the shape (edges whose faces bend away: on a flat run of triangles
     # the probes see all there is), each once (`ridge_edges` marks it in one of its faces)
     inv2 = wp.transform_inverse(x2)
@@ -753,6 +753,23 @@ def _trimesh(e: int, pair: wp.vec2i, key: int, x1: wp.transform, m1: int, t2: in
                     st = _closest_between_segments(a, b, p2, q2)
                     on_edge = a + (b - a) * st[0]
                     n, dist, pos = _spheres(on_edge, 0.0, p2 + (q2 - p2) * st[1], s2[0])
+                elif t2 == MESH or t2 == ELLIPSOID:
+                    # the edge as a capsule of radius 0 against the shape (GJK apart, EPA
+                    # overlapping): it sees an edge under a convex mesh's face between the
+                    # hull's vertices, where its probes are, and one into an ellipsoid's side,
+                    # away from its one probe
+                    length = wp.length(b - a)
+                    dist = margin
+                    near_edge = wp.length(c2 - _closest_on_segment(a, b, c2)) < size + margin
+                    if length > 1.0e-9 and near_edge:      # (GJK only where it can touch)
+                        along = wp.quat_between_vectors(wp.vec3(0.0, 0.0, 1.0), (b - a) / length)
+                        hit, hn, hd, hp = convex_contact(
+                            CAPSULE, wp.vec3(0.0, 0.5 * length, 0.0), -1,
+                            wp.transform(0.5 * (a + b), along), t2, s2, m2, x2, meshes, margin)
+                        if hit != 0:
+                            n = hn
+                            dist = hd
+                            pos = hp
                 else:
                     # a box or a cylinder: the edge's deepest point in it
                     la = wp.transform_point(inv2, a)

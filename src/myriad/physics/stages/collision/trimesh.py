@@ -16,14 +16,14 @@ against it (`narrowphase._trimesh`):
   stands in, within its radius (`face_plane`): a foot in the corner of a step touches the
   tread and the riser, not only the nearer of the two.
 - The mesh's ridges (edges whose faces bend away, or an open surface's rims:
-  `build.ridge_edges`) into boxes, capsules and cylinders (a capsule: segment to segment; a box
-  or a cylinder: golden section on its signed distance along the edge): an edge or vertex of
-  the mesh under a face of the shape, between the shape's own probes (a box lying over a
+  `build.ridge_edges`) into boxes, capsules, cylinders and convex meshes (a capsule: segment
+  to segment; a box or a cylinder: golden section on its signed distance along the edge; a
+  convex mesh: the edge as a capsule of radius 0 against its hull, GJK/EPA): an edge or vertex
+  of the mesh under a face of the shape, between the shape's own probes (a box lying over a
   table's edge, a shank across a step's edge), makes a contact at its deepest point in the
   shape. Up to 16 contacts past the probes' per pair.
 
-What it does not see: a mesh edge crossing a convex mesh's face between its vertices (its
-probes are its vertices) or an ellipsoid's side, and a shape pushed through a thin wall
+What it does not see: a mesh edge into an ellipsoid's side, and a shape pushed through a thin wall
 farther than its own size in one step (a probe is matched to a face only within the
 shape's bounding radius behind it: beyond that it is taken to be on the other side, not
 inside). Triangles must face outward (counterclockwise seen from the side bodies are on): an
