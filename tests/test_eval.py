@@ -72,6 +72,21 @@ def test_episodes_are_counted_with_their_returns_and_each_env_gives_its_first_on
     assert out["episodes"] == 6 and sorted(out["values"]["episode_length"]) == [2, 2, 3, 3, 4, 5]
 
 
+def test_with_more_envs_than_episodes_the_first_envs_count_not_the_first_to_finish():
+    """Env e of 4 lasts 5 - e steps: 2 episodes are envs 0 and 1's first (5 and 4 steps), not
+    the two that end first (envs 3 and 2): those would favour short episodes (falls)."""
+    task = FakeTask(4)
+
+    def reversed_lengths(actions):
+        task.t += 1
+        done = task.t >= 5 - torch.arange(4)
+        task.t[done] = 0
+        return {"obs": torch.zeros(4, 1)}, torch.ones(4), done.long(), {}
+    task.step = reversed_lengths
+    out = ev.run_episodes(task, lambda obs, done: torch.zeros(4, 1), episodes=2)
+    assert sorted(out["values"]["episode_length"]) == [4, 5] and out["episodes"] == 2
+
+
 def test_an_interrupted_evaluation_keeps_what_it_measured():
     task = FakeTask(2)
     step = task.step

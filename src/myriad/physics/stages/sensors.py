@@ -58,10 +58,11 @@ def force_sensors(m: ModelArrays, p: EnvParams, opt: Options,
     With `split` (`Model.force_sensor_split`), first the two parts PhysX's articulation sensors
     report, about the site, world axes (Isaac Gym's ForceSensorProperties; docs/isaacgym.md):
     - forward dynamics: minus the articulated zero-acceleration force of the body's subtree,
-      IA·(a_smooth - gravity's) - w_smooth: IA the subtree's articulated-body inertia, a_smooth the body's acceleration under the unconstrained
-      dynamics (qacc), classical as PhysX's (its centre of mass's), w_smooth the wrench its joint carries under them (Newton-Euler with
-      qacc, less the applied and fluid forces). A link hanging at rest reads minus its
-      subtree's weight;
+      IA·(a_smooth - gravity's) - w_smooth: IA the subtree's articulated-body inertia,
+      a_smooth the body's acceleration under the unconstrained dynamics (qacc), classical as
+      PhysX's (its centre of mass's), w_smooth the wrench its joint carries under them
+      (Newton-Euler with qacc, less the applied and fluid forces). A link hanging at rest
+      reads minus its subtree's weight;
     - constraint solver: the contact forces on the body's subtree (a foot's: its ground
       reaction). Joint limits, drives and tendons, which act inside the articulation, add none.
     """
