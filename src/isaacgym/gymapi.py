@@ -2729,16 +2729,11 @@ def _refresh_force_sensors(sim: Sim) -> None:
     engine = sim.myriad.sim
     forward, constraint = sim.sensor_flags[:, 0, None], sim.sensor_flags[:, 1, None]
     world = engine.sensor_forward * forward + engine.sensor_constraint * constraint
-    quat = engine.site_pose[:, engine.sensor_sites, 3:]          # [N, sensors, 4] xyzw
-    local = sim.sensor_flags[:, 2] == 0
-    out = sim.sensor_readings
-    out.copy_(world)
-    if local.any():
-        q = quat[:, local]
-        for part in (slice(0, 3), slice(3, 6)):
-            out[:, local, part] = quat_rotate_inverse(q.reshape(-1, 4),
-                                                      world[:, local, part].reshape(-1, 3)
-                                                      ).reshape(q.shape[0], -1, 3)
+    quat = engine.site_pose[:, engine.sensor_sites, 3:].reshape(-1, 4)   # xyzw, env by env
+    local = torch.cat([quat_rotate_inverse(quat, world[..., part].reshape(-1, 3))
+                       for part in (slice(0, 3), slice(3, 6))], -1).reshape(world.shape)
+    # (no mask indexing: a GPU pipeline reads nothing back here)
+    torch.where(sim.sensor_flags[:, 2, None] == 0, local, world, out=sim.sensor_readings)
 
 
 def _attractors(envs: list, names: list) -> list:
