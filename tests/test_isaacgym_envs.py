@@ -14,6 +14,7 @@ import torch
 from isaacgym import gymapi, gymtorch, gymutil
 from isaacgym import terrain_utils as tu
 from isaacgym.torch_utils import quat_rotate, quat_rotate_inverse
+from test_host_sync import recording_syncs
 
 G = 9.81
 
@@ -252,6 +253,10 @@ def test_force_sensors_read_physx_parts_on_a_swinging_pendulum(tmp_path):
     # at rest hanging straight down: minus the bob's weight, no moment
     torch.testing.assert_close(readings[0, 0], torch.cat([weight, torch.zeros(3)]),
                                atol=1e-4 * mass * G, rtol=0)
+    # a refresh, as IsaacGymEnvs does every step, moves nothing between host and device
+    with recording_syncs() as syncs:
+        gym.refresh_force_sensor_tensor(sim)
+    assert syncs == []
     # one sensor as an object: env 2's third sensor is row 2·3 + 2 of the tensor
     sensor = gym.get_actor_force_sensor(envs[2], 0, 2)
     assert sensor.get_global_index() == 8

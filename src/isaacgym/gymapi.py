@@ -2701,6 +2701,7 @@ def _index_maps(sim: Sim) -> None:
         raise RuntimeError(f"isaacgym on Myriad: {len(built.sim.sensor_sites)} force sensor "
                            f"sites built, {len(flags)} sensors made (a bug: please report)")
     sim.sensor_flags = flags
+    sim.sensor_site_rows = torch.as_tensor(built.sim.sensor_sites, **long)  # into site_pose
     sim.sensor_readings = torch.zeros(N, len(flags), 6, device=dev)
 
     def views(kind, envs):
@@ -2729,10 +2730,11 @@ def _refresh_force_sensors(sim: Sim) -> None:
     engine = sim.myriad.sim
     forward, constraint = sim.sensor_flags[:, 0, None], sim.sensor_flags[:, 1, None]
     world = engine.sensor_forward * forward + engine.sensor_constraint * constraint
-    quat = engine.site_pose[:, engine.sensor_sites, 3:].reshape(-1, 4)   # xyzw, env by env
+    quat = engine.site_pose[:, sim.sensor_site_rows, 3:].reshape(-1, 4)   # xyzw, env by env
     local = torch.cat([quat_rotate_inverse(quat, world[..., part].reshape(-1, 3))
                        for part in (slice(0, 3), slice(3, 6))], -1).reshape(world.shape)
-    # (no mask indexing: a GPU pipeline reads nothing back here)
+    # (indices on the device, no mask indexing: a GPU pipeline moves nothing between host and
+    # device here)
     torch.where(sim.sensor_flags[:, 2, None] == 0, local, world, out=sim.sensor_readings)
 
 

@@ -74,9 +74,9 @@ def newton_euler(m: ModelArrays, p: EnvParams, s: State, e: int, lane: int, lane
     and the force it needs, I·a + v ×* I·v, into d.cacc and d.cfrc.
 
     Accelerations come from the velocity-product terms plus (qd - qd_before)·inv_h (inv_h = 0:
-    none, for the bias force), or plus `qacc` when `from_qacc`. Gravity enters as an upward acceleration of the world, less the
-    share `body_gravcomp` of each body's weight that an applied force at its centre of mass
-    holds up (MuJoCo's gravcomp). (A function called once per thread, the bodies' work inline:
+    none, for the bias force), or plus `qacc` when `from_qacc`. Gravity enters as an upward
+    acceleration of the world, less the share `body_gravcomp` of each body's weight that an
+    applied force at its centre of mass holds up (MuJoCo's gravcomp). (A function called once per thread, the bodies' work inline:
     a CPU build passes the structs to a function by value, a copy per call.)
     """
     world_acc = wp.spatial_vector()

@@ -18,8 +18,8 @@ The accelerations come from `force_sensors`, launched only when a sensor needs t
 torque sensor on a site reads the wrench that the site's body receives from its parent: what the
 body's whole subtree needs, given its motion, minus what the outside world (contacts and the
 applied `body_force`) supplies. It is the recursive Newton-Euler pass again, with the
-accelerations the step actually produced and those forces as external ones; the result is given at the site, in the site's
-frame. The same pass leaves each body's acceleration in `d.cacc` (gravity included as an upward
+accelerations the step actually produced and those forces as external ones; the result is
+given at the site, in the site's frame. The same pass leaves each body's acceleration in `d.cacc` (gravity included as an upward
 acceleration of the world), which the accelerometers and frame accelerations read.
 """
 
