@@ -9,7 +9,8 @@ the runs are chaotic and one env's blow-up decides the maximum: the envs more th
 m) past a limit, the median env, the envs whose energy (kinetic + potential) grew above 1.5× its
 start, the longest run of steps a dof spent at its speed cap, the contact-slot overflow, and the
 joints that went furthest past their limits. Inputs are corpus.py's (`random_inputs`, the same
-seed); trailing key=value pairs override `myriad.SimParams`.
+seed); trailing key=value pairs override `myriad.SimParams`. `--mujoco` steps MuJoCo C on every
+env's inputs too (the issue's depth mark is MuJoCo's worst env; corpus.py runs env 0 only).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import time
 import warnings
 
 import mujoco
+import numpy as np
 import torch
 import warp as wp
 
@@ -50,6 +52,11 @@ def main() -> None:
                          "and the dofs at their speed cap, and each step's energy change "
                          "split into the inputs' work, the smooth dynamics' integration (the "
                          "same state stepped without constraints) and the constraints")
+    ap.add_argument("--mujoco", action="store_true",
+                    help="also step MuJoCo C on every env's inputs (the same compiled model at "
+                         "Myriad's substep, as corpus.py does for env 0) and print its limit "
+                         "excess and deepest contact beside Myriad's: the issue's mark is "
+                         "MuJoCo's worst env")
     ap.add_argument("params", nargs="*", help="SimParams overrides, key=value")
     args = ap.parse_args()
     overrides = {}
@@ -132,8 +139,57 @@ def main() -> None:
             break
         print(f"    {model.joint_names[joints[i]]}: {float(excess[:, i].max()):.3f} past its limit "
               f"(env {int(excess[:, i].argmax())})")
+    if args.mujoco:
+        mj_excess, mj_deepest, mj_bad = _mujoco_envs(model, params, kind, inputs, hold, steps,
+                                                     qadr)
+        ok = ~mj_bad
+        print(f"  MuJoCo C, the same inputs per env: reset for a bad state in {int(mj_bad.sum())}/"
+              f"{args.envs} envs (their steps before it count); limit excess worst "
+              f"{mj_excess.max():.3f} (of envs that stayed finite "
+              f"{mj_excess[ok].max(initial=0.0):.3f}), median env {np.median(mj_excess):.3f}, "
+              f"envs over 0.05: {int((mj_excess > 0.05).sum())}; deepest contact worst "
+              f"{mj_deepest.min() * 1e3:.1f} mm (of envs that stayed finite "
+              f"{mj_deepest[ok].min(initial=math.inf) * 1e3:.1f}), median env "
+              f"{np.median(mj_deepest) * 1e3:.1f} mm")
+        print(f"  Myriad envs deeper than MuJoCo's worst env: "
+              f"{int((deepest.numpy() < mj_deepest.min()).sum())}/{args.envs}")
     if trace:
         _print_trace(trace, float(e0[args.trace]))
+
+
+def _mujoco_envs(model, params, kind: str, inputs: torch.Tensor, hold: int, steps: int,
+                 qadr) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """MuJoCo C stepping each env's inputs from the initial state, the model compiled with
+    Myriad's substep as its timestep: per env, the worst limit excess beyond the start's (rad or
+    m), the deepest contact's signed distance (m; inf with no contact), and whether MuJoCo
+    reset the env for a bad state (non-finite or huge accelerations: its figures then stop at
+    the step before)."""
+    mj = copy.deepcopy(model.mj_model)
+    mj.opt.timestep = params.dt / params.substeps
+    envs = inputs.shape[1]
+    excess, deepest, bad = np.zeros(envs), np.full(envs, math.inf), np.zeros(envs, bool)
+    joints = corpus.limited_joints(model)[0]
+    lo, hi = mj.jnt_range[joints].T
+    resets = [mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
+              mujoco.mjtWarning.mjWARN_BADQACC]
+    for env in range(envs):
+        d = mujoco.MjData(mj)
+        mujoco.mj_forward(mj, d)
+        start_over = np.maximum(np.maximum(d.qpos[qadr] - hi, lo - d.qpos[qadr]), 0.0)
+        for step in range(steps):
+            if step % hold == 0:
+                target = d.ctrl if kind == "ctrl" else d.qfrc_applied
+                target[:] = inputs[step // hold][env].numpy()
+            mujoco.mj_step(mj, d, nstep=params.substeps)
+            if (any(d.warning[w].number for w in resets)
+                    or not (np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all())):
+                bad[env] = True
+                break
+            if len(joints):
+                over = np.maximum(d.qpos[qadr] - hi, lo - d.qpos[qadr]) - start_over
+                excess[env] = max(excess[env], float(over.max()))
+            deepest[env] = min(deepest[env], corpus.mujoco_deepest(d))
+    return excess, deepest, bad
 
 
 def _work(sim, env: int, qd_before: torch.Tensor, dt: float) -> float:

@@ -38,6 +38,9 @@ def main() -> None:
                     choices=["ant", "humanoid", "boxes", "meshes"])
     ap.add_argument("--envs", type=int, default=1024, help="envs of the ant and the humanoid")
     ap.add_argument("--rounds", type=int, default=60)
+    ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                    help="SimParams overrides for this tree's simulators only: the cost of a "
+                         "setting, with --old the same revision")
     args = ap.parse_args()
     wp.config.log_level = wp.LOG_WARNING
     torch.set_num_threads(1)
@@ -51,8 +54,11 @@ def main() -> None:
             model = (package.load_xml(boxes_xml(meshes=name == "meshes"), f"64 {name}")
                      if name in ("boxes", "meshes")
                      else package.load(package.asset_path(f"{name}.xml")))
+            extra = {} if package is old else dict(
+                (k, int(v) if v.lstrip("-").isdigit() else float(v))
+                for k, v in (item.split("=", 1) for item in args.set))
             params = package.SimParams(dt=1 / 60, substeps=2, position_iterations=4,
-                                       velocity_iterations=0, contacts_per_env=slots)
+                                       velocity_iterations=0, contacts_per_env=slots, **extra)
             sims[variant] = package.Simulator(model, num_envs=n, params=params, cpu_threads=1)
         mj = model.mj_model
         mj.opt.timestep = 1 / 120
