@@ -4,6 +4,7 @@ Isaac Gym's settings unless a test says otherwise: dt 1/60, 2 substeps, TGS with
 1 velocity iteration.
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -154,6 +155,38 @@ def test_a_chain_resting_on_its_joint_limits_stays_on_them(nlink, tip_ratio, sol
     masses = [mass] * (nlink - 1) + [mass * tip_ratio]
     torque = sum(mk * g * (length * (k + 0.5)) for k, mk in enumerate(masses))
     assert sim.dof_constraint_force[0, 0].item() == pytest.approx(-torque, rel=0.02)
+
+
+def test_a_heavy_body_landing_on_a_leg_held_by_its_limit_keeps_the_foot_out_of_the_floor(
+        device):
+    """50 kg coming down at 3 m/s onto a frictionless leg whose knee is at its limit: the foot's
+    contact and the knee's limit must stop it together. Solved one after the other (the
+    default), the limit (last) undoes the contact in every sweep: the foot goes 110 mm into the
+    floor and the body bounces for seconds. Solved together (`SimParams.limit_block_contacts`),
+    the foot stays within 12 mm on landing and the body comes to rest on it, the knee on its
+    limit."""
+    model = _scene("""<body name="base" pos="0 0 0.45"><joint name="z" type="slide" axis="0 0 1"/>
+        <geom type="box" size=".15 .15 .05" mass="50" friction="0 0 0"/>
+        <body name="calf" pos="0 0 -0.05">
+          <joint name="knee" type="hinge" axis="0 1 0" range="-0.1 0.8"/>
+          <geom type="capsule" fromto="0 0 0 0.2 0 -0.2" size="0.02" mass="0.5" friction="0 0 0"/>
+          <geom name="foot" type="sphere" pos="0.2 0 -0.2" size="0.03" mass="0.1"
+                friction="0 0 0"/></body></body>""", floor_friction=0.0)
+    params = dataclasses.replace(ISAAC, limit_block_contacts=16)
+    sim = myriad.Simulator(model, num_envs=1, device=device, params=params)
+    sim.qd = torch.tensor([[-3.0, 0.0]], device=sim.torch_device)
+    lower = math.radians(-0.1)                   # MJCF ranges are in degrees
+    deepest = excess = 0.0
+    for _ in range(120):
+        sim.step()
+        n = int(sim.contact_count[0])
+        deepest = min(deepest, sim.contact_dist[0, :n].min().item() if n else 0.0)
+        excess = max(excess, lower - sim.q[0, 1].item())
+    assert deepest > -0.012, deepest
+    assert excess < 0.01, excess
+    assert abs(sim.qd[0, 0].item()) < 0.01
+    weight = 50.6 * 9.81
+    assert sim.contact_force[0, :, 2].sum().item() == pytest.approx(weight, rel=0.02)
 
 
 def test_envs_with_different_friction_and_mass_behave_differently_and_independently(device):

@@ -128,6 +128,8 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
         SensorType.FORCE, SensorType.TORQUE, SensorType.ACCELEROMETER,
         SensorType.FRAMELINACC, SensorType.FRAMEANGACC]).any())
 
+    # contacts the joint-limit block may take in (`SimParams.limit_block_contacts`)
+    block_contacts = min(contact_capacity, params.limit_block_contacts) if len(limited) else 0
     sizes = dict(nq=m.nq, nv=m.nv, nbody=m.nbody, njnt=m.njnt, nu=m.nu, ntendon=m.ntendon,
                  nmocap=m.nmocap, nspatial=int((m.tendon_spatial >= 0).sum()),
                  ngeom=m.ngeom, nsite=m.nsite, nsensor_site=len(sensor_sites),
@@ -135,7 +137,8 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
                  nsensordata=m.nsensordata, ncontact=contact_capacity,
                  ncandidate=CANDIDATES_PER_SLOT * contact_capacity, nrow=layout.end,
                  row_width=row_width(dof_span, tendon_dofs), nmass=len(mass_col),
-                 nlimit=2 * len(limited), neq=m.neq, neqrow=equality_rownum,
+                 nlimit=2 * len(limited), nblock_contact=block_contacts,
+                 nblock=2 * len(limited) + block_contacts, neq=m.neq, neqrow=equality_rownum,
                  nlane=block_threads(dev))
     implicit = params.integrator == "implicit"
     if implicit and not depth_first(m.body_parent):     # its kernel walks subtrees as ranges

@@ -137,6 +137,21 @@ def rows_dot(a: wp.array3d(dtype=float), ra: int, b: wp.array3d(dtype=float), rb
 
 
 @wp.func_native("""
+    const float* ap = wp::address(a, e, ra, oa);
+    const float* bp = wp::address(b, e, rb, ob);
+    float s = 0.0f;
+""" + VECTOR_LOOP + """
+    for (int i = 0; i < n; ++i) s += ap[i] * bp[i];
+    return s;
+""")
+def rows_dot_at(a: wp.array3d(dtype=float), ra: int, oa: int, b: wp.array3d(dtype=float),
+                rb: int, ob: int, e: int, n: int) -> float:
+    """a[e, ra, oa:oa + n] · b[e, rb, ob:ob + n]: the part of J_a M⁻¹ J_bᵀ over a dof range the
+    two rows' spans share, at its columns in each."""
+    ...
+
+
+@wp.func_native("""
     float* yp = wp::address(y, e, r, 0);
 """ + VECTOR_LOOP + """
     for (int i = 0; i < n; ++i) yp[i] = value;

@@ -501,15 +501,19 @@ class Rows:
     lam_init = per_env("nrow", doc="starting impulse of the substep (warm start)")
     dof_force = per_env("nv", doc="generalized force of all rows in the last substep",
                         public="dof_constraint_force")
-    # scratch of the joint-limit block solve (`solver_tgs`), indexed by joint-limit row
-    block_target = per_env("nlimit", doc="limit block: target J·v of the row in this sweep")
-    block_w0 = per_env("nlimit", doc="limit block: J·v with every limit impulse taken out")
-    block_lam = per_env("nlimit", doc="limit block: the impulses being solved for")
-    block_in = per_env("nlimit", dtype=wp.int32, doc="limit block: 1 if in the active set")
-    block_cand = per_env("nlimit", dtype=wp.int32, doc="limit block: the rows within reach of "
-                         "their limits in this substep, -1 after the last")
-    block_row = per_env("nlimit", dtype=wp.int32, doc="limit block: the active set, in order")
-    block_a = per_env("nlimit", "nlimit", doc="limit block: Cholesky factor of J M⁻¹ Jᵀ on the "
+    # scratch of the joint-limit block solve (`solver_tgs`), indexed by block entry: joint-limit
+    # row i at i, the k-th contact of block_contact at nlimit + k
+    block_target = per_env("nblock", doc="limit block: target J·v of the row in this sweep")
+    block_w0 = per_env("nblock", doc="limit block: J·v with every block impulse taken out")
+    block_lam = per_env("nblock", doc="limit block: the impulses being solved for")
+    block_in = per_env("nblock", dtype=wp.int32, doc="limit block: 1 if in the active set")
+    block_cand = per_env("nlimit", dtype=wp.int32, doc="limit block: the limit rows within "
+                         "reach of their limits in this substep, -1 after the last")
+    block_contact = per_env("nblock_contact", dtype=wp.int32, doc="limit block: the contacts "
+                            "solved with the limits in this sweep (their slots), -1 after the "
+                            "last")
+    block_row = per_env("nblock", dtype=wp.int32, doc="limit block: the active set, in order")
+    block_a = per_env("nblock", "nblock", doc="limit block: Cholesky factor of J M⁻¹ Jᵀ on the "
                       "active set")
     lane_sum = per_env(2, "nlane", doc="the solve's sums across a world's lanes: each lane's "
                        "part, in one of two buffers taken in turn (`solver_tgs._dot`)")

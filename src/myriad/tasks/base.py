@@ -47,7 +47,8 @@ def sim_params(sim_cfg: dict) -> SimParams:
             "contact_offset": "contact_offset", "rest_offset": "rest_offset",
             "bounce_threshold_velocity": "bounce_threshold_velocity",
             "max_depenetration_velocity": "max_depenetration_velocity",
-            "contacts_per_env": "contacts_per_env"}
+            "contacts_per_env": "contacts_per_env",
+            "limit_block_contacts": "limit_block_contacts"}
     unknown = sorted(set(physx) - set(keys))
     if unknown:
         raise KeyError(f"sim.physx: unknown keys {unknown}; valid: {sorted(keys) + ['solver_type']}")

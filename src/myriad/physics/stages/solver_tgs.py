@@ -40,6 +40,24 @@ WARM = wp.constant(0.9)
 
 vec6 = wp.types.vector(length=6, dtype=float)
 
+# with contacts in the limit block, each contact's diagonal is J M⁻¹ Jᵀ·(1 + CONTACT_SOFTNESS)
+# and each limit's J M⁻¹ Jᵀ·(1 + LIMIT_SOFTNESS). Contacts can outnumber the dofs that move
+# them (a capsule's end and the foot sphere over it, a sole's corners) and a limit can depend
+# on them (a foot flat on the ground holds its ankle): nearly dependent rows with different
+# targets then need a finite answer, from which the pivoting drops the one that pulls. Dropped
+# as dependent instead (as the two sides of a limit are), a leg's capsule 1 cm above the ground,
+# approaching at its speculative 1.2 m/s, held the foot sphere under it at that speed into the
+# floor, and an ankle went 0.18 rad past its limit in one step. And where the rows cannot all
+# hold (a limit's correction pushing a flat foot into the ground) the contacts' softness bounds
+# the impulses: at 1e-4 a G1's foot took 11 kN and its energy ran away (1331x); 0.01 kept
+# robot_stress's G1, B1 and Laikago within their limits and MuJoCo's depth, 0.1 let the B1's
+# feet 22 mm deep.
+CONTACT_SOFTNESS = wp.constant(0.01)
+LIMIT_SOFTNESS = wp.constant(1.0e-4)
+# ... and below this fraction of its J M⁻¹ Jᵀ, a pivot counts as dependent (rounding): the row
+# leaves the set
+PIVOT_FLOOR = wp.constant(1.0e-6)
+
 # Gauss-Seidel passes over the normal rows of a contact patch (the contacts of one geom pair,
 # e.g. a box face's four corners) in every sweep. How a face's load splits among its corners is
 # settled only by iterating among them; with one pass a resting box kept rocking by ~10 µm
@@ -118,7 +136,7 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
 
     The contacts' normal rows, patch by patch, and the tendon limits; the contacts' friction
     rows, whose bounds then hold this sweep's normal impulses; the joint limits, solved
-    together; tendon springs and dofs; the equality constraints (each one's rows together).
+    together with the contacts they hold up; tendon springs and dofs; the equality constraints (each one's rows together).
     `tendon_limits`: the range of tendon-limit rows that holds the active ones (`_in_use`).
 
     `ln` = (lane, lanes): a world's lanes sweep its rows together, each row's J·v and
@@ -149,8 +167,8 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
     # over contacts (a UR5's overlapping link meshes pushed its wrist 0.26 rad past its limit
     # when the limits came before the friction rows)
     _wait(ln)
-    _limit_rows(m, e, ln, layout, limit_jnt, first, biased, tgs, hs, h, max_correction,
-                factor, rows, v, dq)
+    _limit_rows(m, e, ln, layout, c, ncontact, limit_jnt, first, biased, tgs, hs, h,
+                max_depenetration, max_correction, factor, rows, v, dq)
     _wait(ln)
     if first != 0:
         for r in range(layout.springs, layout.dofs):
@@ -287,24 +305,34 @@ def _equality(m: ModelArrays, e: int, base: int, i: int, biased: int, tgs: int, 
 
 
 @wp.func
-def _candidate_count(rows: Rows, e: int, n: int):
-    """The joint-limit block's candidates listed in rows.block_cand (-1 after the last)."""
+def _listed(a: wp.array2d(dtype=wp.int32), e: int, n: int):
+    """The entries of a list a[e] of at most n, -1 after the last."""
     k = int(0)
     while k < n:
-        if rows.block_cand[e, k] < 0:
+        if a[e, k] < 0:
             break
         k += 1
     return k
 
 
 @wp.func
-def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout,
+def _candidate_count(rows: Rows, e: int, n: int):
+    """The joint-limit block's candidates listed in rows.block_cand."""
+    return _listed(rows.block_cand, e, n)
+
+
+@wp.func(inline=True)
+def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, c: Contacts,
+                ncontact: int,
                 limit_jnt: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int,
-                hs: float, h: float, max_depenetration: float, factor: wp.array2d(dtype=float),
-                rows: Rows, v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
-    """The joint limits of a sweep (`_joint_limit_block`): the candidates listed in the
-    substep's first sweep (rows within reach of their limit), their impulses taken out of v and
-    the new ones applied by every lane on its dofs, the block's pivoting by one lane.
+                hs: float, h: float, max_depenetration: float, max_correction: float,
+                factor: wp.array2d(dtype=float), rows: Rows, v: wp.array2d(dtype=float),
+                dq: wp.array2d(dtype=float)):
+    """The joint limits of a sweep (`_joint_limit_block`), with the contacts their pushing
+    limits hold up: the candidates listed in the substep's first sweep (rows within reach of
+    their limit), the contacts picked in every sweep (`_block_contacts`), their impulses taken
+    out of v and the new ones applied by every lane on its dofs, the block's pivoting by one
+    lane.
 
     A limit out of reach at the substep's start joins the candidates in the sweep where its
     joint heads for it fast enough to get there: contacts can take a dof from rest to its speed
@@ -321,49 +349,158 @@ def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout,
                     k += 1
         else:
             k = _candidate_count(rows, e, n)
-        # a row out of reach pushes once the joint would pass its limit within this position
-        # sweep's step (`_normal_target`: err + hs·J·v < 0); the velocity sweeps move nothing,
-        # and the next substep's rows see their speed
-        for i in range(wp.where(biased != 0, n, 0)):
-            r = base + i
-            if rows.type[e, r] == INACTIVE:
-                dof = _limit_dof(m, limit_jnt, i)
-                sign = _limit_sign(i)
-                travel = hs * v[e, dof]
-                if tgs != 0:
-                    travel = travel + dq[e, dof]
-                if rows.err[e, r] + sign * travel < 0.0:
-                    listed = int(0)
-                    for j in range(k):
-                        if rows.block_cand[e, j] == i:
-                            listed = 1   # a candidate that could not be built
-                    if listed == 0:
-                        rows.type[e, r] = NORMAL
-                        rows.mu[e, r] = 0.0
-                        rows.bounce[e, r] = 0.0
-                        rows.inv_mass[e, r] = 0.0
-                        rows.lam[e, r] = 0.0
-                        rows.block_cand[e, k] = i
-                        k += 1
-        if k < n:
-            rows.block_cand[e, k] = -1
-    _wait(ln)
-    ncand = _candidate_count(rows, e, n)
+        _reachable_limits(m, e, layout, limit_jnt, k, biased, tgs, hs, rows, v, dq)
+        _block_contacts(m, e, layout, c, ncontact, limit_jnt, _candidate_count(rows, e, n),
+                        rows)
+    ncand = int(0)
+    nentry = int(0)
+    for attempt in range(2):
+        _wait(ln)
+        if attempt == 1:
+            # the contacts' new impulses can send a joint outside the block at its limit within
+            # this sweep's step (a G1's hand hitting the ground spun its wrist to its 100 rad/s
+            # cap, 0.18 rad past its limit in one step): solve once more with its row
+            if ln[0] == 0 and nentry > ncand:
+                _reachable_limits(m, e, layout, limit_jnt, ncand, biased, tgs, hs, rows, v, dq)
+            _wait(ln)
+            if _candidate_count(rows, e, n) == ncand:
+                break
+        ncand = _candidate_count(rows, e, n)
+        nentry = ncand + _block_contact_count(rows, e)
+        for t in range(nentry):
+            r = _entry_row(layout, rows, e, _entry(rows, e, n, ncand, t))
+            old = rows.lam[e, r]
+            if old != 0.0:
+                _apply(v, e, -old, rows.minv_jt, r, rows.span[e, r], ln)
+        _wait(ln)
+        if ln[0] == 0:
+            _joint_limit_block(m, e, layout, limit_jnt, ncand, nentry, biased, tgs, hs, h,
+                               max_depenetration, max_correction, factor, rows, v, dq)
+        _wait(ln)
+        for t in range(nentry):
+            r = _entry_row(layout, rows, e, _entry(rows, e, n, ncand, t))
+            new = rows.lam[e, r]
+            if rows.type[e, r] == NORMAL and new != 0.0:
+                _apply(v, e, new, rows.minv_jt, r, rows.span[e, r], ln)
+
+
+@wp.func(inline=True)
+def _reachable_limits(m: ModelArrays, e: int, layout: RowLayout,
+                      limit_jnt: wp.array(dtype=wp.int32), k: int, biased: int, tgs: int,
+                      hs: float, rows: Rows, v: wp.array2d(dtype=float),
+                      dq: wp.array2d(dtype=float)):
+    """Add to the block's `k` candidates the limit rows out of reach at the substep's start
+    that the joint would now pass within this position sweep's step (`_normal_target`:
+    err + hs·J·v < 0); the velocity sweeps move nothing, and the next substep's rows see their
+    speed. Ends the list with -1."""
+    n = layout.tendon_limits - layout.joint_limits
+    base = layout.joint_limits
+    for i in range(wp.where(biased != 0, n, 0)):
+        r = base + i
+        if rows.type[e, r] == INACTIVE:
+            dof = _limit_dof(m, limit_jnt, i)
+            sign = _limit_sign(i)
+            travel = hs * v[e, dof]
+            if tgs != 0:
+                travel = travel + dq[e, dof]
+            if rows.err[e, r] + sign * travel < 0.0:
+                listed = int(0)
+                for j in range(k):
+                    if rows.block_cand[e, j] == i:
+                        listed = 1   # a candidate that could not be built
+                if listed == 0:
+                    rows.type[e, r] = NORMAL
+                    rows.mu[e, r] = 0.0
+                    rows.bounce[e, r] = 0.0
+                    rows.inv_mass[e, r] = 0.0
+                    rows.lam[e, r] = 0.0
+                    rows.block_cand[e, k] = i
+                    k += 1
+    if k < n:
+        rows.block_cand[e, k] = -1
+
+
+@wp.func(inline=True)
+def _in_span(sp: wp.vec4i, dof: int):
+    return (dof >= sp[0] and dof < sp[1]) or (dof >= sp[2] and dof < sp[3])
+
+
+@wp.func(inline=True)
+def _block_contacts(m: ModelArrays, e: int, layout: RowLayout, c: Contacts, ncontact: int,
+                    limit_jnt: wp.array(dtype=wp.int32), ncand: int, rows: Rows):
+    """List in rows.block_contact the contacts the limit block solves in this sweep: those that
+    pushed so far in it, whose rows reach the dof of a limit that pushes (its impulse so far
+    > 0), between a body and the world or another tree; the first `nblock_contact` of them
+    (`SimParams.limit_block_contacts`) in slot order.
+
+    Row by row, a contact and a limit on one chain take turns undoing each other: a B1
+    quadruped folding onto its knee stops (knees at their limits, 50 kg coming down at 3 m/s)
+    had its feet 40 mm into the ground after a step, the limits having the last word; with the
+    contacts after the limits instead, a G1's self-contacts pushed its joints 0.78 rad past
+    them. Solved together, both hold. A robot's contacts with itself stay out: overlapping
+    links held by limits and equalities can ask for what no impulse gives (TALOS's
+    mimic-coupled gripper links 52 mm into each other took 10⁵ N·s in the block and threw its
+    wrist 5 rad past its limit); there the limits keep the last word."""
+    capacity = rows.block_contact.shape[1]
+    if capacity == 0:
+        return
+    base = layout.joint_limits
+    pushing = int(0)
     for k in range(ncand):
-        r = base + rows.block_cand[e, k]
-        old = rows.lam[e, r]
-        if old != 0.0:
-            _apply(v, e, -old, rows.minv_jt, r, rows.span[e, r], ln)
-    _wait(ln)
-    if ln[0] == 0:
-        _joint_limit_block(m, e, layout, limit_jnt, ncand, biased, tgs, hs, h,
-                           max_depenetration, factor, rows, v, dq)
-    _wait(ln)
-    for k in range(ncand):
-        r = base + rows.block_cand[e, k]
-        new = rows.lam[e, r]
-        if rows.type[e, r] == NORMAL and new != 0.0:
-            _apply(v, e, new, rows.minv_jt, r, rows.span[e, r], ln)
+        if rows.lam[e, base + rows.block_cand[e, k]] > 0.0:
+            pushing = 1
+    count = int(0)
+    if pushing != 0:
+        for j in range(ncontact):
+            r = 3 * j
+            if (count < capacity and rows.type[e, r] == NORMAL and rows.lam[e, r] > 0.0
+                    and not _self_contact(m, c, e, j)):
+                sp = rows.span[e, r]
+                for k in range(ncand):
+                    i = rows.block_cand[e, k]
+                    if rows.lam[e, base + i] > 0.0 and _in_span(sp, _limit_dof(m, limit_jnt, i)):
+                        rows.block_contact[e, count] = j
+                        count += 1
+                        break
+    if count < capacity:
+        rows.block_contact[e, count] = -1
+
+
+@wp.func(inline=True)
+def _self_contact(m: ModelArrays, c: Contacts, e: int, j: int):
+    """Whether contact j is between two bodies of one tree (a robot touching itself)."""
+    g = c.geom[e, j]
+    b1 = m.geom_body[g[0]]
+    b2 = m.geom_body[g[1]]
+    if b1 < 0 or b2 < 0:
+        return False
+    t1 = m.body_tree_span[b1]
+    t2 = m.body_tree_span[b2]
+    return t1[0] == t2[0] and t1[1] == t2[1] and t1[1] > t1[0]
+
+
+@wp.func(inline=True)
+def _block_contact_count(rows: Rows, e: int):
+    """The contacts listed in rows.block_contact."""
+    return _listed(rows.block_contact, e, rows.block_contact.shape[1])
+
+
+@wp.func(inline=True)
+def _entry(rows: Rows, e: int, n: int, ncand: int, t: int):
+    """Block index of the t-th entry of a sweep's block: the limit candidates, then the
+    contacts (limit row i is i, the k-th listed contact n + k)."""
+    if t < ncand:
+        return rows.block_cand[e, t]
+    return n + t - ncand
+
+
+@wp.func(inline=True)
+def _entry_row(layout: RowLayout, rows: Rows, e: int, i: int):
+    """The row of block index i: a joint-limit row, or a listed contact's normal row."""
+    n = layout.tendon_limits - layout.joint_limits
+    if i < n:
+        return layout.joint_limits + i
+    return 3 * rows.block_contact[e, i - n]
 
 
 @wp.func
@@ -372,8 +509,55 @@ def _limit_coupling(e: int, dof: int, sign: float, r: int, rows: Rows):
     r's response (zero when the dof is outside r's tree)."""
     sp = rows.span[e, r]
     if dof < sp[0] or dof >= sp[1]:
-        return 0.0
+        if dof < sp[2] or dof >= sp[3]:
+            return 0.0
+        return sign * rows.minv_jt[e, r, sp[1] - sp[0] + dof - sp[2]]
     return sign * rows.minv_jt[e, r, dof - sp[0]]
+
+
+@wp.func(inline=True)
+def _rows_coupling(e: int, ra: int, rb: int, rows: Rows):
+    """J_a·M⁻¹J_bᵀ of a row a and a built row b: over the dof trees their spans share (a span's
+    ranges are whole trees, so two ranges are the same or apart)."""
+    a = rows.span[e, ra]
+    b = rows.span[e, rb]
+    total = float(0.0)
+    for x in range(2):
+        lo = a[2 * x]
+        hi = a[2 * x + 1]
+        if hi > lo:
+            col_a = wp.where(x == 0, 0, a[1] - a[0])
+            if lo == b[0] and hi == b[1]:
+                total += dense.rows_dot_at(rows.jac, ra, col_a, rows.minv_jt, rb, 0, e, hi - lo)
+            elif lo == b[2] and hi == b[3]:
+                total += dense.rows_dot_at(rows.jac, ra, col_a, rows.minv_jt, rb, b[1] - b[0],
+                                           e, hi - lo)
+    return total
+
+
+@wp.func(inline=True)
+def _coupling(m: ModelArrays, limit_jnt: wp.array(dtype=wp.int32), e: int, n: int, ia: int,
+              ra: int, rb: int, rows: Rows):
+    """J_a·M⁻¹J_bᵀ of block entry ia (row ra) and a built row rb."""
+    if ia < n:
+        return _limit_coupling(e, _limit_dof(m, limit_jnt, ia), _limit_sign(ia), rb, rows)
+    return _rows_coupling(e, ra, rb, rows)
+
+
+@wp.func(inline=True)
+def _softness(n: int, i: int):
+    if i < n:
+        return LIMIT_SOFTNESS
+    return CONTACT_SOFTNESS
+
+
+@wp.func(inline=True)
+def _pivot_floor(soft: int, inv_mass: float):
+    """The smallest pivot of a block entry's Cholesky column (its row's 1/(J M⁻¹ Jᵀ):
+    `inv_mass`) that counts it independent of the rows before it."""
+    if soft != 0:
+        return PIVOT_FLOOR / inv_mass
+    return 1.0e-6 * inv_mass
 
 
 @wp.func
@@ -387,48 +571,58 @@ def _limit_sign(i: int):
     return 1.0 - 2.0 * float(i % 2)
 
 
-@wp.func
+@wp.func(inline=True)
 def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
-                       limit_jnt: wp.array(dtype=wp.int32), ncand: int, biased: int, tgs: int,
-                       hs: float,
-                       h: float, max_depenetration: float, factor: wp.array2d(dtype=float),
-                       rows: Rows, v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
-    """The joint-limit rows of the env solved together, exactly: the impulses λ ≥ 0 for which
-    every limit row reaches its target J·v where it pushes and stays at or above it where it
-    does not (a linear complementarity problem on A = J M⁻¹ Jᵀ).
+                       limit_jnt: wp.array(dtype=wp.int32), ncand: int, nentry: int,
+                       biased: int, tgs: int, hs: float, h: float, max_depenetration: float,
+                       max_correction: float, factor: wp.array2d(dtype=float), rows: Rows,
+                       v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
+    """The joint-limit rows of the env, and the contacts listed with them, solved together,
+    exactly: the impulses λ ≥ 0 for which every row reaches its target J·v where it pushes and
+    stays at or above it where it does not (a linear complementarity problem on A = J M⁻¹ Jᵀ).
 
     Row by row, Gauss-Seidel converges slowly on limits coupled through a chain (each push
     moves every joint outboard of it): a chain of six 0.1 kg links resting on its limits never
     came to rest at 4 sweeps, its joints chattering at up to 20 rad/s and 0.5 rad past the
-    limits (`benchmarks/limit_chain.py`). Here each sweep finds the active set by pivoting
-    (Murty's principal pivoting: solve A_SS λ_S = target_S - w0_S by Cholesky, drop the most
-    negative λ, add the most violated row outside S) from the rows that pushed or want to.
-    J_i = ±e_dof, so A_ij is one entry of row j's response; only rows that enter the active
-    set are built (responses on demand, as for single rows).
+    limits (`benchmarks/limit_chain.py`); and on a limit and a contact of one chain
+    (`_block_contacts`). Here each sweep finds the active set by pivoting (Murty's principal
+    pivoting: solve A_SS λ_S = target_S - w0_S by Cholesky, drop the most negative λ, add the
+    most violated row outside S) from the rows that pushed or want to. For a limit row
+    J_i = ±e_dof, so A_ij is one entry of row j's response; only rows that enter the active set
+    are built (responses on demand, as for single rows).
 
-    Only the pivoting is here, one lane's work: the candidates (`ncand` of them,
-    listed by `_limit_rows`) come with their impulses taken out of v, and the new impulses are
-    left in rows.lam for the caller to apply (`_limit_rows`).
+    Only the pivoting is here, one lane's work: the entries (`nentry` of them: the `ncand`
+    limit candidates listed by `_limit_rows`, then the listed contacts) come with their
+    impulses taken out of v, and the new impulses are left in rows.lam for the caller to apply
+    (`_limit_rows`). Limits are corrected at up to `max_correction`, contacts at up to
+    `max_depenetration`.
     """
     n = layout.tendon_limits - layout.joint_limits
-    base = layout.joint_limits
-    # targets; J·v without the limit impulses (w0); the starting active set: the rows that
+    # targets; J·v without the block's impulses (w0); the starting active set: the rows that
     # pushed, and those that want to
     count = int(0)
-    for k in range(ncand):
-        i = rows.block_cand[e, k]
-        r = base + i
+    for t in range(nentry):
+        i = _entry(rows, e, n, ncand, t)
+        r = _entry_row(layout, rows, e, i)
         rows.block_in[e, i] = 0
         if rows.type[e, r] != NORMAL:      # could not be built in an earlier sweep
             continue
-        dof = _limit_dof(m, limit_jnt, i)
-        sign = _limit_sign(i)
-        err = rows.err[e, r]
-        if tgs != 0:
-            err = err + sign * dq[e, dof]
-        target = _normal_target(err, biased, hs, h, max_depenetration, rows.bounce[e, r])
+        if i < n:
+            dof = _limit_dof(m, limit_jnt, i)
+            sign = _limit_sign(i)
+            err = rows.err[e, r]
+            if tgs != 0:
+                err = err + sign * dq[e, dof]
+            target = _normal_target(err, biased, hs, h, max_correction, rows.bounce[e, r])
+            rows.block_w0[e, i] = sign * v[e, dof]
+        else:
+            sp = rows.span[e, r]
+            err = rows.err[e, r]
+            if tgs != 0:
+                err = err + dense.row_dot(rows.jac, e, r, dq, sp)
+            target = _normal_target(err, biased, hs, h, max_depenetration, rows.bounce[e, r])
+            rows.block_w0[e, i] = dense.row_dot(rows.jac, e, r, v, sp)
         rows.block_target[e, i] = target
-        rows.block_w0[e, i] = sign * v[e, dof]
         rows.block_lam[e, i] = 0.0
         if rows.lam[e, r] > 0.0 or target > rows.block_w0[e, i]:
             rows.block_in[e, i] = 1
@@ -436,17 +630,22 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
             count += 1
     if count == 0:
         return
+    # with contacts in the block every diagonal is softened (CONTACT_SOFTNESS, LIMIT_SOFTNESS)
+    soft = int(nentry > ncand)
     pivots = int(0)
-    while pivots <= 2 * n:
+    while pivots <= 2 * (n + nentry - ncand):
         pivots += 1
         # build the active rows' responses; a row that cannot be built leaves the set
         a = int(0)
         while a < count:
             i = rows.block_row[e, a]
-            r = base + i
+            r = _entry_row(layout, rows, e, i)
             if rows.inv_mass[e, r] == 0.0:
-                build_dof_row(m, e, r, _limit_dof(m, limit_jnt, i), _limit_sign(i), NORMAL,
-                              factor, rows)
+                if i < n:
+                    build_dof_row(m, e, r, _limit_dof(m, limit_jnt, i), _limit_sign(i), NORMAL,
+                                  factor, rows)
+                else:
+                    build_contact_rows(m, e, r, rows.span[e, r], factor, rows)
             if rows.type[e, r] != NORMAL:
                 rows.block_in[e, i] = 0
                 count -= 1
@@ -457,15 +656,17 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
         singular = int(-1)
         for a in range(count):
             ia = rows.block_row[e, a]
+            ra = _entry_row(layout, rows, e, ia)
             for b in range(a + 1):
                 ib = rows.block_row[e, b]
-                x = _limit_coupling(e, _limit_dof(m, limit_jnt, ia), _limit_sign(ia),
-                                    base + ib, rows)
+                x = _coupling(m, limit_jnt, e, n, ia, ra, _entry_row(layout, rows, e, ib), rows)
+                if b == a and soft != 0:
+                    x = x + _softness(n, ia) / rows.inv_mass[e, ra]
                 for c in range(b):
                     x = x - rows.block_a[e, a, c] * rows.block_a[e, b, c]
                 if b < a:
                     rows.block_a[e, a, b] = x / rows.block_a[e, b, b]
-                elif x > 1.0e-6 * rows.inv_mass[e, base + ia] and singular < 0:
+                elif x > _pivot_floor(soft, rows.inv_mass[e, ra]) and singular < 0:
                     rows.block_a[e, a, a] = wp.sqrt(x)
                 elif singular < 0:
                     singular = a          # dependent on rows before it (both sides of a dof)
@@ -479,6 +680,9 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
         for a in range(count):        # forward substitution
             i = rows.block_row[e, a]
             x = rows.block_target[e, i] - rows.block_w0[e, i]
+            if soft != 0:       # the softness pulls toward the impulse before the block
+                r = _entry_row(layout, rows, e, i)
+                x = x + rows.lam[e, r] * _softness(n, i) / rows.inv_mass[e, r]
             for c in range(a):
                 x = x - rows.block_a[e, a, c] * rows.block_lam[e, rows.block_row[e, c]]
             rows.block_lam[e, i] = x / rows.block_a[e, a, a]
@@ -507,16 +711,18 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
         # a row outside the set that the set's impulses leave short of its target joins it
         worst = int(-1)
         most = float(0.0)
-        for k in range(ncand):
-            i = rows.block_cand[e, k]
+        for t in range(nentry):
+            i = _entry(rows, e, n, ncand, t)
             if rows.block_in[e, i] != 0:
                 continue
-            dof = _limit_dof(m, limit_jnt, i)
-            sign = _limit_sign(i)
+            r = _entry_row(layout, rows, e, i)
+            if rows.type[e, r] != NORMAL:
+                continue
             w = rows.block_w0[e, i]
             for a in range(count):
                 ib = rows.block_row[e, a]
-                w = w + rows.block_lam[e, ib] * _limit_coupling(e, dof, sign, base + ib, rows)
+                w = w + rows.block_lam[e, ib] * _coupling(m, limit_jnt, e, n, i, r,
+                                                          _entry_row(layout, rows, e, ib), rows)
             short = rows.block_target[e, i] - w
             if short > most + 1.0e-6 * (1.0 + wp.abs(rows.block_target[e, i])):
                 most = short
@@ -527,9 +733,9 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
         rows.block_row[e, count] = worst
         count += 1
     # the new impulses (applied to the velocity by the caller)
-    for k in range(ncand):
-        i = rows.block_cand[e, k]
-        r = base + i
+    for t in range(nentry):
+        i = _entry(rows, e, n, ncand, t)
+        r = _entry_row(layout, rows, e, i)
         if rows.type[e, r] != NORMAL:
             continue
         new = float(0.0)
