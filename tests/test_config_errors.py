@@ -41,6 +41,11 @@ def test_unknown_command_line_keys_fail_naming_the_nearest(capsys):
     assert cfg.task.env.plane.staticFriction == 1.0
     assert cfg.task.randomization.frequency == 7
     assert list(cfg.task.randomization.actions.range) == [0, 1]
+    # a SimParams setting of sim.physx that the task's YAML leaves out reaches the simulator
+    cfg = run.compose(["task.sim.physx.limit_block_contacts=16"])
+    assert myriad.tasks.base.sim_params(cfg.task.sim).limit_block_contacts == 16
+    assert "no key task.sim.physx.limit_blok_contacts" in _fails(
+        capsys, "task.sim.physx.limit_blok_contacts=16")
 
 
 def test_bad_numbers_name_their_key_and_value(capsys):

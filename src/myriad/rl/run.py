@@ -58,11 +58,14 @@ def compose(overrides: list[str]):
         return composed(check_overrides(overrides, composed))
 
 
-# Keys of a task's `randomization` section may be added from the command line although the
-# task's YAML leaves them out (it holds only `enabled: false`); what goes below them is checked
-# by myriad.randomization.Randomizer when the task is built.
+# Sections whose keys the command line may add although the task's YAML leaves them out: a
+# task's `randomization` (its YAML holds only `enabled: false`; what goes below is checked by
+# myriad.randomization.Randomizer when the task is built) and the SimParams settings of its
+# `sim.physx` (`tasks.base.PHYSX_KEYS`, e.g. contacts_per_env, limit_block_contacts)
 from ..randomization import SECTION_KEYS as RANDOMIZATION_KEYS  # noqa: E402
-_OPEN_SECTION = "task.randomization"
+from ..tasks.base import PHYSX_KEYS  # noqa: E402
+OPEN_SECTIONS = {"task.randomization": tuple(RANDOMIZATION_KEYS),
+                 "task.sim.physx": tuple(PHYSX_KEYS) + ("solver_type",)}
 
 
 def check_overrides(overrides: list[str], composed) -> list[str]:
@@ -74,7 +77,7 @@ def check_overrides(overrides: list[str], composed) -> list[str]:
     from the command line. Unknown keys raise one ValueError listing, for each, the nearest
     valid dotted keys and the valid keys at its level. Keys of a dict value
     (`task.env.plane={restitution: 0.5}`) are checked alike. The returned overrides are what
-    Hydra accepts: `+` dropped (the key exists), `++` for the keys `RANDOMIZATION_KEYS` adds.
+    Hydra accepts: `+` dropped (the key exists), `++` for the keys `OPEN_SECTIONS` lets it add.
     """
     from hydra.core.override_parser.overrides_parser import OverridesParser
     from hydra.core.override_parser.types import OverrideType
@@ -133,12 +136,12 @@ def _value_paths(key: str, value) -> list[str]:
 
 
 def _find_key(tree: dict, path: str) -> str:
-    """"exists", "new" (a key `RANDOMIZATION_KEYS` lets the command line add), or the message
+    """"exists", "new" (a key `OPEN_SECTIONS` lets the command line add), or the message
     naming the unknown key, the nearest valid keys and the valid keys at its level."""
     parts = path.split(".")
     node = tree
     for i, part in enumerate(parts):
-        if ".".join(parts[:i]) == _OPEN_SECTION and part in RANDOMIZATION_KEYS:
+        if part in OPEN_SECTIONS.get(".".join(parts[:i]), ()):
             for rest in parts[i:]:      # below: open, checked by the Randomizer
                 if not (isinstance(node, dict) and rest in node):
                     return "new"
@@ -170,7 +173,7 @@ def _unknown_key(tree: dict, path: str, parent: list[str], node) -> str:
     if nearest:
         message += f" (did you mean {' or '.join(nearest)}?)"
     if isinstance(node, dict):
-        valid = sorted(set(node) | (set(RANDOMIZATION_KEYS) if where == _OPEN_SECTION else set()))
+        valid = sorted(set(node) | set(OPEN_SECTIONS.get(where, ())))
         return f"{message}; the keys of {where}: {', '.join(map(str, valid))}"
     return f"{message}; {where} is {node!r}, which has no keys"
 

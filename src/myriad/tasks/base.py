@@ -38,17 +38,21 @@ from ..physics import SimParams
 from ..torch_utils import env_mask
 
 
+# a task's `sim.physx` keys (the original's, and Myriad's own last two) -> SimParams fields
+PHYSX_KEYS = {"num_position_iterations": "position_iterations",
+              "num_velocity_iterations": "velocity_iterations",
+              "contact_offset": "contact_offset", "rest_offset": "rest_offset",
+              "bounce_threshold_velocity": "bounce_threshold_velocity",
+              "max_depenetration_velocity": "max_depenetration_velocity",
+              "contacts_per_env": "contacts_per_env",
+              "limit_block_contacts": "limit_block_contacts"}
+
+
 def sim_params(sim_cfg: dict) -> SimParams:
     """SimParams from a task's `sim` section (the original's keys, PhysX settings under physx)."""
     physx = dict(sim_cfg.get("physx", {}))
     solver = {0: "pgs", 1: "tgs"}[int(physx.pop("solver_type", 1))]
-    keys = {"num_position_iterations": "position_iterations",
-            "num_velocity_iterations": "velocity_iterations",
-            "contact_offset": "contact_offset", "rest_offset": "rest_offset",
-            "bounce_threshold_velocity": "bounce_threshold_velocity",
-            "max_depenetration_velocity": "max_depenetration_velocity",
-            "contacts_per_env": "contacts_per_env",
-            "limit_block_contacts": "limit_block_contacts"}
+    keys = PHYSX_KEYS
     unknown = sorted(set(physx) - set(keys))
     if unknown:
         raise KeyError(f"sim.physx: unknown keys {unknown}; valid: {sorted(keys) + ['solver_type']}")
