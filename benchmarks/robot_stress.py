@@ -59,12 +59,7 @@ def main() -> None:
                          "MuJoCo's worst env")
     ap.add_argument("params", nargs="*", help="SimParams overrides, key=value")
     args = ap.parse_args()
-    overrides = {}
-    for item in args.params:
-        key, value = item.split("=", 1)
-        overrides[key] = (value if value.isalpha() else float(value) if "." in value
-                          else int(value))
-    params = myriad.SimParams(**overrides)
+    params = myriad.SimParams(**sim_overrides(args.params))
     model = load(args.model)
     sim = myriad.Simulator(model, num_envs=args.envs, params=params)
     steps = round(args.seconds / params.dt)
@@ -141,7 +136,7 @@ def main() -> None:
               f"(env {int(excess[:, i].argmax())})")
     if args.mujoco:
         mj_excess, mj_deepest, mj_bad = _mujoco_envs(model, params, kind, inputs, hold, steps,
-                                                     qadr)
+                                                     joints, qadr)
         ok = ~mj_bad
         print(f"  MuJoCo C, the same inputs per env: reset for a bad state in {int(mj_bad.sum())}/"
               f"{args.envs} envs (their steps before it count); limit excess worst "
@@ -157,8 +152,19 @@ def main() -> None:
         _print_trace(trace, float(e0[args.trace]))
 
 
+def sim_overrides(items: list[str]) -> dict:
+    """SimParams overrides from key=value words: words stay strings, numbers with a point
+    floats, other numbers ints."""
+    overrides = {}
+    for item in items:
+        key, value = item.split("=", 1)
+        overrides[key] = (value if value.isalpha() else float(value) if "." in value
+                          else int(value))
+    return overrides
+
+
 def _mujoco_envs(model, params, kind: str, inputs: torch.Tensor, hold: int, steps: int,
-                 qadr) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 joints, qadr) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """MuJoCo C stepping each env's inputs from the initial state, the model compiled with
     Myriad's substep as its timestep: per env, the worst limit excess beyond the start's (rad or
     m), the deepest contact's signed distance (m; inf with no contact), and whether MuJoCo
@@ -168,7 +174,6 @@ def _mujoco_envs(model, params, kind: str, inputs: torch.Tensor, hold: int, step
     mj.opt.timestep = params.dt / params.substeps
     envs = inputs.shape[1]
     excess, deepest, bad = np.zeros(envs), np.full(envs, math.inf), np.zeros(envs, bool)
-    joints = corpus.limited_joints(model)[0]
     lo, hi = mj.jnt_range[joints].T
     resets = [mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
               mujoco.mjtWarning.mjWARN_BADQACC]

@@ -28,6 +28,7 @@ import warp as wp
 
 import myriad
 from contacts import boxes_xml
+from robot_stress import sim_overrides
 from task_step_ab import import_old
 
 
@@ -54,9 +55,7 @@ def main() -> None:
             model = (package.load_xml(boxes_xml(meshes=name == "meshes"), f"64 {name}")
                      if name in ("boxes", "meshes")
                      else package.load(package.asset_path(f"{name}.xml")))
-            extra = {} if package is old else dict(
-                (k, int(v) if v.lstrip("-").isdigit() else float(v))
-                for k, v in (item.split("=", 1) for item in args.set))
+            extra = {} if package is old else sim_overrides(args.set)
             params = package.SimParams(dt=1 / 60, substeps=2, position_iterations=4,
                                        velocity_iterations=0, contacts_per_env=slots, **extra)
             sims[variant] = package.Simulator(model, num_envs=n, params=params, cpu_threads=1)

@@ -136,7 +136,8 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
 
     The contacts' normal rows, patch by patch, and the tendon limits; the contacts' friction
     rows, whose bounds then hold this sweep's normal impulses; the joint limits, solved
-    together with the contacts they hold up; tendon springs and dofs; the equality constraints (each one's rows together).
+    together with the contacts they hold up; tendon springs and dofs; the equality constraints
+    (each one's rows together).
     `tendon_limits`: the range of tendon-limit rows that holds the active ones (`_in_use`).
 
     `ln` = (lane, lanes): a world's lanes sweep its rows together, each row's J·v and
@@ -349,9 +350,8 @@ def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, c: Cont
                     k += 1
         else:
             k = _candidate_count(rows, e, n)
-        _reachable_limits(m, e, layout, limit_jnt, k, biased, tgs, hs, rows, v, dq)
-        _block_contacts(m, e, layout, c, ncontact, limit_jnt, _candidate_count(rows, e, n),
-                        rows)
+        k = _reachable_limits(m, e, layout, limit_jnt, k, biased, tgs, hs, rows, v, dq)
+        _block_contacts(m, e, layout, c, ncontact, limit_jnt, k, rows)
     ncand = int(0)
     nentry = int(0)
     for attempt in range(2):
@@ -392,7 +392,7 @@ def _reachable_limits(m: ModelArrays, e: int, layout: RowLayout,
     """Add to the block's `k` candidates the limit rows out of reach at the substep's start
     that the joint would now pass within this position sweep's step (`_normal_target`:
     err + hs·J·v < 0); the velocity sweeps move nothing, and the next substep's rows see their
-    speed. Ends the list with -1."""
+    speed. Ends the list with -1; returns the candidates' count."""
     n = layout.tendon_limits - layout.joint_limits
     base = layout.joint_limits
     for i in range(wp.where(biased != 0, n, 0)):
@@ -418,6 +418,7 @@ def _reachable_limits(m: ModelArrays, e: int, layout: RowLayout,
                     k += 1
     if k < n:
         rows.block_cand[e, k] = -1
+    return k
 
 
 @wp.func(inline=True)
@@ -508,11 +509,9 @@ def _limit_coupling(e: int, dof: int, sign: float, r: int, rows: Rows):
     """J_i·M⁻¹J_rᵀ for a joint-limit row i (J_i = sign·e_dof) and a built row r: one entry of
     r's response (zero when the dof is outside r's tree)."""
     sp = rows.span[e, r]
-    if dof < sp[0] or dof >= sp[1]:
-        if dof < sp[2] or dof >= sp[3]:
-            return 0.0
-        return sign * rows.minv_jt[e, r, sp[1] - sp[0] + dof - sp[2]]
-    return sign * rows.minv_jt[e, r, dof - sp[0]]
+    if not _in_span(sp, dof):
+        return 0.0
+    return sign * rows.minv_jt[e, r, _col(sp, dof)]
 
 
 @wp.func(inline=True)
