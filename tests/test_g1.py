@@ -141,9 +141,46 @@ def test_g1_observation_and_terms(device):
         task.bodies_ending, torch.zeros(N, 2, dtype=torch.bool, device=task.device),
         torch.zeros(N, 2, device=task.device), torch.zeros(N, 2, device=task.device),
         torch.zeros(N, 2, 2, device=task.device), no_feet, no_feet.float(),
-        task.gravity_dir[:N], task.forward_axis[:N], 0.02, 1.0, 0.08, scales)
+        task.gravity_dir[:N], task.forward_axis[:N], 0.02, 1.0, 0.08, scales,
+        base[:, 3:7], torch.ones(N, 29, device=task.device), task.learn)
     np.testing.assert_allclose(reward.cpu().numpy(), 2.0, atol=1e-5)
     assert not fell.any()
+
+
+def test_g1_upright_and_pose_terms(device):
+    """The upright term is exp(−|g_xy|²/σ²) of the torso's tilt; the pose term exp(−mean((q −
+    q0)²/std²)) with each env's tolerances; the task picks the standing tolerances for a zero
+    command and the walking ones for a moving one."""
+    from myriad.tasks.g1 import compute_g1_reward
+    task = make(device, num_envs=2)
+    dev, N = task.device, 2
+    scales = {k: 0.0 for k in task.reward_scales}
+    scales.update(uprightRewardScale=1.0, poseRewardScale=10.0)
+    kernels = dict(task.learn, uprightSigma2=0.2)
+    base = task.envs.root_states[:, 0].clone()
+    tilt = 0.3                                  # env 1's torso tilted 0.3 rad about x
+    torso = torch.tensor([[0.0, 0, 0, 1], [math.sin(tilt / 2), 0, 0, math.cos(tilt / 2)]],
+                         device=dev)
+    dof_pos = task.default_dof_pos.expand(N, -1).clone()
+    dof_pos[1, :3] += 0.1                       # three joints 0.1 rad off, with std 0.2
+    std = torch.full((N, 29), 0.2, device=dev)
+    zeros = torch.zeros(N, 29, device=dev)
+    no_feet = torch.zeros(N, 2, dtype=torch.bool, device=dev)
+    reward, _ = compute_g1_reward(
+        base, torch.zeros(N, 3, device=dev), zeros, dof_pos, zeros, zeros, zeros, zeros,
+        task.default_dof_pos, task.soft_limits, task.deviation_dofs,
+        task.envs.net_contact_force * 0, task.bodies_ending, no_feet,
+        torch.zeros(N, 2, device=dev), torch.zeros(N, 2, device=dev),
+        torch.zeros(N, 2, 2, device=dev), no_feet, no_feet.float(), task.gravity_dir,
+        task.forward_axis, 0.02, 1.0, 0.08, scales, torso, std, kernels)
+    pose = math.exp(-3 * 0.25 / 29)             # mean of (0.1/0.2)² over 29 joints
+    np.testing.assert_allclose(reward.cpu().numpy(),
+                               [1.0 + 10.0, math.exp(-math.sin(tilt) ** 2 / 0.2) + 10.0 * pose],
+                               rtol=1e-5)
+    # the task's tolerances: the standing table for a zero command, the walking one otherwise
+    knee = task.joint_names.index("left_knee_joint")
+    assert task.pose_std[0, knee] == pytest.approx(0.05)
+    assert task.pose_std[1, knee] == pytest.approx(0.35)
 
 
 def test_g1_single_stance_gait_clock_and_tilt(device):
@@ -175,7 +212,8 @@ def test_g1_single_stance_gait_clock_and_tilt(device):
         zeros, task.default_dof_pos, task.soft_limits, task.deviation_dofs,
         task.envs.net_contact_force * 0, task.bodies_ending, contact, air_time, contact_time,
         torch.zeros(N, 2, 2, device=dev), gait_stance, foot_z, task.gravity_dir,
-        task.forward_axis, 0.02, 1.0, 0.08, scales)
+        task.forward_axis, 0.02, 1.0, 0.08, scales, base[:, 3:7],
+        torch.ones(N, 29, device=dev), task.learn)
     # env 0: in single stance, the phase's time is min(0.3 in contact, 0.6 in the air) = 0.3;
     # both feet as the clock wants (+1.0); the right foot 0.1 m above its swing height (-1.0)
     np.testing.assert_allclose(reward.cpu().numpy(), [0.3 + 1.0 - 1.0, 0.0 - 1.0,

@@ -23,20 +23,20 @@ Observation (101):
              mod 1
   plus uniform noise ± the config's noise × the same scales, each step (commands and actions
   have none).
-Reward, each term × dt (0.02 s), scales in `env.learn` (no clipping):
-    +1.0·exp(−|v*_xy − v_xy|²/0.25), v_xy in the yaw frame   +1.0·exp(−(ω*_z − ω_z)²/0.25)
-    −0.2·v_z²  −0.05·|ω_xy|²  −1.0·|g_xy|² (base tilt)
-    −2e-6·Στ²  −1e-7·Σq̈²  −0.005·Σ(a − a_prev)²  −1.0·Σ(distance beyond the soft limits)
-    +0.75·min(time in the current single-stance phase, 0.4 s), when |v*_xy| > 0.1
-    −0.1·Σ_feet |v_foot,xy| while the foot touches the ground (sliding)
-    −0.1·Σ|q − q0| over hip yaw and roll, waist, arms (stay near the default pose)
-    +0.18·Σ_feet [foot touching = the clock has it in stance] (the left foot in stance for the
-      first stanceShare 0.55 of each 0.8 s period, the right half a period later)
-    −20·Σ_feet (z_foot − 0.08 m)² while the foot is in the air (its swing height)
-    +0.15 each step alive; −200 when the episode ends in a fall.
-  The gait clock, its two terms and the alive bonus are Unitree's own G1 task's
-  (unitree_rl_gym): without them the robot learned to stand but not to step within an hour of
-  the CPU (docs/results.md).
+Reward, each term × dt (0.02 s), scales and widths in `env.learn` (no clipping; as committed,
+the terms of mjlab's G1 velocity task, run 3 in docs/results.md):
+    +2.0·exp(−|v*_xy − v_xy|²/0.25), v_xy in the yaw frame   +2.0·exp(−(ω*_z − ω_z)²/0.5)
+    +1.0·exp(−|g_xy|²/0.2), g the gravity direction in the torso's frame (upright)
+    +1.0·exp(−mean_j((q_j − q0_j)²/std_j²)), std_j from `poseStd`'s standing (0.05 rad), walking or
+      running table by the command's |v*_xy| + |ω*_z| (a tight pose standing, room to step)
+    −0.2·v_z²  −0.05·|ω_xy|²  −2e-6·Στ²  −1e-7·Σq̈²  −0.1·Σ(a − a_prev)²
+    −1.0·Σ(distance beyond the soft limits)  −0.1·Σ_feet |v_foot,xy| while the foot touches
+  and, at scale 0 as committed (runs 1 and 2): −|g_xy|² of the base, +min(time in the current
+  single-stance phase, 0.4 s) when |v*_xy| > 0.1, −Σ|q − q0| over `deviationJoints`, the gait
+  clock's +Σ_feet [foot touching = the clock has it in stance] (the left foot in stance for the
+  first stanceShare 0.55 of each 0.8 s period, the right half a period later) and
+  −Σ_feet (z_foot − 0.08 m)² while the foot is in the air, an alive bonus, and a termination
+  term when the episode ends in a fall.
 An episode ends in a fall when the pelvis or torso touches the ground (|F| > 1 N) or the base
 tilts more than `env.maxTilt` rad; otherwise after episodeLength_s = 20 s. Every `pushInterval_s`
 (one clock for all envs) every base is pushed: v_xy set to U(−pushVelocity, pushVelocity).
@@ -98,6 +98,14 @@ class G1Velocity(VecTask):
         self.bodies_ending = torch.tensor([e.body_index(f"g1/{n}") for n in ("pelvis",
                                                                             "torso_link")],
                                           device=dev)
+        self.torso = e.body_index("g1/torso_link")
+        pose = self.learn["poseStd"]
+        # [3, 29]: each joint's tolerance standing, walking, running (rad)
+        self.pose_std = torch.tensor([by_pattern(self.joint_names, dict(pose[regime]),
+                                                 f"env.learn.poseStd.{regime}")
+                                      for regime in ("standing", "walking", "running")],
+                                     device=dev)
+        self.pose_thresholds = (pose["walkingThreshold"], pose["runningThreshold"])
         self.feet = torch.tensor([e.body_index(f"g1/{side}_ankle_roll_link")
                                   for side in ("left", "right")], device=dev)
         self.reward_scales = {k: v * self.dt for k, v in self.learn.items()
@@ -181,6 +189,9 @@ class G1Velocity(VecTask):
         # each leg's phase; a leg is due on the ground in the first stanceShare of its cycle
         stance = torch.remainder(self.gait_phase()[:, None] + self.leg_offsets, 1.0) \
             < self.stance_share
+        # each env's pose tolerance by how fast it is told to move (standing, walking, running)
+        speed = torch.norm(self.commands[:, :2], dim=-1) + self.commands[:, 2].abs()
+        regime = (speed >= self.pose_thresholds[0]).long() + (speed >= self.pose_thresholds[1])
         self.rew_buf[:], terminated = compute_g1_reward(
             e.root_states[:, 0], self.commands, torques, e.dof_pos, e.dof_vel,
             self.last_dof_vel, self.actions, self.last_actions, self.default_dof_pos,
@@ -188,7 +199,8 @@ class G1Velocity(VecTask):
             contact, self.feet_air_time, self.feet_contact_time,
             e.rigid_body_states[:, self.feet, 7:9], stance, e.rigid_body_states[:, self.feet, 2],
             self.gravity_dir, self.forward_axis, self.dt, self.cfg["env"]["maxTilt"],
-            self.cfg["env"]["gait"]["swingHeight"], self.reward_scales)
+            self.cfg["env"]["gait"]["swingHeight"], self.reward_scales,
+            e.rigid_body_states[:, self.torso, 3:7], self.pose_std[regime], self.learn)
         self.reset_buf[:] = terminated.long()
         self.episode_outcomes["fell"] = terminated
         self.last_actions[:] = self.actions
@@ -272,10 +284,12 @@ def compute_g1_reward(base_state, commands, torques, dof_pos, dof_vel, last_dof_
                       last_actions, default_dof_pos, soft_limits, deviation_dofs,
                       contact_forces, bodies_ending, foot_contact, air_time, contact_time,
                       foot_vel_xy, gait_stance, foot_z, gravity_dir, forward_axis, dt, max_tilt,
-                      swing_height, scales):
+                      swing_height, scales, torso_quat, pose_std, kernels):
     """The module docstring's terms (each scale already × dt); returns (reward, fell).
     `gait_stance` [N, 2]: whether the gait clock has each foot on the ground; `foot_z` [N, 2] the
-    ankle roll links' heights; `gravity_dir`, `forward_axis` [N, 3]: world -z and +x."""
+    ankle roll links' heights; `gravity_dir`, `forward_axis` [N, 3]: world -z and +x;
+    `torso_quat` [N, 4]; `pose_std` [N, dofs]: each joint's pose tolerance (rad); `kernels`:
+    the widths σ² of the exponential terms (`env.learn`'s ...Sigma2)."""
     quat = base_state[:, 3:7]
     lin_vel = quat_rotate_inverse(quat, base_state[:, 7:10])
     ang_vel = quat_rotate_inverse(quat, base_state[:, 10:13])
@@ -288,6 +302,8 @@ def compute_g1_reward(base_state, commands, torques, dof_pos, dof_vel, last_dof_
     v_yaw = torch.stack((cos * v[:, 0] + sin * v[:, 1], -sin * v[:, 0] + cos * v[:, 1]), -1)
     lin_error = torch.sum((commands[:, :2] - v_yaw) ** 2, dim=-1)
     yaw_error = (commands[:, 2] - base_state[:, 12]) ** 2
+    torso_tilt = torch.sum(quat_rotate_inverse(torso_quat, gravity_dir)[:, :2] ** 2, dim=-1)
+    pose_error = torch.mean(((dof_pos - default_dof_pos) / pose_std) ** 2, dim=-1)
 
     single_stance = foot_contact.sum(-1) == 1
     in_mode = torch.where(foot_contact, contact_time, air_time)
@@ -298,8 +314,12 @@ def compute_g1_reward(base_state, commands, torques, dof_pos, dof_vel, last_dof_
               + torch.clamp(soft_limits[:, 0] - dof_pos, min=0.0)).sum(-1)
     fell = torch.any(torch.norm(contact_forces[:, bodies_ending], dim=-1) > 1.0, dim=-1) \
         | (gravity[:, 2] > -math.cos(max_tilt))
-    reward = (torch.exp(-lin_error / 0.25) * scales["linearVelocityXYRewardScale"]
-              + torch.exp(-yaw_error / 0.25) * scales["angularVelocityZRewardScale"]
+    reward = (torch.exp(-lin_error / kernels["linearVelocitySigma2"])
+              * scales["linearVelocityXYRewardScale"]
+              + torch.exp(-yaw_error / kernels["angularVelocitySigma2"])
+              * scales["angularVelocityZRewardScale"]
+              + torch.exp(-torso_tilt / kernels["uprightSigma2"]) * scales["uprightRewardScale"]
+              + torch.exp(-pose_error) * scales["poseRewardScale"]
               + lin_vel[:, 2] ** 2 * scales["linearVelocityZRewardScale"]
               + torch.sum(ang_vel[:, :2] ** 2, dim=-1) * scales["angularVelocityXYRewardScale"]
               + torch.sum(gravity[:, :2] ** 2, dim=-1) * scales["orientationRewardScale"]
