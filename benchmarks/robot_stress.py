@@ -46,6 +46,9 @@ def main() -> None:
     ap.add_argument("model", help="a corpus name, e.g. g1/g1_29dof_with_hand_rev_1_0")
     ap.add_argument("--envs", type=int, default=40)
     ap.add_argument("--seconds", type=float, default=2.0)
+    ap.add_argument("--seed", type=int, default=0,
+                    help="of the random inputs (0: corpus.py's); a run is chaotic, so one seed's "
+                         "worst env says little about a change that moves every trajectory")
     ap.add_argument("--trace", type=int, metavar="ENV",
                     help="also print, for env ENV, the steps whose energy rose most: the "
                          "contacts then (bodies, depth, force), the joints past their limits "
@@ -66,7 +69,7 @@ def main() -> None:
     hold = max(1, round(corpus.CONTROL_PERIOD / params.dt))
     joints, qadr = corpus.limited_joints(model)
     kind, inputs = corpus.random_inputs(model, -(-steps // hold), args.envs,
-                                        torch.Generator().manual_seed(0))
+                                        torch.Generator().manual_seed(args.seed))
     sim.collide()
     lo, hi = sim.joint_range[:, joints].unbind(-1)
     q0 = sim.q[:, qadr]

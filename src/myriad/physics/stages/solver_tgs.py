@@ -57,6 +57,16 @@ LIMIT_SOFTNESS = wp.constant(1.0e-4)
 # ... and below this fraction of its J M⁻¹ Jᵀ, a pivot counts as dependent (rounding): the row
 # leaves the set
 PIVOT_FLOOR = wp.constant(1.0e-6)
+# rounds of the joint limits and the dof rows (speed caps) in a sweep: a cap's impulse moves
+# the other dofs of its tree (a joint at its limit among them), the limits' move a capped dof
+# past its cap again; they take turns until a cap leaves no limit below its target, or this
+# many times, the caps last (robot_stress, 40 envs: a bare G1's wrist, spun by its hand's
+# contacts, went 0.061 rad past its limit with its row active when the caps simply followed
+# the limits; with the limits last instead, TALOS's mimic-coupled grippers passed theirs by up
+# to 0.57 rad, their equalities driving them at the speeds the limits left past the caps).
+# Turns converge slowly where two dofs are nearly one motion (a 2 cm link between them:
+# radians, `test_contacts`); solving the caps inside the limit block would be exact
+LIMIT_CAP_ROUNDS = wp.constant(3)
 
 # Gauss-Seidel passes over the normal rows of a contact patch (the contacts of one geom pair,
 # e.g. a box face's four corners) in every sweep. How a face's load splits among its corners is
@@ -136,8 +146,9 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
 
     The contacts' normal rows, patch by patch, and the tendon limits; the contacts' friction
     rows, whose bounds then hold this sweep's normal impulses; the joint limits, solved
-    together with the contacts they hold up; tendon springs and dofs; the equality constraints
-    (each one's rows together).
+    together with the contacts they hold up; tendon springs and dofs, and the limits once more
+    if a speed cap left one below its target; the equality constraints (each one's rows
+    together).
     `tendon_limits`: the range of tendon-limit rows that holds the active ones (`_in_use`).
 
     `ln` = (lane, lanes): a world's lanes sweep its rows together, each row's J·v and
@@ -166,35 +177,71 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
         _friction_rows(e, ln, 3 * k + 1, biased, tgs, hs, rows, c, v, dq)
     # the joint limits last of the one-sided rows: a joint's mechanical stop has the last word
     # over contacts (a UR5's overlapping link meshes pushed its wrist 0.26 rad past its limit
-    # when the limits came before the friction rows)
-    _wait(ln)
-    _limit_rows(m, e, ln, layout, c, ncontact, limit_jnt, first, biased, tgs, hs, h,
-                max_depenetration, max_correction, factor, rows, v, dq)
-    _wait(ln)
-    if first != 0:
-        for r in range(layout.springs, layout.dofs):
-            _spring_row(e, ln, r, h, rows, v)
-    _wait(ln)
+    # when the limits came before the friction rows); then the dof rows, and the two again in
+    # turn if a speed cap left a limit below its target (`LIMIT_CAP_ROUNDS`)
+    for part in range(LIMIT_CAP_ROUNDS):
+        _wait(ln)
+        _limit_rows(m, e, ln, layout, c, ncontact, limit_jnt, first * int(part == 0), biased,
+                    tgs, hs, h, max_depenetration, max_correction, factor, rows, v, dq)
+        _wait(ln)
+        if first != 0 and part == 0:
+            for r in range(layout.springs, layout.dofs):
+                _spring_row(e, ln, r, h, rows, v)
+            _wait(ln)
+        if part > 0 and _past_cap(layout, rows, e, v) == 0:     # every lane the same answer
+            break
+        _wait(ln)
+        if ln[0] == 0:
+            # most dof rows do nothing in a sweep (no dry friction, speed under the cap):
+            # tested on this env's 1D views, one index each, before the row is visited. (Before
+            # the limit block instead, they kept a G1 with hands within its limits in 38 of 40
+            # envs rather than 33, but a TALOS's mimic-coupled gripper joints then passed
+            # theirs in 14 rather than 2: the equalities after them undo the limits)
+            row_type = rows.type[e]
+            row_bound = rows.mu[e]
+            row_cap = rows.k[e]
+            speed = v[e]
+            for dof in range(layout.end - layout.dofs):
+                r = layout.dofs + dof
+                if row_type[r] == DOF and (row_bound[r] > 0.0
+                                           or wp.abs(speed[dof]) > row_cap[r]):
+                    _dof_row(m, e, r, dof, factor, rows, v)
+        _wait(ln)
+        if _limits_broken(m, layout, limit_jnt, rows, e, v) == 0:
+            break
     if ln[0] == 0:
-        # most dof rows do nothing in a sweep (no dry friction, speed under the cap): tested
-        # on this env's 1D views, one index each, before the row is visited. (Before the limit
-        # block instead, they kept a G1 with hands within its limits in 38 of 40 envs rather
-        # than 33, but a TALOS's mimic-coupled gripper joints then passed theirs in 14 rather
-        # than 2: the equalities after them undo the limits; to solve together, issue 40)
-        row_type = rows.type[e]
-        row_bound = rows.mu[e]
-        row_cap = rows.k[e]
-        speed = v[e]
-        for dof in range(layout.end - layout.dofs):
-            r = layout.dofs + dof
-            if row_type[r] == DOF and (row_bound[r] > 0.0 or wp.abs(speed[dof]) > row_cap[r]):
-                _dof_row(m, e, r, dof, factor, rows, v)
         # equalities last: the sweep ends with them holding, whatever the rows before did
         if layout.springs > layout.equalities:
             for i in range(m.neq):
                 _equality(m, e, layout.equalities, i, biased, tgs, hs, max_correction, rows,
                           v, dq)
     _wait(ln)
+
+
+@wp.func
+def _limits_broken(m: ModelArrays, layout: RowLayout, limit_jnt: wp.array(dtype=wp.int32),
+                   rows: Rows, e: int, v: wp.array2d(dtype=float)):
+    """1 if a joint-limit candidate of this sweep's block now moves slower than its target by
+    more than the block's rounding, else 0."""
+    n = layout.tendon_limits - layout.joint_limits
+    for t in range(_candidate_count(rows, e, n)):
+        i = rows.block_cand[e, t]
+        if rows.type[e, layout.joint_limits + i] == NORMAL:
+            target = rows.block_target[e, i]
+            if _limit_sign(i) * v[e, _limit_dof(m, limit_jnt, i)] < \
+                    target - 1.0e-3 * (1.0 + wp.abs(target)):
+                return int(1)
+    return int(0)
+
+
+@wp.func
+def _past_cap(layout: RowLayout, rows: Rows, e: int, v: wp.array2d(dtype=float)):
+    """1 if a dof of env e is past its speed cap, else 0."""
+    for dof in range(layout.end - layout.dofs):
+        r = layout.dofs + dof
+        if rows.type[e, r] == DOF and wp.abs(v[e, dof]) > rows.k[e, r]:
+            return int(1)
+    return int(0)
 
 
 @wp.func
