@@ -23,20 +23,22 @@ Observation (101):
              mod 1
   plus uniform noise ± the config's noise × the same scales, each step (commands and actions
   have none).
-Reward, each term × dt (0.02 s), scales and widths in `env.learn` (no clipping; as committed,
-the terms of mjlab's G1 velocity task, run 3 in docs/results.md):
-    +2.0·exp(−|v*_xy − v_xy|²/0.25), v_xy in the yaw frame   +2.0·exp(−(ω*_z − ω_z)²/0.5)
-    +1.0·exp(−|g_xy|²/0.2), g the gravity direction in the torso's frame (upright)
-    +1.0·exp(−mean_j((q_j − q0_j)²/std_j²)), std_j from `poseStd`'s standing (0.05 rad), walking or
-      running table by the command's |v*_xy| + |ω*_z| (a tight pose standing, room to step)
-    −0.2·v_z²  −0.05·|ω_xy|²  −2e-6·Στ²  −1e-7·Σq̈²  −0.1·Σ(a − a_prev)²
-    −1.0·Σ(distance beyond the soft limits)  −0.1·Σ_feet |v_foot,xy| while the foot touches
-  and, at scale 0 as committed (runs 1 and 2): −|g_xy|² of the base, +min(time in the current
-  single-stance phase, 0.4 s) when |v*_xy| > 0.1, −Σ|q − q0| over `deviationJoints`, the gait
-  clock's +Σ_feet [foot touching = the clock has it in stance] (the left foot in stance for the
-  first stanceShare 0.55 of each 0.8 s period, the right half a period later) and
-  −Σ_feet (z_foot − 0.08 m)² while the foot is in the air, an alive bonus, and a termination
-  term when the episode ends in a fall.
+Reward, each term × dt (0.02 s), scales and widths in `env.learn` (no clipping). As committed,
+run 1's terms (Isaac Lab's G1 flat; the best of three CPU hours, docs/results.md):
+    +1.0·exp(−|v*_xy − v_xy|²/0.25), v_xy in the yaw frame   +1.0·exp(−(ω*_z − ω_z)²/0.25)
+    −0.2·v_z²  −0.05·|ω_xy|²  −1.0·|g_xy|² (base tilt)
+    −2e-6·Στ²  −1e-7·Σq̈²  −0.005·Σ(a − a_prev)²  −1.0·Σ(distance beyond the soft limits)
+    +0.75·min(time in the current single-stance phase, 0.4 s), when |v*_xy| > 0.1
+    −0.1·Σ_feet |v_foot,xy| while the foot touches the ground (sliding)
+    −0.1·Σ|q − q0| over hip yaw and roll, waist, arms (stay near the default pose)
+    −200 when the episode ends in a fall.
+  At scale 0 as committed (set in the YAML to use them):
+    mjlab's (run 3): exp(−|g_xy|²/0.2) of the torso (upright) and exp(−mean_j((q_j −
+      q0_j)²/std_j²)) (pose), std_j from `poseStd`'s standing (0.05 rad), walking or running
+      table by the command's |v*_xy| + |ω*_z|;
+    Unitree's (run 2): Σ_feet [foot touching = the gait clock has it in stance] (the left foot
+      in stance for the first stanceShare 0.55 of each 0.8 s period, the right half a period
+      later), −Σ_feet (z_foot − 0.08 m)² while the foot is in the air, an alive bonus.
 An episode ends in a fall when the pelvis or torso touches the ground (|F| > 1 N) or the base
 tilts more than `env.maxTilt` rad; otherwise after episodeLength_s = 20 s. Every `pushInterval_s`
 (one clock for all envs) every base is pushed: v_xy set to U(−pushVelocity, pushVelocity).
