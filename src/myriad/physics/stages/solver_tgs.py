@@ -59,8 +59,8 @@ LIMIT_SOFTNESS = wp.constant(1.0e-4)
 PIVOT_FLOOR = wp.constant(1.0e-6)
 # rounds of the joint limits and the dof rows (speed caps) in a sweep: a cap's impulse moves
 # the other dofs of its tree (a joint at its limit among them), the limits' move a capped dof
-# past its cap again; they take turns until a cap leaves no limit below its target, or this
-# many times, the caps last (robot_stress, 40 envs: a bare G1's wrist, spun by its hand's
+# past its cap again; they take turns until the dof rows (caps, dry friction) leave no limit
+# below its target, or this many times, the dof rows last (robot_stress, 40 envs: a bare G1's wrist, spun by its hand's
 # contacts, went 0.061 rad past its limit with its row active when the caps simply followed
 # the limits; with the limits last instead, TALOS's mimic-coupled grippers passed theirs by up
 # to 0.57 rad, their equalities driving them at the speeds the limits left past the caps).
@@ -147,7 +147,7 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
     The contacts' normal rows, patch by patch, and the tendon limits; the contacts' friction
     rows, whose bounds then hold this sweep's normal impulses; the joint limits, solved
     together with the contacts they hold up; tendon springs and dofs, and the limits once more
-    if a speed cap left one below its target; the equality constraints (each one's rows
+    if the dof rows (a speed cap, dry friction) left one below its target; the equality constraints (each one's rows
     together).
     `tendon_limits`: the range of tendon-limit rows that holds the active ones (`_in_use`).
 
@@ -178,7 +178,8 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
     # the joint limits last of the one-sided rows: a joint's mechanical stop has the last word
     # over contacts (a UR5's overlapping link meshes pushed its wrist 0.26 rad past its limit
     # when the limits came before the friction rows); then the dof rows, and the two again in
-    # turn if a speed cap left a limit below its target (`LIMIT_CAP_ROUNDS`)
+    # turn if the dof rows left a limit below its target (`LIMIT_CAP_ROUNDS`; a later round
+    # runs the dof rows only if a dof is past its cap)
     for part in range(LIMIT_CAP_ROUNDS):
         _wait(ln)
         _limit_rows(m, e, ln, layout, c, ncontact, limit_jnt, first * int(part == 0), biased,
