@@ -24,6 +24,7 @@ from .model import Model, ModelError, dof_tree_spans
 from .params import SimParams
 from .runtime.launch import block_threads
 from .stages.collision import CANDIDATES_PER_SLOT
+from .stages.solver_tgs import BLOCK_CAPS
 from .structs import (STRUCTS, Control, Contacts, Dynamics, EnvParams, HFields, Meshes,
                       ModelArrays, Options, RowLayout, Rows, State, field_shape)
 from .types import EqualityType, GeomType, SensorType
@@ -130,6 +131,8 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
 
     # contacts the joint-limit block may take in (`SimParams.limit_block_contacts`)
     block_contacts = min(contact_capacity, params.limit_block_contacts) if len(limited) else 0
+    # ... and the dofs past their speed cap it solves with them (`solver_tgs.BLOCK_CAPS`)
+    block_caps = min(m.nv, BLOCK_CAPS) if len(limited) else 0
     sizes = dict(nq=m.nq, nv=m.nv, nbody=m.nbody, njnt=m.njnt, nu=m.nu, ntendon=m.ntendon,
                  nmocap=m.nmocap, nspatial=int((m.tendon_spatial >= 0).sum()),
                  ngeom=m.ngeom, nsite=m.nsite, nsensor_site=len(sensor_sites),
@@ -137,8 +140,9 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
                  nsensordata=m.nsensordata, ncontact=contact_capacity,
                  ncandidate=CANDIDATES_PER_SLOT * contact_capacity, nrow=layout.end,
                  row_width=row_width(dof_span, tendon_dofs), nmass=len(mass_col),
-                 nlimit=2 * len(limited), nblock_contact=block_contacts,
-                 nblock=2 * len(limited) + block_contacts, neq=m.neq, neqrow=equality_rownum,
+                 nlimit=2 * len(limited), nblock_contact=block_contacts, nblock_cap=block_caps,
+                 nblock=2 * len(limited) + block_contacts + block_caps, neq=m.neq,
+                 neqrow=equality_rownum,
                  nlane=block_threads(dev))
     implicit = params.integrator == "implicit"
     if implicit and not depth_first(m.body_parent):     # its kernel walks subtrees as ranges

@@ -502,7 +502,8 @@ class Rows:
     dof_force = per_env("nv", doc="generalized force of all rows in the last substep",
                         public="dof_constraint_force")
     # scratch of the joint-limit block solve (`solver_tgs`), indexed by block entry: joint-limit
-    # row i at i, the k-th contact of block_contact at nlimit + k
+    # row i at i, the k-th contact of block_contact at nlimit + k, the k-th speed cap of
+    # block_cap at nlimit + nblock_contact + k
     block_target = per_env("nblock", doc="limit block: target J·v of the row in this sweep")
     block_w0 = per_env("nblock", doc="limit block: J·v with every block impulse taken out")
     block_lam = per_env("nblock", doc="limit block: the impulses being solved for")
@@ -512,6 +513,9 @@ class Rows:
     block_contact = per_env("nblock_contact", dtype=wp.int32, doc="limit block: the contacts "
                             "solved with the limits in this sweep (their slots), -1 after the "
                             "last")
+    block_cap = per_env("nblock_cap", dtype=wp.int32, doc="limit block: the dofs past their "
+                        "speed cap solved with the limits, 2·dof + (1 if too fast forward), "
+                        "-1 after the last")
     block_row = per_env("nblock", dtype=wp.int32, doc="limit block: the active set, in order")
     block_a = per_env("nblock", "nblock", doc="limit block: Cholesky factor of J M⁻¹ Jᵀ on the "
                       "active set")

@@ -64,9 +64,16 @@ PIVOT_FLOOR = wp.constant(1.0e-6)
 # contacts, went 0.061 rad past its limit with its row active when the caps simply followed
 # the limits; with the limits last instead, TALOS's mimic-coupled grippers passed theirs by up
 # to 0.57 rad, their equalities driving them at the speeds the limits left past the caps).
-# Turns converge slowly where two dofs are nearly one motion (a 2 cm link between them:
-# radians, `test_contacts`); solving the caps inside the limit block would be exact
+# The caps the block's own impulses break are solved inside it (`BLOCK_CAPS`); the turns are
+# for the dof rows' other work (caps the contacts broke, dry friction): with one round, a G1
+# with hands went 0.257 rad past a limit in 1 of 40 envs (`robot_stress.py`), with three 0.002
 LIMIT_CAP_ROUNDS = wp.constant(3)
+# speed caps the joint-limit block may take in (`_cap_broken`): a dof its impulses would send
+# past its cap joins it, up to this many in a solve (a plain int: `build` sizes the block with
+# it). Turns alone converge slowly where two dofs are nearly one motion: a shoulder at its
+# limit beside an elbow spun to its cap through a 2 cm, 10 g upper arm went 9.5 rad through
+# the limit in 2 s (`test_contacts`)
+BLOCK_CAPS = 8
 
 # Gauss-Seidel passes over the normal rows of a contact patch (the contacts of one geom pair,
 # e.g. a box face's four corners) in every sweep. How a face's load splits among its corners is
@@ -402,33 +409,48 @@ def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, c: Cont
         _block_contacts(m, e, layout, c, ncontact, limit_jnt, k, rows)
     ncand = int(0)
     nentry = int(0)
-    for attempt in range(2):
+    ncap = int(0)
+    caps = int(0)
+    for attempt in range(3):
         _wait(ln)
-        if attempt == 1:
+        if attempt > 0:
             # the contacts' new impulses can send a joint outside the block at its limit within
             # this sweep's step (a G1's hand hitting the ground spun its wrist to its 100 rad/s
             # cap, 0.18 rad past its limit in one step): solve once more with its row
-            if ln[0] == 0 and nentry > ncand:
+            if ln[0] == 0 and nentry > ncand and attempt == 1:
                 _reachable_limits(m, e, layout, limit_jnt, ncand, biased, tgs, hs, rows, v, dq)
             _wait(ln)
-            if _candidate_count(rows, e, n) == ncand:
+            again = int(_candidate_count(rows, e, n) != ncand)
+            # and a dof past its speed cap (the block's impulses may have sent it there): once
+            # more with the caps the block breaks taken in (`_cap_broken`); looked for only
+            # then, as it costs a tenth of a humanoid's step
+            if caps == 0 and _past_cap(layout, rows, e, v) != 0:
+                caps = 1
+                again = 1
+            if again == 0:
                 break
         ncand = _candidate_count(rows, e, n)
-        nentry = ncand + _block_contact_count(rows, e)
-        for t in range(nentry):
-            r = _entry_row(layout, rows, e, _entry(rows, e, n, ncand, t))
-            old = rows.lam[e, r]
+        ncontact_in = _block_contact_count(rows, e)
+        nentry = ncand + ncontact_in
+        # every entry's impulse taken out of v, the caps' of the attempt before included
+        for t in range(nentry + ncap):
+            i = _entry(rows, e, n, ncand, ncontact_in, t)
+            r = _entry_row(layout, rows, e, i)
+            old = _entry_sign(rows, e, n, i) * _entry_impulse(rows, e, n, i, r)
             if old != 0.0:
                 _apply(v, e, -old, rows.minv_jt, r, rows.span[e, r], ln)
         _wait(ln)
         if ln[0] == 0:
-            _joint_limit_block(m, e, layout, limit_jnt, ncand, nentry, biased, tgs, hs, h,
-                               max_depenetration, max_correction, factor, rows, v, dq)
+            _joint_limit_block(m, e, layout, limit_jnt, ncand, ncontact_in, nentry, caps,
+                               biased, tgs, hs, h, max_depenetration, max_correction, factor,
+                               rows, v, dq)
         _wait(ln)
-        for t in range(nentry):
-            r = _entry_row(layout, rows, e, _entry(rows, e, n, ncand, t))
-            new = rows.lam[e, r]
-            if rows.type[e, r] == NORMAL and new != 0.0:
+        ncap = _block_cap_count(rows, e)
+        for t in range(nentry + ncap):
+            i = _entry(rows, e, n, ncand, ncontact_in, t)
+            r = _entry_row(layout, rows, e, i)
+            new = _entry_sign(rows, e, n, i) * _entry_impulse(rows, e, n, i, r)
+            if _entry_live(layout, rows, e, n, i, r) and new != 0.0:
                 _apply(v, e, new, rows.minv_jt, r, rows.span[e, r], ln)
 
 
@@ -534,22 +556,105 @@ def _block_contact_count(rows: Rows, e: int):
     return _listed(rows.block_contact, e, rows.block_contact.shape[1])
 
 
+@wp.func
+def _cap_broken(layout: RowLayout, e: int, n: int, ncap: int, count: int, rows: Rows,
+                v: wp.array2d(dtype=float)):
+    """The dof that the limit block's active set, with its impulses so far, sends furthest
+    past its speed cap, as a block_cap entry (2·dof + 1 if too fast forward), or -1 if none
+    (or only dofs already listed on that side). Only dofs inside an active row's span count:
+    the others are the dof rows' to cap."""
+    worst = int(-1)
+    most = float(0.0)
+    for dof in range(layout.end - layout.dofs):
+        r = layout.dofs + dof
+        if rows.type[e, r] != DOF:
+            continue
+        w = v[e, dof]
+        touched = int(0)
+        for a in range(count):
+            ib = rows.block_row[e, a]
+            rb = _entry_row(layout, rows, e, ib)
+            if _in_span(rows.span[e, rb], dof):
+                touched = 1
+                w = w + rows.block_lam[e, ib] * _entry_sign(rows, e, n, ib) * \
+                    _limit_coupling(e, dof, 1.0, rb, rows)
+        over = wp.abs(w) - rows.k[e, r]
+        if touched != 0 and over > most + 1.0e-6 * (1.0 + rows.k[e, r]):
+            entry = 2 * dof + int(w > 0.0)
+            listed = int(0)
+            for k in range(ncap):
+                if rows.block_cap[e, k] == entry:
+                    listed = 1
+            if listed == 0:
+                most = over
+                worst = entry
+    return worst
+
+
 @wp.func(inline=True)
-def _entry(rows: Rows, e: int, n: int, ncand: int, t: int):
-    """Block index of the t-th entry of a sweep's block: the limit candidates, then the
-    contacts (limit row i is i, the k-th listed contact n + k)."""
+def _block_cap_count(rows: Rows, e: int):
+    """The speed caps listed in rows.block_cap."""
+    return _listed(rows.block_cap, e, rows.block_cap.shape[1])
+
+
+@wp.func(inline=True)
+def _entry(rows: Rows, e: int, n: int, ncand: int, ncontact_in: int, t: int):
+    """Block index of the t-th entry of a sweep's block: the limit candidates, the contacts,
+    then the speed caps (limit row i is i, the k-th listed contact n + k, the k-th listed cap
+    n + nblock_contact + k)."""
     if t < ncand:
         return rows.block_cand[e, t]
-    return n + t - ncand
+    if t < ncand + ncontact_in:
+        return n + t - ncand
+    return n + rows.block_contact.shape[1] + t - ncand - ncontact_in
+
+
+@wp.func(inline=True)
+def _cap_entry(rows: Rows, n: int, i: int):
+    """The position in rows.block_cap of block index i, or -1 if i is not a speed cap."""
+    k = i - n - rows.block_contact.shape[1]
+    return wp.where(k >= 0, k, -1)
 
 
 @wp.func(inline=True)
 def _entry_row(layout: RowLayout, rows: Rows, e: int, i: int):
-    """The row of block index i: a joint-limit row, or a listed contact's normal row."""
+    """The row of block index i: a joint-limit row, a listed contact's normal row, or a listed
+    cap's dof row (which stores J = +e_dof: `_entry_sign` gives the side)."""
     n = layout.tendon_limits - layout.joint_limits
     if i < n:
         return layout.joint_limits + i
+    k = _cap_entry(rows, n, i)
+    if k >= 0:
+        return layout.dofs + rows.block_cap[e, k] / 2
     return 3 * rows.block_contact[e, i - n]
+
+
+@wp.func(inline=True)
+def _entry_sign(rows: Rows, e: int, n: int, i: int):
+    """J of block index i over its row's stored J: -1 for a cap on a dof too fast forward,
+    else 1."""
+    k = _cap_entry(rows, n, i)
+    if k >= 0:
+        return _limit_sign(rows.block_cap[e, k])
+    return 1.0
+
+
+@wp.func(inline=True)
+def _entry_impulse(rows: Rows, e: int, n: int, i: int, r: int):
+    """The block's impulse of entry i (row r): a cap's in block_lam (its dof row's lam holds the
+    dry friction), the others' in their rows."""
+    if _cap_entry(rows, n, i) >= 0:
+        return rows.block_lam[e, i]
+    return rows.lam[e, r]
+
+
+@wp.func(inline=True)
+def _entry_live(layout: RowLayout, rows: Rows, e: int, n: int, i: int, r: int):
+    """Whether entry i's row is one (NORMAL: a limit or a contact; DOF: a cap), not a row that
+    could not be built."""
+    if _cap_entry(rows, n, i) >= 0:
+        return rows.type[e, r] == DOF
+    return rows.type[e, r] == NORMAL
 
 
 @wp.func
@@ -584,16 +689,23 @@ def _rows_coupling(e: int, ra: int, rb: int, rows: Rows):
 
 @wp.func(inline=True)
 def _coupling(m: ModelArrays, limit_jnt: wp.array(dtype=wp.int32), e: int, n: int, ia: int,
-              ra: int, rb: int, rows: Rows):
-    """J_a·M⁻¹J_bᵀ of block entry ia (row ra) and a built row rb."""
+              ra: int, ib: int, rb: int, rows: Rows):
+    """J_a·M⁻¹J_bᵀ of block entry ia (row ra) and entry ib (a built row rb)."""
+    x = float(0.0)
+    k = _cap_entry(rows, n, ia)
     if ia < n:
-        return _limit_coupling(e, _limit_dof(m, limit_jnt, ia), _limit_sign(ia), rb, rows)
-    return _rows_coupling(e, ra, rb, rows)
+        x = _limit_coupling(e, _limit_dof(m, limit_jnt, ia), _limit_sign(ia), rb, rows)
+    elif k >= 0:
+        cap = rows.block_cap[e, k]
+        x = _limit_coupling(e, cap / 2, _limit_sign(cap), rb, rows)
+    else:
+        x = _rows_coupling(e, ra, rb, rows)
+    return x * _entry_sign(rows, e, n, ib)
 
 
 @wp.func(inline=True)
-def _softness(n: int, i: int):
-    if i < n:
+def _softness(rows: Rows, n: int, i: int):
+    if i < n or _cap_entry(rows, n, i) >= 0:
         return LIMIT_SOFTNESS
     return CONTACT_SOFTNESS
 
@@ -620,8 +732,8 @@ def _limit_sign(i: int):
 
 @wp.func(inline=True)
 def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
-                       limit_jnt: wp.array(dtype=wp.int32), ncand: int, nentry: int,
-                       biased: int, tgs: int, hs: float, h: float, max_depenetration: float,
+                       limit_jnt: wp.array(dtype=wp.int32), ncand: int, ncontact_in: int,
+                       nentry: int, caps: int, biased: int, tgs: int, hs: float, h: float, max_depenetration: float,
                        max_correction: float, factor: wp.array2d(dtype=float), rows: Rows,
                        v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
     """The joint-limit rows of the env, and the contacts listed with them, solved together,
@@ -639,22 +751,33 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
     are built (responses on demand, as for single rows).
 
     Only the pivoting is here, one lane's work: the entries (`nentry` of them: the `ncand`
-    limit candidates listed by `_limit_rows`, then the listed contacts) come with their
-    impulses taken out of v, and the new impulses are left in rows.lam for the caller to apply
+    limit candidates listed by `_limit_rows`, the `ncontact_in` listed contacts, then the
+    speed caps that join, if `caps`) come with their impulses taken out of v, and the new
+    impulses are left in rows.lam (the caps' in block_lam) for the caller to apply
     (`_limit_rows`). Limits are corrected at up to `max_correction`, contacts at up to
-    `max_depenetration`.
+    `max_depenetration`; a cap's target is the cap.
     """
     n = layout.tendon_limits - layout.joint_limits
+    ncap = int(0)              # the speed caps taken in (`_cap_broken`), none yet
+    if rows.block_cap.shape[1] > 0:
+        rows.block_cap[e, 0] = -1
     # targets; J·v without the block's impulses (w0); the starting active set: the rows that
     # pushed, and those that want to
     count = int(0)
     for t in range(nentry):
-        i = _entry(rows, e, n, ncand, t)
+        i = _entry(rows, e, n, ncand, ncontact_in, t)
         r = _entry_row(layout, rows, e, i)
         rows.block_in[e, i] = 0
-        if rows.type[e, r] != NORMAL:      # could not be built in an earlier sweep
+        prior = _entry_impulse(rows, e, n, i, r)
+        rows.block_lam[e, i] = 0.0
+        if not _entry_live(layout, rows, e, n, i, r):   # could not be built in an earlier sweep
             continue
-        if i < n:
+        if _cap_entry(rows, n, i) >= 0:
+            target = -rows.k[e, r]
+            rows.block_w0[e, i] = _entry_sign(rows, e, n, i) * v[e, rows.block_cap[
+                e, _cap_entry(rows, n, i)] / 2]
+            prior = 0.0
+        elif i < n:
             dof = _limit_dof(m, limit_jnt, i)
             sign = _limit_sign(i)
             err = rows.err[e, r]
@@ -670,17 +793,17 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
             target = _normal_target(err, biased, hs, h, max_depenetration, rows.bounce[e, r])
             rows.block_w0[e, i] = dense.row_dot(rows.jac, e, r, v, sp)
         rows.block_target[e, i] = target
-        rows.block_lam[e, i] = 0.0
-        if rows.lam[e, r] > 0.0 or target > rows.block_w0[e, i]:
+        if prior > 0.0 or target > rows.block_w0[e, i]:
             rows.block_in[e, i] = 1
             rows.block_row[e, count] = i
             count += 1
     if count == 0:
         return
     # with contacts in the block every diagonal is softened (CONTACT_SOFTNESS, LIMIT_SOFTNESS)
-    soft = int(nentry > ncand)
+    soft = int(ncontact_in > 0)
     pivots = int(0)
-    while pivots <= 2 * (n + nentry - ncand):
+    entries = int(nentry)      # and the caps as they join
+    while pivots <= 2 * (n + nentry - ncand + rows.block_cap.shape[1]):
         pivots += 1
         # build the active rows' responses; a row that cannot be built leaves the set
         a = int(0)
@@ -691,9 +814,11 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
                 if i < n:
                     build_dof_row(m, e, r, _limit_dof(m, limit_jnt, i), _limit_sign(i), NORMAL,
                                   factor, rows)
+                elif _cap_entry(rows, n, i) >= 0:
+                    build_dof_row(m, e, r, r - layout.dofs, 1.0, DOF, factor, rows)
                 else:
                     build_contact_rows(m, e, r, rows.span[e, r], factor, rows)
-            if rows.type[e, r] != NORMAL:
+            if not _entry_live(layout, rows, e, n, i, r):
                 rows.block_in[e, i] = 0
                 count -= 1
                 rows.block_row[e, a] = rows.block_row[e, count]
@@ -706,9 +831,10 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
             ra = _entry_row(layout, rows, e, ia)
             for b in range(a + 1):
                 ib = rows.block_row[e, b]
-                x = _coupling(m, limit_jnt, e, n, ia, ra, _entry_row(layout, rows, e, ib), rows)
+                x = _coupling(m, limit_jnt, e, n, ia, ra, ib, _entry_row(layout, rows, e, ib),
+                              rows)
                 if b == a and soft != 0:
-                    x = x + _softness(n, ia) / rows.inv_mass[e, ra]
+                    x = x + _softness(rows, n, ia) / rows.inv_mass[e, ra]
                 for c in range(b):
                     x = x - rows.block_a[e, a, c] * rows.block_a[e, b, c]
                 if b < a:
@@ -727,9 +853,10 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
         for a in range(count):        # forward substitution
             i = rows.block_row[e, a]
             x = rows.block_target[e, i] - rows.block_w0[e, i]
-            if soft != 0:       # the softness pulls toward the impulse before the block
+            if soft != 0 and _cap_entry(rows, n, i) < 0:
+                # the softness pulls toward the impulse before the block (a cap's: none)
                 r = _entry_row(layout, rows, e, i)
-                x = x + rows.lam[e, r] * _softness(n, i) / rows.inv_mass[e, r]
+                x = x + rows.lam[e, r] * _softness(rows, n, i) / rows.inv_mass[e, r]
             for c in range(a):
                 x = x - rows.block_a[e, a, c] * rows.block_lam[e, rows.block_row[e, c]]
             rows.block_lam[e, i] = x / rows.block_a[e, a, a]
@@ -758,37 +885,52 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
         # a row outside the set that the set's impulses leave short of its target joins it
         worst = int(-1)
         most = float(0.0)
-        for t in range(nentry):
-            i = _entry(rows, e, n, ncand, t)
+        for t in range(entries):
+            i = _entry(rows, e, n, ncand, ncontact_in, t)
             if rows.block_in[e, i] != 0:
                 continue
             r = _entry_row(layout, rows, e, i)
-            if rows.type[e, r] != NORMAL:
+            if not _entry_live(layout, rows, e, n, i, r):
                 continue
             w = rows.block_w0[e, i]
             for a in range(count):
                 ib = rows.block_row[e, a]
-                w = w + rows.block_lam[e, ib] * _coupling(m, limit_jnt, e, n, i, r,
-                                                          _entry_row(layout, rows, e, ib), rows)
+                w = w + rows.block_lam[e, ib] * _coupling(
+                    m, limit_jnt, e, n, i, r, ib, _entry_row(layout, rows, e, ib), rows)
             short = rows.block_target[e, i] - w
             if short > most + 1.0e-6 * (1.0 + wp.abs(rows.block_target[e, i])):
                 most = short
                 worst = i
+        if worst < 0 and caps != 0 and ncap < rows.block_cap.shape[1]:
+            # none: a dof the set's impulses send past its speed cap joins it
+            cap = _cap_broken(layout, e, n, ncap, count, rows, v)
+            if cap >= 0:
+                worst = n + rows.block_contact.shape[1] + ncap
+                rows.block_cap[e, ncap] = cap
+                ncap += 1
+                if ncap < rows.block_cap.shape[1]:
+                    rows.block_cap[e, ncap] = -1
+                entries += 1
+                r = layout.dofs + cap / 2
+                rows.block_target[e, worst] = -rows.k[e, r]
+                rows.block_w0[e, worst] = _limit_sign(cap) * v[e, cap / 2]
+                rows.block_lam[e, worst] = 0.0
         if worst < 0:
             break
         rows.block_in[e, worst] = 1
         rows.block_row[e, count] = worst
         count += 1
     # the new impulses (applied to the velocity by the caller)
-    for t in range(nentry):
-        i = _entry(rows, e, n, ncand, t)
+    for t in range(entries):
+        i = _entry(rows, e, n, ncand, ncontact_in, t)
         r = _entry_row(layout, rows, e, i)
-        if rows.type[e, r] != NORMAL:
-            continue
         new = float(0.0)
         if rows.block_in[e, i] != 0:
             new = wp.max(rows.block_lam[e, i], 0.0)
-        rows.lam[e, r] = new
+        if _cap_entry(rows, n, i) >= 0:
+            rows.block_lam[e, i] = new
+        elif rows.type[e, r] == NORMAL:
+            rows.lam[e, r] = new
 
 
 @wp.func
