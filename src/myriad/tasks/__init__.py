@@ -69,11 +69,16 @@ def config_float(value, key: str) -> float:
 
 
 def task_config(name: str) -> dict:
-    """The task's YAML (cfg/task/<name>.yaml) as a plain dict."""
+    """The task's YAML (cfg/task/<name>.yaml) as a plain dict. A task's YAML may start from
+    another's (`defaults: [Base, _self_]`, as Hydra reads it): Base's keys, then its own merged
+    over them."""
     if name not in TASKS:
         raise KeyError(f"unknown task {name!r}; the tasks are {sorted(TASKS)}")
     text = (resources.files("myriad") / "cfg" / "task" / f"{name}.yaml").read_text()
-    return OmegaConf.to_container(OmegaConf.create(text), resolve=True)
+    cfg = OmegaConf.create(text)
+    bases = [b for b in cfg.pop("defaults", []) if b != "_self_"]
+    merged = OmegaConf.merge(*[OmegaConf.create(task_config(b)) for b in bases], cfg)
+    return OmegaConf.to_container(merged, resolve=True)
 
 
 def apply_overrides(cfg: dict, overrides: dict, where: str) -> dict:
