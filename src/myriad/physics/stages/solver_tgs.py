@@ -60,10 +60,11 @@ PIVOT_FLOOR = wp.constant(1.0e-6)
 # rounds of the joint limits and the dof rows (speed caps) in a sweep: a cap's impulse moves
 # the other dofs of its tree (a joint at its limit among them), the limits' move a capped dof
 # past its cap again; they take turns until the dof rows (caps, dry friction) leave no limit
-# below its target, or this many times, the dof rows last (robot_stress, 40 envs: a bare G1's wrist, spun by its hand's
-# contacts, went 0.061 rad past its limit with its row active when the caps simply followed
-# the limits; with the limits last instead, TALOS's mimic-coupled grippers passed theirs by up
-# to 0.57 rad, their equalities driving them at the speeds the limits left past the caps).
+# below its target, or this many times, the dof rows last (robot_stress, 40 envs: a bare
+# G1's wrist, spun by its hand's contacts, went 0.061 rad past its limit with its row active
+# when the caps simply followed the limits; with the limits last instead, TALOS's
+# mimic-coupled grippers passed theirs by up to 0.57 rad, their equalities driving them at the
+# speeds the limits left past the caps).
 # The caps the block's own impulses break are solved inside it (`BLOCK_CAPS`); the turns are
 # for the dof rows' other work (caps the contacts broke, dry friction): with one round, a G1
 # with hands went 0.257 rad past a limit in 1 of 40 envs (`robot_stress.py`), with three 0.002
@@ -153,9 +154,9 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
 
     The contacts' normal rows, patch by patch, and the tendon limits; the contacts' friction
     rows, whose bounds then hold this sweep's normal impulses; the joint limits, solved
-    together with the contacts they hold up; tendon springs and dofs, and the limits once more
-    if the dof rows (a speed cap, dry friction) left one below its target; the equality constraints (each one's rows
-    together).
+    together with the contacts they hold up (and the speed caps their impulses break); tendon
+    springs and dofs, and the limits once more if the dof rows (a speed cap, dry friction) left
+    one below its target; the equality constraints (each one's rows together).
     `tendon_limits`: the range of tendon-limit rows that holds the active ones (`_in_use`).
 
     `ln` = (lane, lanes): a world's lanes sweep its rows together, each row's J·v and
@@ -215,7 +216,8 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
                                            or wp.abs(speed[dof]) > row_cap[r]):
                     _dof_row(m, e, r, dof, factor, rows, v)
         _wait(ln)
-        if _limits_broken(m, layout, limit_jnt, rows, e, v) == 0:
+        if part + 1 == LIMIT_CAP_ROUNDS or \
+                _limits_broken(m, layout, limit_jnt, rows, e, v) == 0:
             break
     if ln[0] == 0:
         # equalities last: the sweep ends with them holding, whatever the rows before did
@@ -733,8 +735,9 @@ def _limit_sign(i: int):
 @wp.func(inline=True)
 def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
                        limit_jnt: wp.array(dtype=wp.int32), ncand: int, ncontact_in: int,
-                       nentry: int, caps: int, biased: int, tgs: int, hs: float, h: float, max_depenetration: float,
-                       max_correction: float, factor: wp.array2d(dtype=float), rows: Rows,
+                       nentry: int, caps: int, biased: int, tgs: int, hs: float, h: float,
+                       max_depenetration: float, max_correction: float,
+                       factor: wp.array2d(dtype=float), rows: Rows,
                        v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
     """The joint-limit rows of the env, and the contacts listed with them, solved together,
     exactly: the impulses λ ≥ 0 for which every row reaches its target J·v where it pushes and
