@@ -765,22 +765,16 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
     if rows.block_cap.shape[1] > 0:
         rows.block_cap[e, 0] = -1
     # targets; J·v without the block's impulses (w0); the starting active set: the rows that
-    # pushed, and those that want to
+    # pushed, and those that want to (the limits and contacts: caps join in the pivoting)
     count = int(0)
     for t in range(nentry):
         i = _entry(rows, e, n, ncand, ncontact_in, t)
         r = _entry_row(layout, rows, e, i)
         rows.block_in[e, i] = 0
-        prior = _entry_impulse(rows, e, n, i, r)
         rows.block_lam[e, i] = 0.0
-        if not _entry_live(layout, rows, e, n, i, r):   # could not be built in an earlier sweep
+        if rows.type[e, r] != NORMAL:      # could not be built in an earlier sweep
             continue
-        if _cap_entry(rows, n, i) >= 0:
-            target = -rows.k[e, r]
-            rows.block_w0[e, i] = _entry_sign(rows, e, n, i) * v[e, rows.block_cap[
-                e, _cap_entry(rows, n, i)] / 2]
-            prior = 0.0
-        elif i < n:
+        if i < n:
             dof = _limit_dof(m, limit_jnt, i)
             sign = _limit_sign(i)
             err = rows.err[e, r]
@@ -796,7 +790,7 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
             target = _normal_target(err, biased, hs, h, max_depenetration, rows.bounce[e, r])
             rows.block_w0[e, i] = dense.row_dot(rows.jac, e, r, v, sp)
         rows.block_target[e, i] = target
-        if prior > 0.0 or target > rows.block_w0[e, i]:
+        if rows.lam[e, r] > 0.0 or target > rows.block_w0[e, i]:
             rows.block_in[e, i] = 1
             rows.block_row[e, count] = i
             count += 1
