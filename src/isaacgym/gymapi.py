@@ -153,6 +153,13 @@ _KEYS = ("SPACE APOSTROPHE COMMA MINUS PERIOD SLASH 0 1 2 3 4 5 6 7 8 9 SEMICOLO
          "NUMPAD_ENTER NUMPAD_EQUAL LEFT_SHIFT LEFT_CONTROL LEFT_ALT LEFT_SUPER RIGHT_SHIFT "
          "RIGHT_CONTROL RIGHT_ALT RIGHT_SUPER MENU").split()
 KeyboardInput = enum.IntEnum("KeyboardInput", [f"KEY_{k}" for k in _KEYS], start=0)
+# Isaac Gym's keys that the viewer's page binds (`myriad.viewer.web.KEYS`); the others are
+# buttons only
+PAGE_KEYS = {k: k for k in _KEYS if len(k) == 1 and k.isalnum()} | {
+    "SPACE": "space", "ESCAPE": "escape", "ENTER": "enter", "TAB": "tab",
+    "BACKSPACE": "backspace", "INSERT": "insert", "DEL": "delete", "HOME": "home", "END": "end",
+    "PAGE_UP": "pageup", "PAGE_DOWN": "pagedown", "UP": "arrowup", "DOWN": "arrowdown",
+    "LEFT": "arrowleft", "RIGHT": "arrowright"}
 MouseInput = enum.IntEnum("MouseInput", [f"MOUSE_{k}" for k in (
     "LEFT_BUTTON", "RIGHT_BUTTON", "MIDDLE_BUTTON", "FORWARD_BUTTON", "BACK_BUTTON",
     "SCROLL_RIGHT", "SCROLL_LEFT", "SCROLL_UP", "SCROLL_DOWN", "MOVE_RIGHT", "MOVE_LEFT",
@@ -740,6 +747,15 @@ class Viewer:
         self.camera = None               # (target, eye) asked before serving
         self.last_sync = None            # sync_frame_time's clock
 
+    def add_button(self, action: str, key: str) -> None:
+        """`action`'s button on the page, and Isaac Gym's `key` (its KeyboardInput name without
+        KEY_) as the page's key where the page has that key (`PAGE_KEYS`)."""
+        page_key = PAGE_KEYS.get(key)
+        if page_key is None:
+            self.web.add_button(f"{action} ({key})", action)
+        else:
+            self.web.add_button(action, action, key=page_key)
+
     def serve(self):
         """The page, served now if the sim is prepared (else None for now)."""
         if self.web is None and self.sim.myriad is not None and not self.sim.closed:
@@ -747,7 +763,7 @@ class Viewer:
             port = int(os.environ.get("MYRIAD_VIEWER_PORT", "8080"))
             self.web = serve(self.sim.myriad, port=port, spacing=0.0)
             for action, key in self.buttons.items():
-                self.web.add_button(f"{action} ({key})", action)
+                self.add_button(action, key)
             if self.camera is not None:
                 self.web.look_at(*self.camera)
         return self.web
@@ -1070,19 +1086,22 @@ class Gym:
         return isinstance(viewer, Viewer) and viewer.web is not None and viewer.web.closed
 
     def query_viewer_action_events(self, viewer) -> list:
-        """The subscribed keys' actions since the last call: their buttons' clicks."""
+        """The subscribed keys' actions since the last call: their presses on the page and
+        their buttons' clicks, each as one event of value 1 (the page reports a press, not
+        its release)."""
         if not isinstance(viewer, Viewer) or viewer.serve() is None:
             return []
         return [ActionEvent(value) for kind, value in viewer.web.events()
-                if kind == "button" and value in viewer.buttons]
+                if kind in ("key", "button") and value in viewer.buttons]
 
     def subscribe_viewer_keyboard_event(self, viewer, key, action: str) -> None:
-        """A button on the page, labelled with the action and the key (a page has no keys)."""
+        """The key on the page (`PAGE_KEYS`; F-keys, the numpad and the modifiers are not
+        among them) and a button labelled with the action and the key."""
         if isinstance(viewer, Viewer) and action not in viewer.buttons:
-            name = getattr(key, "name", str(key))
+            name = getattr(key, "name", str(key)).removeprefix("KEY_")
             viewer.buttons[action] = name
             if viewer.web is not None:
-                viewer.web.add_button(f"{action} ({name})", action)
+                viewer.add_button(action, name)
 
     def subscribe_viewer_mouse_event(self, viewer, button, action: str) -> None:
         pass                    # the page's mouse moves its camera

@@ -13,8 +13,9 @@ with MuJoCo's kinematics on the host. With no page connected it does nothing at 
 never touches the step itself (no per-step host read comes back with it).
 
 The small interface other front ends drive (the Isaac Gym layer's viewer calls map onto it):
-`draw()`, `look_at(target, eye)`, `add_button(label, event)`, `events()` (button events since
-the last call), `closed`, `close()`; for `myriad play`, `paused`, `take("step" | "reset")`, `speed`; for
+`draw()`, `look_at(target, eye)`, `add_button(label, event, key)`, `add_key(key, label, event)`,
+`events()` (button clicks and key presses since the last call), `closed`, `close()`; for `myriad
+play`, `paused`, `take("step" | "reset")`, `speed` (each control also on a key: `PLAY_KEYS`); for
 training, `show_progress(text)`.
 """
 
@@ -31,6 +32,13 @@ import torch
 from .shapes import shapes
 
 INSTALL = 'pip install "myriad[viewer]"   (or: pip install viser)'
+# the keys a page can bind (viser's hotkeys)
+KEYS = tuple(chr(c) for c in range(ord("A"), ord("Z") + 1)) + tuple("0123456789") + (
+    "space", "enter", "escape", "tab", "backspace", "delete", "insert", "home", "end", "pageup",
+    "pagedown", "arrowup", "arrowdown", "arrowleft", "arrowright")
+# play's keys: MuJoCo simulate's for pause, step and reset; the speed on the arrows
+PLAY_KEYS = {"pause": "space", "step": "arrowright", "reset": "backspace",
+             "slower": "arrowdown", "faster": "arrowup"}
 # the share of one core the drawing may take while training runs (`Viewer(budget=...)`): drawing
 # holds Python's lock, which the training thread then waits for; at 20 frames/s a page cost
 # Ant's training 8.4 % (`benchmarks/viewer_cost.py`, docs/performance.md)
@@ -112,6 +120,7 @@ class Viewer:
         self.server.scene.set_up_direction("+z")
         self.server.on_client_connect(self._on_connect)
         self.server.on_client_disconnect(self._on_disconnect)
+        self.controls = controls
         self._build_scene()
         self._build_gui(controls)
         self._thread = threading.Thread(target=self._pump, name="myriad-viewer", daemon=True)
@@ -171,14 +180,17 @@ class Viewer:
         self.show_joints.on_update(
             lambda _: setattr(self.joint_axes, "visible", bool(self.show_joints.value)))
         if controls:
-            self.pause = gui.add_checkbox("pause", False)
+            # each control also on a key, MuJoCo simulate's where it has one (`PLAY_KEYS`)
+            self.pause = gui.add_checkbox(f"pause ({PLAY_KEYS['pause']})", False)
             self.pause.on_update(lambda _: setattr(self, "paused", bool(self.pause.value)))
-            step = gui.add_button("single step")
-            step.on_click(lambda _: self._ask("step"))
-            reset = gui.add_button("reset shown envs")
-            reset.on_click(lambda _: self._ask("reset"))
-            self.slow = gui.add_slider("speed", min=0.05, max=1.0, step=0.05, initial_value=1.0)
+            self.add_button("single step", "step", key=PLAY_KEYS["step"])
+            self.add_button("reset shown envs", "reset", key=PLAY_KEYS["reset"])
+            self.slow = gui.add_slider(f"speed ({PLAY_KEYS['slower']}, {PLAY_KEYS['faster']})",
+                                       min=0.05, max=1.0, step=0.05, initial_value=1.0)
             self.slow.on_update(lambda _: setattr(self, "speed", float(self.slow.value)))
+            self.add_key(PLAY_KEYS["pause"], "pause / go on", "pause")
+            self.add_key(PLAY_KEYS["slower"], "slower", "slower")
+            self.add_key(PLAY_KEYS["faster"], "faster", "faster")
         # last: its changing text never moves the controls under a pointer
         self.progress = gui.add_markdown("")
 
@@ -186,10 +198,20 @@ class Viewer:
     def _event(self, kind: str, value) -> None:
         self._events.put((kind, value))
 
-    def _ask(self, what: str) -> None:
+    def _ask(self, what: str, kind: str = "button") -> None:
         with self._lock:
             self._asked.add(what)
-        self._event("button", what)
+        self._event(kind, what)
+
+    def _key(self, what: str) -> None:
+        """A key's press: the play keys act on the controls as the page's own would."""
+        if self.controls and what == "pause":
+            self.pause.value = not self.pause.value          # its on_update sets `paused`
+        elif self.controls and what in ("slower", "faster"):
+            step = -self.slow.step if what == "slower" else self.slow.step
+            self.slow.value = round(min(self.slow.max, max(self.slow.min,
+                                                          self.slow.value + step)), 2)
+        self._ask(what, kind="key")
 
     def _on_connect(self, client) -> None:
         if self._camera is not None:                 # the last look_at, for a late page too
@@ -200,10 +222,24 @@ class Viewer:
         self._connected.set()
         self._event("connect", client.client_id)
 
-    def add_button(self, label: str, event: str) -> None:
-        """A button on the page; a click is the event ("button", `event`), also for `take`."""
-        button = self.server.gui.add_button(label)
+    def add_button(self, label: str, event: str, key: str | None = None) -> None:
+        """A button on the page; a click is the event ("button", `event`), also for `take`;
+        with `key` (`add_key`) the key does the same as a click."""
+        button = self.server.gui.add_button(label if key is None else f"{label} ({key})")
         button.on_click(lambda _: self._ask(event))
+        if key is not None:
+            self.add_key(key, label, event)
+
+    def add_key(self, key: str, label: str, event: str) -> None:
+        """A key of the page: a press (while the page, not one of its text fields, has the
+        focus) is the event ("key", `event`), also for `take`. `key`: "A"-"Z", "0"-"9",
+        "space", "enter", "escape", "tab", "backspace", "delete", "insert", "home", "end",
+        "pageup", "pagedown", "arrowup", "arrowdown", "arrowleft", "arrowright" (`KEYS`). The
+        page's command palette (Ctrl+K) lists the keys with their labels."""
+        if key not in KEYS:
+            raise ValueError(f"viewer: key {key!r}: the page's keys are {', '.join(KEYS)}")
+        command = self.server.gui.add_command(label, hotkey=key, description=f"key: {key}")
+        command.on_trigger(lambda _: self._key(event))
 
     def _on_disconnect(self, client) -> None:
         if not self.server.get_clients():
@@ -211,7 +247,8 @@ class Viewer:
         self._event("disconnect", client.client_id)
 
     def events(self) -> list[tuple[str, object]]:
-        """The page's events since the last call: ("button", "step" | "reset"), ("first env",
+        """The page's events since the last call: ("button", event) of a click, ("key", event)
+        of a key's press ("step", "reset", "pause", "slower", "faster" in play), ("first env",
         k), ("connect" | "disconnect", client id)."""
         out = []
         while True:
