@@ -2,7 +2,6 @@
 
 import os as _os
 import sys as _sys
-from importlib import resources as _resources
 
 # Videos are drawn by MuJoCo's offscreen renderer, whose OpenGL backend is fixed when MuJoCo is
 # imported: on a Linux machine without a display, use EGL (works on Mesa with no GPU), else
@@ -16,6 +15,7 @@ if _sys.platform.startswith("linux") and not _os.environ.get("DISPLAY") \
 
 from .physics import (Model, ModelError, SimParams, Simulator, from_mujoco, load, load_asset,
                       load_xml)
+from .assets import asset_path
 from .rl.vector import make_vec
 
 __version__ = "0.1.0"
@@ -25,16 +25,6 @@ def make(name: str, num_envs: int | None = None, device: str = "cpu", **override
     """Build a task by name (see `myriad.tasks.make`): ``myriad.make("Ant", num_envs=512)``."""
     from .tasks import make as _make
     return _make(name, num_envs=num_envs, device=device, **overrides)
-
-
-def asset_path(name: str) -> str:
-    """Path of a model shipped with Myriad, e.g. ``asset_path("ant.xml")``."""
-    path = _resources.files(__package__) / "assets" / name
-    if not path.is_file():
-        shipped = sorted(p.name for p in (_resources.files(__package__) / "assets").iterdir()
-                         if p.name.endswith(".xml"))
-        raise FileNotFoundError(f"no asset named {name!r}; Myriad ships {shipped}")
-    return str(path)
 
 
 __all__ = ["Model", "ModelError", "SimParams", "Simulator", "asset_path", "from_mujoco", "load",

@@ -33,6 +33,17 @@ import numpy as np
 
 from ..physics import ModelError
 
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def asset_path(name: str) -> str:
+    """Path of a model shipped with Myriad, e.g. ``asset_path("ant.xml")``."""
+    path = os.path.join(HERE, name)
+    if not os.path.isfile(path):
+        shipped = sorted(p for p in os.listdir(HERE) if p.endswith(".xml"))
+        raise FileNotFoundError(f"no asset named {name!r}; Myriad ships {shipped}")
+    return path
+
 
 def installed_file(package: str, path: str, extra: str) -> str:
     """The path of `path` inside the installed `package` (an importable package, or a cmeel

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import torch
 
-from .. import asset_path
+from ..assets import asset_path
 from ..api import Scene
 from .base import VecTask
 from ..torch_utils import env_mask, heading_up_and_angles, quat_rotate_inverse, unscale

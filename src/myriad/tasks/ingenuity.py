@@ -27,7 +27,7 @@ import math
 
 import torch
 
-from .. import asset_path
+from ..assets import asset_path
 from ..api import Scene
 from .base import VecTask
 from ..torch_utils import env_mask, quat_rotate, unit_axis, where_rows

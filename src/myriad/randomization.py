@@ -56,7 +56,7 @@ import math
 
 import torch
 
-from ..torch_utils import env_mask, where_rows
+from .torch_utils import env_mask, where_rows
 
 DISTRIBUTIONS = ("uniform", "loguniform", "gaussian")
 OPERATIONS = ("scaling", "additive")
