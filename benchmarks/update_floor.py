@@ -116,7 +116,7 @@ def main():
                         help="updates timed per variant, the variants interleaved")
     args = parser.parse_args()
 
-    from myriad.rl.train import use_bfloat16_mlps
+    from myriad.rl.agent import use_bfloat16_mlps
 
     overrides = [f"task={args.task}", "device=cpu"]
     if args.envs is not None:

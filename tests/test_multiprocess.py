@@ -24,7 +24,7 @@ from myriad.rl import run
 WORKER = textwrap.dedent("""
     import os, sys
     import torch
-    from myriad.rl import train as training
+    from myriad.rl import agent as training
 
     out = sys.argv.pop(1)
     rank = int(os.environ["RANK"])

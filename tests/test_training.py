@@ -165,7 +165,7 @@ def test_a_signal_during_the_summary_write_stops_after_the_next_saved_epoch(tmp_
     """The window the subprocess test above hits only by chance (CI once): the signal lands after
     the epoch's save decision, while summary.json is written. The run must not stop there without
     a checkpoint; it stops at the end of the next epoch, saved."""
-    from myriad.rl import train as train_module
+    from myriad.rl import agent as train_module
     write_summary = train_module.MyriadAgent.write_summary
 
     def signal_arrives_meanwhile(agent, *args):
@@ -234,7 +234,7 @@ def test_resume_auto_starts_fresh_when_there_is_nothing_to_resume(tmp_path, caps
 
 
 def test_nonfinite_actions_are_counted_warned_and_reported(tmp_path, device, monkeypatch):
-    from myriad.rl import train as training
+    from myriad.rl import agent as training
 
     step = training.MyriadVecEnv.step
 
@@ -264,7 +264,7 @@ def test_nonfinite_action_flags_and_resets_only_its_env(device):
 def test_a_diverged_policy_stops_training_without_overwriting_the_checkpoint(tmp_path,
                                                                              monkeypatch,
                                                                              capsys):
-    from myriad.rl import train as training
+    from myriad.rl import agent as training
 
     epoch = training.MyriadAgent.train_epoch
 
@@ -308,7 +308,7 @@ def test_play_names_an_unreadable_checkpoint(tmp_path, capsys):
 def test_bfloat16_mlps_keep_float32_outputs_weights_and_checkpoint_keys():
     """`mlp_bfloat16`: the hidden layers run in bfloat16 on a CPU that has it natively; what
     comes out, the weights, their gradients and the state_dict stay float32 and unchanged."""
-    from myriad.rl.train import use_bfloat16_mlps
+    from myriad.rl.agent import use_bfloat16_mlps
 
     class Network(torch.nn.Module):       # rl_games' layout: trunks, then float32 heads
         def __init__(self):

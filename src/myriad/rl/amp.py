@@ -136,7 +136,7 @@ class ReplayBuffer:
 
 
 # ---------------------------------------------------------------------------- the agent
-from .train import MyriadAgent  # noqa: E402  (train imports rl_games; the parts above do not)
+from .agent import MyriadAgent  # noqa: E402  (agent imports rl_games; the parts above do not)
 
 AMP_METRICS = ("style_reward", "disc_loss", "demo_logit", "policy_logit")
 

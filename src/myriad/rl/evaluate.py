@@ -444,7 +444,7 @@ def evaluate(overrides: list[str]) -> int:
     from . import run, shipped
     from .export import load_network, read_checkpoint
     from .policy import policy_from_network, restore_task_state
-    from .train import atomic_json
+    from .agent import atomic_json
 
     cfg = run.compose(overrides)
     if not isinstance(cfg.judge, bool):

@@ -497,7 +497,7 @@ def export_policy(name: str, task, train_cfgs: list[dict], checkpoint: str, outp
 
 
 def atomic_write(path: str, write) -> None:
-    """`write(tmp)`, then rename: a reader never sees a half-written file (myriad.rl.train's,
+    """`write(tmp)`, then rename: a reader never sees a half-written file (myriad.rl.agent's,
     without importing rl_games' trainer, whose import takes seconds)."""
     tmp = f"{path}.tmp{os.getpid()}"
     write(tmp)

@@ -5,7 +5,7 @@ and the playback of a trained policy into a video rendered by MuJoCo.
 `torchrun --nproc_per_node=K -m myriad.train task=Ant multi_gpu=true ...`. Each process reads its
 place from torchrun's environment (RANK, LOCAL_RANK, WORLD_SIZE, MASTER_ADDR, MASTER_PORT),
 takes cuda:LOCAL_RANK with NCCL on GPUs or the CPU with gloo, builds num_envs / K envs with seed
-+ rank, and trains on rl_games' multi-GPU path (rl/train.py); rank 0 alone chooses the run
++ rank, and trains on rl_games' multi-GPU path (rl/agent.py); rank 0 alone chooses the run
 folder, reads a checkpoint to resume from (and sends it to the others) and writes the files.
 """
 
@@ -409,7 +409,8 @@ def train(overrides: list[str]) -> int:
 def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
     from ..physics.runtime import load_kernels
     from ..tasks import TASKS
-    from .train import TrainingStopped, from_rank_0, train as run_training
+    from .agent import TrainingStopped, from_rank_0
+    from .train import train as run_training
 
     processes = 1
     if distributed is not None:

@@ -103,7 +103,7 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
     from .evaluate import checkpoint_task
     from .export import read_checkpoint
     from .run import revision
-    from .train import atomic_json, atomic_write
+    from .agent import atomic_json, atomic_write
 
     state = read_checkpoint(checkpoint)
     run_dir = os.path.dirname(os.path.dirname(os.path.abspath(checkpoint)))
