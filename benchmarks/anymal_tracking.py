@@ -4,6 +4,8 @@
     python benchmarks/anymal_tracking.py runs/terrain/nn/last.pth --task AnymalTerrain \
         --tiles rough --level 4
     python benchmarks/anymal_tracking.py runs/G1Velocity/nn/last.pth --task G1Velocity --seconds 20
+    python benchmarks/anymal_tracking.py src/myriad/policies/G1Velocity.pth --task G1Velocity \
+        --sweep --envs 100 --seconds 10
 
 For AnymalTerrain, `--tiles` puts every env on tiles of one kind (flat: the smooth slope's level
 0, which is level ground; rough, stairs-up, stairs-down, obstacles, slope: that kind at
@@ -51,6 +53,8 @@ def main() -> None:
     ap.add_argument("--task", default="Anymal", choices=["Anymal", "AnymalTerrain", "G1Velocity"])
     ap.add_argument("--tiles", default="flat", choices=list(TILES))
     ap.add_argument("--level", type=int, default=0, help="AnymalTerrain: difficulty row 0-9")
+    ap.add_argument("--sweep", action="store_true", help="hold each env at one command of a "
+                    "grid of forward speeds and yaw rates: the response to each")
     args = ap.parse_args()
 
     torch.manual_seed(0)
@@ -70,9 +74,43 @@ def main() -> None:
         obs = out["obs"]
         return resets, extras["time_outs"]
 
+    if args.sweep:
+        return sweep(task, advance, args.seconds)
     print(f"{args.envs} envs, {args.seconds:g} s, last half: "
           + command_tracking(task, advance, args.seconds)
           + (f"; tiles {args.tiles}, level {args.level}" if args.task == "AnymalTerrain" else ""))
+
+
+def sweep(task, advance, seconds: float) -> None:
+    """Each env held at one command of a grid (forward 0 and 0.5 m/s × yaw -1 ... 1 rad/s,
+    no lateral), no pushes: the mean velocity each command gets over the last half, and the
+    turning gain (the least-squares slope of the yaw rate on the commanded one)."""
+    from myriad.rl.evaluate import base_velocity
+
+    yaws = torch.tensor([-1.0, -0.5, 0.0, 0.5, 1.0], device=task.device)
+    grid = torch.cartesian_prod(torch.tensor([0.0, 0.5], device=task.device), yaws)
+    cell = torch.arange(task.num_envs, device=task.device) % len(grid)
+    commands = torch.stack((grid[cell, 0], torch.zeros_like(cell, dtype=torch.float),
+                            grid[cell, 1]), dim=-1)
+    task.draw_commands = lambda: commands.clone()       # every resample keeps the grid
+    task.commands[:] = commands
+    if hasattr(task, "push_every"):
+        task.push_every = 10 ** 9
+    steps = round(seconds / task.dt)
+    mean = torch.zeros_like(commands)
+    for step in range(steps):
+        with torch.no_grad():
+            advance()
+        if step >= steps // 2:
+            mean += base_velocity(task) / (steps - steps // 2)
+    print(f"{task.num_envs} envs, {seconds:g} s, no pushes, mean velocity over the last half "
+          "(forward m/s, lateral m/s, yaw rad/s) per command:")
+    for k, (vx, yaw) in enumerate(grid.tolist()):
+        v = mean[cell == k].mean(0).tolist()
+        print(f"  command forward {vx:.1f}, yaw {yaw:+.1f}: {v[0]:+.3f} {v[1]:+.3f} {v[2]:+.3f}")
+    c, y = commands[:, 2], mean[:, 2]
+    gain = float(((c - c.mean()) * (y - y.mean())).sum() / ((c - c.mean()) ** 2).sum())
+    print(f"turning gain (yaw rate per commanded yaw rate): {gain:.2f}")
 
 
 if __name__ == "__main__":
