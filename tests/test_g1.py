@@ -246,6 +246,96 @@ def test_g1_config_errors_name_the_joint():
                    "env.control.gains")
 
 
+def test_g1_mirror_image_is_the_robots_own(device):
+    """The task's left-right mirror (symmetry augmentation's `mirror_observations`,
+    `mirror_actions`): a state and its mirror image through the x-z plane, set in two envs,
+    put every body where the other's twin is with y flipped, and give observations that
+    `mirror_observations` maps one onto the other."""
+    task = make(device, num_envs=2)
+    e, dev = task.envs, task.device
+    gen = torch.Generator().manual_seed(3)
+
+    def rand(*shape, scale=1.0):
+        return ((torch.rand(*shape, generator=gen) * 2 - 1) * scale).to(dev)
+    flip = torch.tensor([1.0, -1.0, 1.0], device=dev)
+    axial = torch.tensor([-1.0, 1.0, -1.0], device=dev)       # ω, and a quaternion's x, y, z
+    states = e.root_states.clone()
+    quat = torch.nn.functional.normalize(torch.cat((rand(3, scale=0.3),
+                                                    torch.ones(1, device=dev))), dim=0)
+    states[0, 0, :3] = torch.tensor([0.3, 0.2, 0.9], device=dev)
+    states[0, 0, 3:7], states[0, 0, 7:10], states[0, 0, 10:13] = quat, rand(3), rand(3)
+    states[1, 0, :3] = states[0, 0, :3] * flip
+    states[1, 0, 3:6], states[1, 0, 6] = quat[:3] * axial, quat[3]
+    states[1, 0, 7:10], states[1, 0, 10:13] = states[0, 0, 7:10] * flip, \
+        states[0, 0, 10:13] * axial
+    index, sign = task.joint_mirror()
+    pos = task.default_dof_pos + rand(29, scale=0.3)
+    vel = rand(29, scale=2.0)
+    e.set_root_states(states, forward=False)
+    e.set_dof_state(torch.stack((pos, sign * pos[index])),
+                    torch.stack((vel, sign * vel[index])))
+    # the bodies (not the world): each one's twin (the other side's body of the same name)
+    # where it is, mirrored
+    names = [e.model.mj_model.body(b).name for b in range(1, e.model.mj_model.nbody)]
+    twin = [names.index(n.replace("left_", "@").replace("right_", "left_")
+                        .replace("@", "right_")) for n in names]
+    body = e.rigid_body_states
+    torch.testing.assert_close(body[1, twin, :3], body[0, :, :3] * flip, atol=1e-5, rtol=0)
+    # the observations: commands, last actions and the gait clock mirrored too (the other
+    # foot's phase: half the 0.8 s period, 20 steps, later)
+    task.commands[:] = torch.stack((torch.tensor([0.6, 0.3, -0.7], device=dev),
+                                    torch.tensor([0.6, -0.3, 0.7], device=dev)))
+    actions = rand(29)
+    task.actions[:] = torch.stack((actions, sign * actions[index]))
+    task.progress_buf[:] = torch.tensor([7, 27], device=dev)
+    obs = task.observations()
+    torch.testing.assert_close(task.mirror_observations(obs[:1])[0], obs[1], atol=1e-5, rtol=0)
+    torch.testing.assert_close(task.mirror_actions(task.actions[:1])[0], task.actions[1])
+    # a mirror twice is the identity
+    torch.testing.assert_close(task.mirror_observations(task.mirror_observations(obs)), obs)
+    assert sorted(index.tolist()) == list(range(29)) and (index[index] == torch.arange(
+        29, device=dev)).all()
+
+
+def test_symmetry_augmentation_adds_each_minibatchs_mirror_image(tmp_path, capsys):
+    """`train.params.config.symmetry=true`: each minibatch holds its rows and then their
+    mirror images, with the same advantages; a task with no mirror has no such key."""
+    from myriad import cli
+    from myriad.rl import agent as agent_module
+
+    seen = {}
+    prepare = agent_module.MyriadAgent.prepare_dataset
+
+    def keep(self, batch_dict):
+        prepare(self, batch_dict)
+        seen.update(values={k: v.clone() for k, v in self.dataset.values_dict.items()
+                            if v is not None}, rows=self.minibatch_size,
+                    task=self.vec_env.env, dataset=(len(self.dataset),
+                                                    self.dataset.minibatch_size))
+    import unittest.mock
+    with unittest.mock.patch.object(agent_module.MyriadAgent, "prepare_dataset", keep):
+        assert cli.main(["train", "task=G1Velocity", "device=cpu", "num_envs=8",
+                         "max_iterations=1", f"train_dir={tmp_path}",
+                         "train.params.config.minibatch_size=64",
+                         "train.params.config.symmetry=true"]) == 0
+    values, rows, task = seen["values"], seen["rows"], seen["task"]
+    batch = 8 * 24
+    assert values["obs"].shape == (2 * batch, 101)
+    assert seen["dataset"] == (batch // rows, 2 * rows)        # as many minibatches, twice the rows
+    first = slice(0, rows)
+    twin = slice(rows, 2 * rows)
+    torch.testing.assert_close(values["obs"][twin], task.mirror_observations(values["obs"][first]))
+    torch.testing.assert_close(values["actions"][twin],
+                               task.mirror_actions(values["actions"][first]))
+    torch.testing.assert_close(values["sigma"][twin],
+                               task.mirror_actions(values["sigma"][first]).abs())
+    for key in ("advantages", "returns", "old_logp_actions", "old_values"):
+        torch.testing.assert_close(values[key][twin], values[key][first])
+    assert cli.main(["train", "task=Ant", "device=cpu", "num_envs=8", "max_iterations=1",
+                     f"train_dir={tmp_path}", "train.params.config.symmetry=true"]) == 2
+    assert "no key train.params.config.symmetry" in capsys.readouterr().err
+
+
 def test_g1_rough_heights_and_curriculum(device):
     """G1Rough: the 140 heights read the terrain under the base as AnymalTerrain's do, and a
     robot that walked off its tile starts its next episode a level up (the shared curriculum)."""

@@ -247,6 +247,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
     def __init__(self, base_name, params):
         self.run_cfg = params["config"].pop("myriad")
         mlp_bfloat16 = params["config"].pop("mlp_bfloat16", False)
+        self.symmetry = bool(params["config"].pop("symmetry", False))
         distributed = self.run_cfg.get("distributed")
         rank = 0 if distributed is None else distributed["rank"]
         if rank != 0:
@@ -257,6 +258,15 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             super().__init__(base_name, params)
         if distributed is not None:
             self.join_processes(distributed)
+        if self.symmetry:
+            task = self.vec_env.env
+            if not hasattr(task, "mirror_observations"):
+                raise ValueError(f"train.params.config.symmetry=true: task "
+                                 f"{type(task).__name__} declares no left-right mirror "
+                                 "(mirror_observations, mirror_actions; the G1 tasks do)")
+            if self.is_rnn or self.has_central_value:
+                raise ValueError("train.params.config.symmetry=true: not with a recurrent "
+                                 "policy or an asymmetric critic")
         if mlp_bfloat16:       # the policy's network and the asymmetric critic's, if any
             critic = getattr(self, "central_value_net", None)
             use_bfloat16_mlps(torch.nn.ModuleList(
@@ -518,6 +528,35 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         batch = super().play_steps_rnn()
         self.vec_env.clock.mark("played")
         return batch
+
+    def prepare_dataset(self, batch_dict):
+        super().prepare_dataset(batch_dict)
+        if self.symmetry:
+            self.add_mirror_images()
+
+    def add_mirror_images(self) -> None:
+        """Symmetry augmentation (`symmetry: true`), as legged robots' PPO trainers offer it:
+        each minibatch also holds the mirror images of its samples (the task's
+        `mirror_observations`, `mirror_actions`) with the same advantage, return, value and
+        log-probability, which holds for a policy as symmetric as the robot and its task. From
+        one sample the policy learns a motion for both sides, and a left-right bias it picks up
+        costs it. The minibatches keep their count and double in size: as many gradient steps,
+        each on twice the rows."""
+        task, values = self.vec_env.env, self.dataset.values_dict
+        n, rows = self.batch_size, self.minibatch_size
+        mirrored = {"obs": task.mirror_observations(values["obs"]),
+                    "actions": task.mirror_actions(values["actions"]),
+                    "mu": task.mirror_actions(values["mu"]),
+                    "sigma": task.mirror_actions(values["sigma"]).abs()}
+        for key, value in values.items():
+            if value is None:
+                continue
+            twin = mirrored.get(key, value)
+            # minibatch k: its own rows, then their mirror images
+            values[key] = torch.cat((value.reshape(n // rows, rows, *value.shape[1:]),
+                                     twin.reshape(n // rows, rows, *value.shape[1:])),
+                                    dim=1).reshape(2 * n, *value.shape[1:])
+        self.dataset.batch_size, self.dataset.minibatch_size = 2 * n, 2 * rows
 
     def train_epoch(self):
         self.remember_normalizers()

@@ -139,6 +139,52 @@ class G1Velocity(VecTask):
     def init_state(self) -> None:
         """State a variant adds once the envs exist, before the first reset."""
 
+    # ------------------------------------------------------------------ symmetry
+    def joint_mirror(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """The joints' left-right mirror image, as a signed permutation ([29] index, [29] sign:
+        mirrored q[:, i] = sign[i] · q[:, index[i]]): each joint's twin is the other side's joint
+        of the same name (the waist's its own); roll and yaw angles change sign through the
+        base's x-z plane, pitch angles do not (`tests/test_g1.py` checks it against the
+        model's kinematics)."""
+        twin = {"left_": "right_", "right_": "left_"}
+        index, sign = [], []
+        for name in self.joint_names:
+            side = next((s for s in twin if name.startswith(s)), None)
+            other = name if side is None else twin[side] + name[len(side):]
+            index.append(self.joint_names.index(other))
+            sign.append(-1.0 if re.search(r"_(roll|yaw)_", name) else 1.0)
+        return (torch.tensor(index, device=self.device),
+                torch.tensor(sign, device=self.device))
+
+    def observation_mirror(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """The observation's mirror image (the module docstring's layout) as a signed
+        permutation: y of the linear velocity, gravity and command flips, x and z of the
+        angular velocity (an axial vector) and the yaw command flip, the joint entries as
+        `joint_mirror`, and the gait clock moves half a period (the other foot's phase)."""
+        joints, joint_sign = self.joint_mirror()
+        n = self.num_actions
+        index = [torch.arange(12, device=self.device)] + [12 + k * n + joints for k in range(3)] \
+            + [torch.tensor([12 + 3 * n, 13 + 3 * n], device=self.device)]
+        sign = [torch.tensor([1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, 1.0, -1.0, -1.0],
+                             device=self.device)] + [joint_sign] * 3 \
+            + [torch.tensor([-1.0, -1.0], device=self.device)]
+        return torch.cat(index), torch.cat(sign)
+
+    def mirror_observations(self, obs: torch.Tensor) -> torch.Tensor:
+        """[B, num_obs] -> the observations of the mirrored robot (`observation_mirror`)."""
+        if not hasattr(self, "_obs_mirror"):
+            self._obs_mirror = self.observation_mirror()
+        index, sign = self._obs_mirror
+        return obs[:, index] * sign
+
+    def mirror_actions(self, actions: torch.Tensor) -> torch.Tensor:
+        """[B, 29] -> the mirrored robot's actions (drive targets about a mirror-symmetric
+        default pose: `joint_mirror`)."""
+        if not hasattr(self, "_action_mirror"):
+            self._action_mirror = self.joint_mirror()
+        index, sign = self._action_mirror
+        return actions[:, index] * sign
+
     def _noise_scale(self) -> torch.Tensor:
         """Half-width of the uniform noise on each observation entry (scaled units)."""
         learn, level = self.learn, self.learn["noiseLevel"] * float(self.learn["addNoise"])
@@ -375,6 +421,15 @@ class G1Rough(TerrainCurriculum, G1Velocity):
         heights = torch.full((len(height_points()),), learn["heightMeasurementNoise"]
                              * learn["heightMeasurementScale"] * level)
         return torch.cat((super()._noise_scale(), heights.to(self.device)))
+
+    def observation_mirror(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """G1Velocity's, then the heights' grid (x-major, y symmetric about the base) with its
+        y order reversed."""
+        index, sign = super().observation_mirror()
+        xs, ys = 14, 10                               # `terrain.height_points`
+        grid = torch.arange(xs * ys, device=self.device).view(xs, ys).flip(1).flatten()
+        return torch.cat((index, G1Velocity.num_obs + grid)), \
+            torch.cat((sign, torch.ones(xs * ys, device=self.device)))
 
     def observations(self) -> torch.Tensor:
         base = self.envs.root_states[:, 0]
