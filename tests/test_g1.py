@@ -341,6 +341,13 @@ def test_g1_rough_heights_and_curriculum(device):
     robot that walked off its tile starts its next episode a level up (the shared curriculum)."""
     task = myriad.make("G1Rough", num_envs=2, device=device, **{"env.learn.addNoise": False})
     assert task.obs_buf.shape == (2, 241)
+    # its mirror reads each height at the point mirrored through the x-z plane
+    from myriad.tasks.terrain import height_points
+    index, sign = task.observation_mirror()
+    points = height_points(device)
+    torch.testing.assert_close(points[index[101:] - 101], points * torch.tensor(
+        [1.0, -1.0, 1.0], device=device))
+    assert (sign[101:] == 1).all() and len(index) == 241
     base = task.envs.root_states[:, 0]
     expected = torch.clamp(base[:, 2:3] - 0.5 - task.terrain_heights(base), -1, 1) * 5.0
     np.testing.assert_allclose(task.obs_buf[:, 101:].cpu().numpy(), expected.cpu().numpy(),
