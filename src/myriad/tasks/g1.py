@@ -133,6 +133,9 @@ class G1Velocity(VecTask):
         self.push_every = max(1, round(env["pushInterval_s"] / self.dt))
         self.steps_taken = torch.zeros((), dtype=torch.int64, device=dev)
         self.initial_root_states = e.root_states.clone()
+        # the left-right mirror as signed permutations (symmetry augmentation)
+        self.action_mirror = self.joint_mirror()
+        self.obs_mirror = self.observation_mirror()
         self.init_state()
         self.reset()
 
@@ -172,17 +175,13 @@ class G1Velocity(VecTask):
 
     def mirror_observations(self, obs: torch.Tensor) -> torch.Tensor:
         """[B, num_obs] -> the observations of the mirrored robot (`observation_mirror`)."""
-        if not hasattr(self, "_obs_mirror"):
-            self._obs_mirror = self.observation_mirror()
-        index, sign = self._obs_mirror
+        index, sign = self.obs_mirror
         return obs[:, index] * sign
 
     def mirror_actions(self, actions: torch.Tensor) -> torch.Tensor:
         """[B, 29] -> the mirrored robot's actions (drive targets about a mirror-symmetric
         default pose: `joint_mirror`)."""
-        if not hasattr(self, "_action_mirror"):
-            self._action_mirror = self.joint_mirror()
-        index, sign = self._action_mirror
+        index, sign = self.action_mirror
         return actions[:, index] * sign
 
     def _noise_scale(self) -> torch.Tensor:
@@ -423,13 +422,14 @@ class G1Rough(TerrainCurriculum, G1Velocity):
         return torch.cat((super()._noise_scale(), heights.to(self.device)))
 
     def observation_mirror(self) -> tuple[torch.Tensor, torch.Tensor]:
-        """G1Velocity's, then the heights' grid (x-major, y symmetric about the base) with its
-        y order reversed."""
+        """G1Velocity's, then each height read at its point's mirror image (y negated) among
+        `terrain.height_points`."""
         index, sign = super().observation_mirror()
-        xs, ys = 14, 10                               # `terrain.height_points`
-        grid = torch.arange(xs * ys, device=self.device).view(xs, ys).flip(1).flatten()
+        points = height_points(self.device)
+        mirrored = points * torch.tensor([1.0, -1.0, 1.0], device=self.device)
+        grid = torch.cdist(mirrored, points).argmin(-1)
         return torch.cat((index, G1Velocity.num_obs + grid)), \
-            torch.cat((sign, torch.ones(xs * ys, device=self.device)))
+            torch.cat((sign, torch.ones(len(points), device=self.device)))
 
     def observations(self) -> torch.Tensor:
         base = self.envs.root_states[:, 0]
