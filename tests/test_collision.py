@@ -273,6 +273,48 @@ def test_overflow_is_counted_not_written(device):
     assert torch.isfinite(sim.q).all()
 
 
+def test_contact_slots_stop_at_what_the_pairs_can_fill(device):
+    """Slots past what the candidate pairs can produce at once are never filled: the simulator
+    sizes its slots (and its constraint rows) to that bound when the setting asks for more,
+    and no pose of the shapes, however deep they overlap, finds more than each pair's most
+    (`narrowphase.most_contacts`)."""
+    from myriad.physics.stages.collision.narrowphase import most_contacts
+    model = myriad.load_xml(_scene(3), "scene3")
+    pairs = candidate_pairs(model)
+    bound = collision.contact_bound(model.geom_type, pairs)
+    n = 64
+    sim = myriad.Simulator(model, num_envs=n, device=device,
+                           params=myriad.SimParams(contact_offset=MARGIN, contacts_per_env=4096))
+    assert sim.contact_capacity == bound < 4096
+    # every body at a random pose in a 0.2 m cube just above the floor: shapes piled into each
+    # other and into the floor, deep overlaps among them
+    rng = np.random.default_rng(0)
+    q = sim.q.cpu().numpy()
+    for b in range(model.nbody - 1):
+        quat = rng.normal(size=(n, 4))
+        q[:, 7 * b:7 * b + 3] = rng.uniform([-0.1, -0.1, -0.05], [0.1, 0.1, 0.15], size=(n, 3))
+        q[:, 7 * b + 3:7 * b + 7] = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+    sim.q = torch.as_tensor(q, device=sim.q.device)
+    sim.forward()
+    sim.collide()
+    counts = sim.contact_count.cpu().numpy()
+    assert counts.max() <= bound and sim.contact_overflow() == 0
+    assert counts.mean() > 10           # the poses did pile the shapes up
+    keys = sim.data.contacts.key.numpy()
+    reached = set()
+    for e in range(n):
+        per_pair = np.bincount(keys[e, :counts[e]] // 32, minlength=len(pairs))
+        for k in np.flatnonzero(per_pair):
+            types = tuple(int(t) for t in model.geom_type[pairs[k]])
+            assert per_pair[k] <= most_contacts(*types), (types, per_pair[k])
+            if per_pair[k] == most_contacts(*types):
+                reached.add(types)
+    # the bound is reached, not only kept: a box in a box at four points, a box on the floor
+    # at four, a capsule on the floor at both ends
+    box, capsule, plane = int(GeomType.BOX), int(GeomType.CAPSULE), int(GeomType.PLANE)
+    assert {(box, box), (plane, box), (plane, capsule)} <= reached, reached
+
+
 def test_an_overflow_keeps_the_deepest_contacts_in_the_order_found(device):
     """Slots too few: the contacts kept are the deepest of all found, not the first found."""
     model = myriad.load_xml(_scene(0), "scene0")

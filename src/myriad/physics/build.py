@@ -23,7 +23,7 @@ from . import pairs as pair_rules
 from .model import Model, ModelError, dof_tree_spans
 from .params import SimParams
 from .runtime.launch import block_threads
-from .stages.collision import CANDIDATES_PER_SLOT
+from .stages.collision import CANDIDATES_PER_SLOT, contact_bound
 from .stages.solver_tgs import BLOCK_CAPS
 from .structs import (STRUCTS, Control, Contacts, Dynamics, EnvParams, HFields, Meshes,
                       ModelArrays, Options, RowLayout, Rows, State, field_shape)
@@ -87,7 +87,12 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
     # ones, in ModelArrays), shapes, meshes, height fields
     pairs = (pair_rules.candidate_pairs(model, params.self_collisions, params.filter_ancestors)
              if params.constraints else np.zeros((0, 2), np.int32))
-    contact_capacity = params.contacts_per_env if len(pairs) else 0
+    # contact slots: the setting, but never more than the pairs can fill (a humanoid's capsules
+    # on a plane: 36 of 64), and narrowphase places up to CANDIDATES_PER_SLOT per slot for
+    # `keep_deepest` to choose from, again no more than the pairs can fill
+    most = contact_bound(m.geom_type, pairs)
+    contact_capacity = min(params.contacts_per_env, most)
+    candidate_places = min(CANDIDATES_PER_SLOT * contact_capacity, most)
     meshes, hfields, triangle_meshes = shape_data(model, dev)
 
     # constraint rows: 3 per contact slot, 2 per limited joint, 2 per limited tendon, one
@@ -138,7 +143,7 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
                  ngeom=m.ngeom, nsite=m.nsite, nsensor_site=len(sensor_sites),
                  nsensor_split=len(sensor_sites) if m.force_sensor_split else 0,
                  nsensordata=m.nsensordata, ncontact=contact_capacity,
-                 ncandidate=CANDIDATES_PER_SLOT * contact_capacity, nrow=layout.end,
+                 ncandidate=candidate_places, nrow=layout.end,
                  row_width=row_width(dof_span, tendon_dofs), nmass=len(mass_col),
                  nlimit=2 * len(limited), nblock_contact=block_contacts, nblock_cap=block_caps,
                  nblock=2 * len(limited) + block_contacts + block_caps, neq=m.neq,

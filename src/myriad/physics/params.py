@@ -36,7 +36,7 @@ class SimParams:
     max_depenetration_velocity: float = 1.0
     max_correction_velocity: float = 10.0
     max_joint_velocity: float = 100.0     # default per-dof speed cap (PhysX's default), rad/s or m/s
-    contacts_per_env: int = 64            # contact capacity of each env
+    contacts_per_env: int = 64            # contact slots of each env (fewer if its pairs cannot fill them)
     constraints: bool = True              # False: smooth dynamics only (no contacts, no limits)
     self_collisions: bool = True          # bodies of one articulation collide with each other
     # a body does not collide with its ancestors up to this many generations above it: 1, its

@@ -22,7 +22,8 @@ import warp as wp
 from ...spatial import tangents
 from ..kinematics import geom_frame
 from ...structs import Contacts, EnvParams, HFields, Meshes, ModelArrays, Options, State
-from ...types import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPHERE, TRIMESH
+from ...types import (BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PLANE, SPHERE, TRIMESH,
+                      GeomType)
 from .convex import (bounding_box, bounding_radius, box_corner, boxes_apart,
                      convex_contact, mat43, support)
 from .heightfield import ellipsoid_probe, probe_point, riser_contact, surface
@@ -957,6 +958,38 @@ def _pair(m: ModelArrays, e: int, k: int, pairs: wp.array(dtype=wp.vec2i), p: En
                 return
     _collide_pair(e, k, pair, t1, t2, s.geom_x[e, g1], s.geom_x[e, g2], p.geom_size[e, g1],
                   p.geom_size[e, g2], m.geom_dataid, meshes, hfields, margin, out)
+
+
+def most_contacts(t1: int, t2: int) -> int:
+    """The most contacts `_collide_pair` emits for one pair of geom types (t1 <= t2 in the pairs'
+    order: a static triangle mesh first), read off its branches below; keep the two in step.
+    A model's contact slots never need more than the sum of this over its candidate pairs
+    (`contact_bound`)."""
+    if t1 == GeomType.PLANE:
+        return {GeomType.SPHERE: 1, GeomType.CAPSULE: 2, GeomType.BOX: 4, GeomType.ELLIPSOID: 1,
+                GeomType.CYLINDER: 5, GeomType.MESH: 4}.get(GeomType(t2), 0)
+    if t1 == GeomType.HFIELD:
+        # one floor contact per probe and, for round probes, one riser wall each
+        return 1 if t2 == GeomType.ELLIPSOID else 2 * int(HFIELD_PROBES)
+    if t1 == GeomType.TRIMESH:
+        # an ellipsoid's support point or the probes, a cylinder's two rim points, the extras
+        return (1 if t2 == GeomType.ELLIPSOID else int(HFIELD_PROBES) + 2) + int(TRIMESH_EDGES)
+    if t1 == GeomType.SPHERE and t2 in (GeomType.SPHERE, GeomType.CAPSULE, GeomType.BOX):
+        return 1
+    if t1 == GeomType.CAPSULE and t2 == GeomType.CAPSULE:
+        return 1
+    if t1 == GeomType.CAPSULE and t2 == GeomType.BOX:
+        return 3            # the two end spheres and the segment's deepest point
+    if t1 == GeomType.BOX and t2 == GeomType.BOX:
+        return 4            # a clipped face's four kept points, or one edge-edge point
+    return 5                # `_convex`: the closest points and up to four face corners
+
+
+def contact_bound(geom_type, pairs) -> int:
+    """The most contacts the candidate `pairs` [npair, 2] of geoms with types `geom_type` can
+    produce in one env at once: slots past it can never be filled."""
+    types = [(int(geom_type[g1]), int(geom_type[g2])) for g1, g2 in pairs]
+    return sum(most_contacts(t1, t2) for t1, t2 in types)
 
 
 @wp.func
