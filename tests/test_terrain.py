@@ -150,3 +150,28 @@ def test_impossible_terrain_settings_are_named():
         TerrainConfig(platform=9.0)
     with pytest.raises(ValueError, match="levels"):
         TerrainConfig(levels=0)
+    with pytest.raises(ValueError, match="step_height"):
+        TerrainConfig(step_height=(-0.05, 0.1))
+
+
+def test_steps_and_boxes_that_start_at_zero_leave_level_0_flat():
+    """G1Rough's terrain: stairs and obstacles grow from 0, so its first level is flat ground
+    on every tile but the slopes (whose slope is 0 there, only the rough slope's noise left),
+    while the top level keeps real steps."""
+    config = TerrainConfig(step_height=(0.0, 0.15), obstacle_height=(0.0, 0.1), rough_noise=0.05)
+    terrain = generate_terrain(config, seed=0)
+    cells, border = config.tile_cells, config.border_cells
+    for column in range(config.types):
+        kind, _ = column_kind(column, config)
+        tile = terrain.raw[border:border + cells, border + column * cells:
+                           border + (column + 1) * cells]
+        if kind == 0 or kind >= 2:
+            assert (tile == 0).all(), (column, KINDS[kind])
+        else:
+            assert 0 < np.abs(tile).max() * config.vertical_scale <= 0.05 + 1e-9
+    top = config.levels - 1
+    stairs = [c for c in range(config.types) if column_kind(c, config)[0] == 3][0]
+    tile = terrain.raw[border + top * cells:border + (top + 1) * cells,
+                       border + stairs * cells:border + (stairs + 1) * cells]
+    steps = np.unique(np.abs(np.diff(tile, axis=0)))
+    assert steps.max() * config.vertical_scale == pytest.approx(0.135, abs=config.vertical_scale)

@@ -12,6 +12,9 @@ column picks the kind of tile by the cumulative proportions [0.1, 0.2, 0.55, 0.8
     stairs up        to the centre
     obstacles        40 boxes of 1-2 m, heights ±h, ±h/2, h = 0.025 + 0.15·difficulty
 
+(the step and box heights are `step_height` and `obstacle_height`: a task may start them at 0,
+making its level 0 flat ground but for the rough slope's noise, as G1Rough does).
+
 Every tile keeps a flat 3 m platform at its centre, where its robots start: the env origin is the
 tile's centre at the highest point within its central 2 × 2 m.
 
@@ -44,6 +47,8 @@ class TerrainConfig:
     platform: float = 3.0               # flat centre of every tile (m)
     slope: float = 0.4                  # at difficulty 1
     step_width: float = 0.31            # stairs (m)
+    step_height: tuple = (0.05, 0.175)  # stairs' step: a + b·difficulty (m)
+    obstacle_height: tuple = (0.025, 0.15)   # obstacle boxes' h: a + b·difficulty (m)
     rough_noise: float = 0.1            # rough slope: heights in ±this (m) ...
     rough_step: float = 0.025           # ... in steps of this (m) ...
     rough_grid: float = 0.2             # ... drawn on a grid this coarse (m), then interpolated
@@ -58,6 +63,11 @@ class TerrainConfig:
                 or abs(sum(self.proportions) - 1.0) > 1e-6:
             raise ValueError(f"terrain: proportions {list(self.proportions)} must be "
                              f"{len(KINDS)} non-negative shares of {list(KINDS)} summing to 1")
+        for name in ("step_height", "obstacle_height"):
+            a, b = getattr(self, name)
+            if a < 0 or b < 0:
+                raise ValueError(f"terrain: {name} {[a, b]} (a + b·difficulty m) must be "
+                                 "non-negative")
         if not 0 < self.platform < self.tile:
             raise ValueError(f"terrain: platform {self.platform} m must lie inside the "
                              f"{self.tile} m tile")
@@ -159,10 +169,12 @@ def tile_heights(kind: int, inverted: bool, difficulty: float, rng: np.random.Ge
     if kind == 1:
         return _pyramid_slope(cells, slope, platform, config) + _uniform_noise(cells, rng, config)
     if kind in (2, 3):
-        step = int((0.05 + 0.175 * difficulty) / unit) * (-1 if kind == 2 else 1)
+        a, b = config.step_height
+        step = int((a + b * difficulty) / unit) * (-1 if kind == 2 else 1)
         return _pyramid_stairs(cells, step, int(config.step_width / config.horizontal_scale),
                                platform)
-    return _obstacles(cells, int((0.025 + 0.15 * difficulty) / unit), rng, platform, config)
+    a, b = config.obstacle_height
+    return _obstacles(cells, int((a + b * difficulty) / unit), rng, platform, config)
 
 
 def generate_terrain(config: TerrainConfig | None = None, seed: int = 0) -> Terrain:
@@ -257,6 +269,7 @@ def next_levels(levels: torch.Tensor, walked: torch.Tensor, command_speed: torch
 
 TERRAIN_KEYS = ("levels", "types", "proportions", "tile", "border", "horizontal_scale",
                 "vertical_scale")
+TERRAIN_OPTIONAL_KEYS = ("step_height", "obstacle_height", "rough_noise")   # else the defaults
 
 
 class TerrainCurriculum:
@@ -269,8 +282,10 @@ class TerrainCurriculum:
     def init_terrain(self, env: dict) -> None:
         """Before `VecTask.__init__` (which builds the scene): the grid."""
         terrain = env["terrain"]
-        self.terrain_config = TerrainConfig(**{k: (tuple(terrain[k]) if k == "proportions"
-                                                   else terrain[k]) for k in TERRAIN_KEYS})
+        keys = TERRAIN_KEYS + tuple(k for k in TERRAIN_OPTIONAL_KEYS if k in terrain)
+        self.terrain_config = TerrainConfig(**{
+            k: (tuple(terrain[k]) if isinstance(TerrainConfig.__dataclass_fields__[k].default,
+                                                tuple) else terrain[k]) for k in keys})
         self.terrain = generate_terrain(self.terrain_config, seed=int(terrain["seed"]))
 
     def add_terrain(self, scene, env: dict):
