@@ -481,3 +481,41 @@ def test_parse_sim_config_writes_legged_gyms_sim_dict():
     assert params.physx.contact_collection == gymapi.ContactCollection(2)
     with pytest.raises(AttributeError, match="no attribute 'dtt'"):
         gymutil.parse_sim_config({"dtt": 0.01}, params)
+
+
+def test_line_geometries_are_the_shapes_they_name():
+    """gymutil's line geometries (what IsaacGymEnvs' and legged_gym's debug drawings use):
+    Vec3 records [num_lines, 2] and one color per line, their pose applied, in closed form."""
+    def floats(records):
+        return np.stack([records["x"], records["y"], records["z"]], axis=-1)
+
+    axes = gymutil.AxesGeometry(0.5)
+    assert axes.num_lines() == 3 and axes.vertices().shape == (3, 2)
+    np.testing.assert_allclose(floats(axes.vertices())[:, 1], 0.5 * np.eye(3))
+    np.testing.assert_allclose(floats(axes.colors()), np.eye(3))       # x red, y green, z blue
+
+    box = gymutil.WireframeBoxGeometry(0.2, 0.4, 0.6, color=(0, 1, 0))
+    edges = floats(box.vertices())
+    assert edges.shape == (12, 2, 3)
+    # 4 edges along each axis, each as long as the box's side; every end a corner
+    lengths = np.sort(np.linalg.norm(edges[:, 1] - edges[:, 0], axis=-1))
+    np.testing.assert_allclose(lengths, np.repeat([0.2, 0.4, 0.6], 4), atol=1e-6)
+    np.testing.assert_allclose(np.abs(edges), np.broadcast_to([0.1, 0.2, 0.3], edges.shape),
+                               atol=1e-6)
+    np.testing.assert_allclose(floats(box.colors()), np.tile([0.0, 1.0, 0.0], (12, 1)))
+    bbox = gymutil.WireframeBBoxGeometry([[0, 0, 0], [1, 2, 3]])
+    assert floats(bbox.vertices()).min() == 0 and floats(bbox.vertices()).max() == 3
+
+    # a sphere: 2 · lats · lons segments with both ends on it, alternating the two colors; at
+    # its pose (1, 2, 3) turned 90° about z
+    pose = gymapi.Transform(gymapi.Vec3(1, 2, 3), gymapi.Quat.from_axis_angle(
+        gymapi.Vec3(0, 0, 1), math.pi / 2))
+    sphere = gymutil.WireframeSphereGeometry(0.3, 6, 4, pose, (1, 0, 0), (0, 0, 1))
+    ends = floats(sphere.vertices())
+    assert sphere.num_lines() == 2 * 6 * 4
+    np.testing.assert_allclose(np.linalg.norm(ends - [1, 2, 3], axis=-1), 0.3, atol=1e-6)
+    np.testing.assert_allclose(floats(sphere.colors())[:2], [[1, 0, 0], [0, 0, 1]])
+    # draw_lines moves the geometry by its pose: the box's corner (0.1, 0.2, 0.3) turned 90°
+    # about z and moved to (1, 2, 3) is (0.8, 2.1, 3.3)
+    moved = floats(box.instance_verts(pose)).reshape(-1, 3)
+    assert np.isclose(moved, [0.8, 2.1, 3.3], atol=1e-6).all(axis=1).any()

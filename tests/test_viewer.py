@@ -370,9 +370,12 @@ def test_training_in_a_real_browser_shows_progress_and_says_when_it_ended(tmp_pa
 
 def test_isaacgym_viewer_calls_drive_the_page(monkeypatch):
     """Isaac Gym's viewer calls (issue 41) on Myriad's page: created before prepare_sim as
-    IsaacGymEnvs' examples do, served once the sim is built, keys subscribed as buttons whose
-    clicks come back as action events, the camera placed, the page closed by destroy_viewer."""
-    from isaacgym import gymapi
+    IsaacGymEnvs' examples do, served once the sim is built, the envs at their grid origins
+    with the lines drawn into them (`add_lines`, `gymutil.draw_lines`) until `clear_lines`,
+    keys subscribed as buttons whose clicks come back as action events, the camera placed,
+    the page closed by destroy_viewer."""
+    import numpy as np
+    from isaacgym import gymapi, gymutil
     port = free_port()
     monkeypatch.setenv("MYRIAD_VIEWER_PORT", str(port))
     gym = gymapi.acquire_gym()
@@ -401,6 +404,30 @@ def test_isaacgym_viewer_calls_drive_the_page(monkeypatch):
             gym.draw_viewer(viewer, sim, True)
             gym.sync_frame_time(sim)
         assert gym.query_viewer_action_events(viewer) == []
+        # each env at its grid origin (2 per row, 2 m apart), its lines with it
+        web, envs = viewer.web, sim.envs
+        assert web.shown_envs == [0, 1]
+        gymutil.draw_lines(gymutil.AxesGeometry(0.5), gym, viewer, envs[0],
+                           gymapi.Transform(gymapi.Vec3(0, 0, 1)))
+        gym.add_lines(viewer, envs[1], 1, [0, 0, 0, 0, 0, 2], [1, 1, 0])
+        web.draw()
+        root = sim.myriad.actor_root_body[0] + 1
+        for k in range(2):
+            torch.testing.assert_close(
+                torch.as_tensor(web.body_poses[k, root, :3]),
+                sim.myriad.root_states[k, 0, :3].double() + torch.tensor([2.0 * k, 0, 0],
+                                                                         dtype=torch.float64),
+                atol=1e-5, rtol=0)
+        points = web.lines.points
+        np.testing.assert_allclose(points, [[[0, 0, 1], [0.5, 0, 1]], [[0, 0, 1], [0, 0.5, 1]],
+                                            [[0, 0, 1], [0, 0, 1.5]], [[2, 0, 0], [2, 0, 2]]],
+                                   atol=1e-6)
+        assert web.lines.colors[3].tolist() == [[255, 255, 0]] * 2
+        with pytest.raises(ValueError, match="2 lines take 4 vertices and 2 colors"):
+            gym.add_lines(viewer, envs[0], 2, [0, 0, 0, 1, 1, 1], [1, 0, 0, 1, 0, 0])
+        gym.clear_lines(viewer)
+        web.draw()
+        assert web.lines is None
         viewer.web._ask("toggle_viewer_sync")                 # what a click on its button does
         viewer.web._key("toggle_viewer_sync")                 # ... and a press of V
         events = gym.query_viewer_action_events(viewer)

@@ -305,10 +305,23 @@ class Transform:
         return self.r.rotate(v)
 
     def transform_points(self, points):
+        """Each point moved by this transform: a list of Vec3, or an array of Vec3 records
+        (any shape; Isaac Gym's line vertices) returned as one of the same shape."""
+        if isinstance(points, np.ndarray) and points.dtype.names:
+            return _records(self._rotate(points) + [self.p.x, self.p.y, self.p.z])
         return [self.transform_point(v) for v in points]
 
     def transform_vectors(self, vectors):
+        if isinstance(vectors, np.ndarray) and vectors.dtype.names:
+            return _records(self._rotate(vectors))
         return [self.transform_vector(v) for v in vectors]
+
+    def _rotate(self, records: np.ndarray) -> np.ndarray:
+        """[..., 3] floats: Vec3 records rotated by r."""
+        v = np.stack([records["x"], records["y"], records["z"]], axis=-1).astype(np.float64)
+        q, w = np.array([self.r.x, self.r.y, self.r.z]), self.r.w
+        t = 2.0 * np.cross(q, v)
+        return v + w * t + np.cross(q, t)
 
     def inverse(self) -> "Transform":
         r = self.r.inverse()
@@ -735,6 +748,25 @@ class ActionEvent:
         return f"ActionEvent({self.action!r}, {self.value})"
 
 
+def _records(xyz: np.ndarray) -> np.ndarray:
+    """Vec3 records of [..., 3] floats."""
+    out = np.empty(xyz.shape[:-1], Vec3.dtype)
+    out["x"], out["y"], out["z"] = xyz[..., 0], xyz[..., 1], xyz[..., 2]
+    return out
+
+
+def _floats(values, what: str) -> np.ndarray:
+    """Floats of Vec3 records (Isaac Gym's line vertices and colors), arrays or lists."""
+    array = np.asarray(values)
+    if array.dtype.names:                 # Vec3.dtype records: their x, y, z in order
+        array = np.stack([array[name] for name in array.dtype.names], axis=-1)
+    try:
+        return np.asarray(array, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"gym.add_lines: {what} must be numbers or Vec3 records, got "
+                         f"{array.dtype}") from None
+
+
 class Viewer:
     """What `create_viewer` returns: Myriad's page in the browser (`myriad.viewer`), served
     once the sim is prepared (at `create_viewer` if it is already, else at the first viewer
@@ -746,6 +778,7 @@ class Viewer:
         self.buttons: dict = {}          # action -> key, subscribed (buttons once served)
         self.camera = None               # (target, eye) asked before serving
         self.last_sync = None            # sync_frame_time's clock
+        self.lines: dict = {}            # add_lines': env index -> [(points [K, 2, 3], colors)]
 
     def add_button(self, action: str, key: str) -> None:
         """`action`'s button on the page, and Isaac Gym's `key` (its KeyboardInput name without
@@ -761,7 +794,9 @@ class Viewer:
         if self.web is None and self.sim.myriad is not None and not self.sim.closed:
             from myriad.viewer import serve
             port = int(os.environ.get("MYRIAD_VIEWER_PORT", "8080"))
-            self.web = serve(self.sim.myriad, port=port, spacing=0.0)
+            origins = [(e.origin.x, e.origin.y, e.origin.z) for e in self.sim.envs]
+            self.web = serve(self.sim.myriad, port=port, origins=origins)
+            self.web.set_lines(self.lines)
             for action, key in self.buttons.items():
                 self.add_button(action, key)
             if self.camera is not None:
@@ -1041,8 +1076,8 @@ class Gym:
         """Myriad's viewer is a page in the browser (`myriad.viewer`, needs `.[viewer]`): the
         URL is printed once the sim is prepared; `MYRIAD_VIEWER_PORT` picks the port (8080).
         Without viser installed: a warning and None, so code written for headless runs
-        (`if self.viewer:`) goes on. The envs are drawn where they are (each in its own frame,
-        so side by side only where their actors stand apart)."""
+        (`if self.viewer:`) goes on. The envs shown are drawn at their grid origins
+        (`create_env`'s spacing and envs per row), as Isaac Gym's viewer places them."""
         from myriad.viewer.web import INSTALL
         try:
             import viser  # noqa: F401
@@ -1107,18 +1142,39 @@ class Gym:
         pass                    # the page's mouse moves its camera
 
     def viewer_camera_look_at(self, viewer, env, pos: Vec3, target: Vec3) -> None:
-        """The page's camera at `pos` looking at `target` (world; an env's frame is the
-        world's in Myriad)."""
+        """The page's camera at `pos` looking at `target`, in `env`'s frame (the env drawn at
+        its grid origin), or the world's for None."""
         if isinstance(viewer, Viewer):
-            viewer.camera = ((target.x, target.y, target.z), (pos.x, pos.y, pos.z))
+            o = env.origin if isinstance(env, Env) else Vec3()
+            viewer.camera = ((target.x + o.x, target.y + o.y, target.z + o.z),
+                             (pos.x + o.x, pos.y + o.y, pos.z + o.z))
             if viewer.serve() is not None:
                 viewer.web.look_at(*viewer.camera)
 
     def clear_lines(self, viewer) -> None:
-        pass
+        """Removes every line `add_lines` drew."""
+        if isinstance(viewer, Viewer):
+            viewer.lines = {}
+            if viewer.web is not None:
+                viewer.web.set_lines(viewer.lines)
 
     def add_lines(self, viewer, env, num_lines, vertices, colors) -> None:
-        pass
+        """Draws `num_lines` segments in `env`'s frame until `clear_lines`: `vertices` their
+        2·num_lines end points (Vec3 records [num_lines, 2], or floats [num_lines, 6] or
+        [2·num_lines, 3]), `colors` one RGB in 0..1 per line (Vec3 records or floats). The
+        page draws the lines of the envs it shows, each env at its grid origin."""
+        if not isinstance(viewer, Viewer):
+            return
+        n = int(num_lines)
+        points, rgb = _floats(vertices, "vertices"), _floats(colors, "colors")
+        if points.size != n * 6 or rgb.size != n * 3:
+            raise ValueError(f"gym.add_lines: {n} lines take {2 * n} vertices and {n} colors "
+                             f"(3 floats each); got {points.size / 3:g} vertices and "
+                             f"{rgb.size / 3:g} colors")
+        index = env.index if isinstance(env, Env) else 0    # None: the world (env 0's frame)
+        viewer.lines.setdefault(index, []).append((points.reshape(n, 2, 3), rgb.reshape(n, 3)))
+        if viewer.web is not None:
+            viewer.web.set_lines(viewer.lines)
 
     def set_rigid_body_color(self, env, actor_handle, rigid_body_index, mesh_type, color):
         pass    # drawing only

@@ -11,12 +11,18 @@
 
 plus `use_gpu` (sim_device_type == "cuda"). On Myriad only the CPU pipeline runs without a GPU:
 pass `--sim_device cpu --pipeline cpu` there (the original's defaults are cuda:0 and gpu).
+
+Also Isaac Gym's line geometries (axes, boxes, bounding boxes, spheres, and users' own
+`LineGeometry` subclasses) and `draw_lines`, which puts them on Myriad's page through
+`gym.add_lines`.
 """
 
 from __future__ import annotations
 
 import argparse
 import warnings
+
+import numpy as np
 
 from . import gymapi
 
@@ -153,35 +159,99 @@ def _indent_xml(elem, level: int = 0) -> None:
 
 
 class LineGeometry:
-    """A shape drawn as lines in the viewer (Isaac Gym's `gymutil` geometries). Myriad's
-    `isaacgym` runs headless (`create_viewer` returns None), so a geometry only holds its
-    parameters; `draw_lines` into no viewer draws nothing."""
+    """A shape drawn as line segments (Isaac Gym's gymutil geometries): `vertices()` its
+    segments' end points [num_lines, 2] and `colors()` one RGB in 0..1 per segment [num_lines],
+    both as Vec3 records, in the geometry's frame (its `pose`, if given, already applied).
+    Subclasses set `verts` and `_colors` (as users' own geometries do) or override the two."""
 
-    def __init__(self, *args, **kwargs):
-        self.args, self.kwargs = args, kwargs
+    def _set(self, segments, colors, pose=None) -> None:
+        """From floats: `segments` [n, 2, 3], `colors` [n, 3]."""
+        verts = gymapi._records(np.asarray(segments, dtype=np.float64))
+        self.verts = verts if pose is None else pose.transform_points(verts)
+        self._colors = gymapi._records(np.asarray(colors, dtype=np.float64))
+
+    def vertices(self):
+        return self.verts
+
+    def colors(self):
+        return self._colors
+
+    def num_lines(self) -> int:
+        return len(self.vertices())
+
+    def instance_verts(self, pose):
+        """The vertices moved by `pose` (a gymapi.Transform)."""
+        return pose.transform_points(self.vertices())
+
+
+def _color(color, default=(1.0, 0.0, 0.0)) -> np.ndarray:
+    c = default if color is None else color
+    if isinstance(c, gymapi.Vec3):
+        c = (c.x, c.y, c.z)
+    return np.asarray(c, dtype=np.float64).reshape(3)
+
+
+def _box_edges(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """[12, 2, 3]: the edges of the box with corners `lo`, `hi`."""
+    corner = np.array([[(hi if (k >> a) & 1 else lo)[a] for a in range(3)] for k in range(8)])
+    return np.array([(corner[k], corner[k | 1 << a]) for k in range(8) for a in range(3)
+                     if not (k >> a) & 1])
 
 
 class AxesGeometry(LineGeometry):
-    pass
+    """A frame's three axes, `scale` long: x red, y green, z blue."""
+
+    def __init__(self, scale: float = 1.0, pose=None):
+        ends = np.eye(3) * float(scale)
+        self._set(np.stack([np.zeros((3, 3)), ends], axis=1), np.eye(3), pose)
 
 
 class WireframeBoxGeometry(LineGeometry):
-    pass
+    """The 12 edges of an `xdim` × `ydim` × `zdim` box centred on its frame."""
 
-
-class WireframeSphereGeometry(LineGeometry):
-    pass
+    def __init__(self, xdim: float = 1.0, ydim: float = 1.0, zdim: float = 1.0, pose=None,
+                 color=None):
+        half = np.array([xdim, ydim, zdim], dtype=np.float64) / 2.0
+        self._set(_box_edges(-half, half), np.tile(_color(color), (12, 1)), pose)
 
 
 class WireframeBBoxGeometry(LineGeometry):
-    pass
+    """The 12 edges of the box between `bbox`'s two corners ([2, 3]: lowest, highest)."""
+
+    def __init__(self, bbox, pose=None, color=None):
+        lo, hi = np.asarray(bbox, dtype=np.float64).reshape(2, 3)
+        self._set(_box_edges(lo, hi), np.tile(_color(color), (12, 1)), pose)
+
+
+class WireframeSphereGeometry(LineGeometry):
+    """A sphere of `radius` as `num_lats` half-meridians round its y axis, each cut into
+    `num_lons` segments (`color`), and the arcs of latitude joining them at each cut
+    (`color2`, else `color`): 2 · num_lats · num_lons lines."""
+
+    def __init__(self, radius: float = 1.0, num_lats: int = 8, num_lons: int = 8, pose=None,
+                 color=None, color2=None):
+        color = _color(color)
+        color2 = color if color2 is None else _color(color2)
+        u = 2.0 * np.pi * np.arange(num_lats) / num_lats          # round the y axis
+        v = np.pi * np.arange(num_lons + 1) / num_lons            # from +y to -y
+        uu, vv = np.meshgrid(u, v, indexing="ij")
+
+        def point(a, b):
+            return radius * np.stack([np.sin(b) * np.sin(a), np.cos(b),
+                                      np.sin(b) * np.cos(a)], axis=-1)
+
+        meridians = np.stack([point(uu[:, :-1], vv[:, :-1]), point(uu[:, 1:], vv[:, 1:])], -2)
+        arcs = np.stack([point(uu[:, 1:], vv[:, 1:]),
+                         point(uu[:, 1:] + 2.0 * np.pi / num_lats, vv[:, 1:])], -2)
+        segments = np.stack([meridians, arcs], axis=2).reshape(-1, 2, 3)
+        colors = np.tile(np.stack([color, color2]), (num_lats * num_lons, 1))
+        self._set(segments, colors, pose)
 
 
 def draw_lines(geom, gym, viewer, env, pose) -> None:
-    """Draws `geom` at `pose` in `viewer`: nothing without a viewer (headless runs)."""
-    if viewer is not None:
-        raise NotImplementedError("isaacgym.gymutil.draw_lines into a viewer is not provided "
-                                  "by Myriad yet (its isaacgym viewer calls run headless)")
+    """Draws `geom` at `pose` (in `env`'s frame) in `viewer` until `gym.clear_lines`; nothing
+    without a viewer (headless runs)."""
+    gym.add_lines(viewer, env, geom.num_lines(), geom.instance_verts(pose), geom.colors())
 
 
 def __getattr__(name):

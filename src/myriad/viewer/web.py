@@ -80,11 +80,12 @@ class Viewer:
     side by side (from `first`); `spacing`: metres between them (0: drawn where they are, for
     tasks whose envs already stand apart, such as a shared terrain); `controls`: the play
     controls (pause, step, reset, speed); `markers`: a function returning the task's markers
-    for an env (`VecTask.video_markers`-style dicts: type "box", size, pos, quat xyzw, rgba)."""
+    for an env (`VecTask.video_markers`-style dicts: type "box", size, pos, quat xyzw, rgba);
+    `origins`: [num_envs, 3], where each env is drawn instead (Isaac Gym's grid of envs)."""
 
     def __init__(self, envs, port: int = 8080, host: str = "127.0.0.1", shown: int = 4,
                  first: int = 0, spacing: float | None = None, controls: bool = False,
-                 markers=None, fps: float = 20.0, budget: float | None = None):
+                 markers=None, fps: float = 20.0, budget: float | None = None, origins=None):
         viser = require_viser()
         n = envs.num_envs
         if not 1 <= shown:
@@ -102,8 +103,17 @@ class Viewer:
         if spacing is None:          # envs over one shared terrain already stand apart
             spacing = 0.0 if self.mj.nhfield else robot_width(self.mj) + 0.5
         self.spacing, self.fps, self.markers = float(spacing), float(fps), markers
-        # where each shown env is drawn: beside the one before it, along y
-        self.offsets = np.outer(np.arange(self.count), [0.0, self.spacing, 0.0])
+        if origins is not None:
+            origins = np.asarray(origins, dtype=np.float64)
+            if origins.shape != (n, 3):
+                raise ValueError(f"viewer: origins of shape {origins.shape}: one (x, y, z) per "
+                                 f"env, ({n}, 3)")
+        self.origins = origins
+        self.offsets = self._offsets()
+        self._lines: dict = {}           # env -> [(points [K, 2, 3], colors [K, 3])], env frame
+        self._lines_version = 0          # set_lines' calls
+        self._lines_drawn = None         # the (version, first env) last sent, or None
+        self.lines = None                # their segments on the page
         self._data = [mujoco.MjData(self.mj) for _ in range(self.count)]
         self._events: queue.SimpleQueue = queue.SimpleQueue()
         self._lock = threading.Lock()
@@ -293,11 +303,26 @@ class Viewer:
             if eye is not None:
                 client.camera.position = np.asarray(eye, dtype=np.float64)
 
+    def _offsets(self) -> np.ndarray:
+        """[shown, 3]: where each shown env is drawn: at its origin, or beside the one before
+        it along y."""
+        if self.origins is not None:
+            return self.origins[self.first:self.first + self.count].copy()
+        return np.outer(np.arange(self.count), [0.0, self.spacing, 0.0])
+
+    def set_lines(self, lines: dict) -> None:
+        """Line segments to draw with the envs until the next call (or a change to `lines`
+        followed by a call): {env: [(points [K, 2, 3] in that env's frame, colors [K, 3] in
+        0..1), ...]}; those of envs not shown are not drawn."""
+        self._lines = lines
+        self._lines_version += 1
+
     def draw(self) -> None:
         """Place the shown envs' bodies at their current state (one copy of their joint
         positions to the host, MuJoCo's kinematics there)."""
         first = int(self.first_env.value)
         self.first = min(max(first, 0), self.envs.num_envs - self.count)
+        self.offsets = self._offsets()
         rows = slice(self.first, self.first + self.count)
         sim = self.envs.sim
         show_contacts = bool(self.show_contacts.value)
@@ -332,7 +357,30 @@ class Viewer:
                     self.contacts[k].visible = False
             if self.markers is not None:
                 self._draw_markers()
+            self._draw_lines()
         self.frames_drawn += 1
+
+    def _draw_lines(self) -> None:
+        """The lines of `set_lines` that belong to shown envs, at their envs' places (sent
+        again only when the lines or the envs shown changed)."""
+        drawn = (self._lines_version, self.first)
+        if self._lines_drawn == drawn:
+            return
+        self._lines_drawn = drawn
+        points, colors = [], []
+        for k, env in enumerate(self.shown_envs):
+            for p, c in list(self._lines.get(env, ())):
+                points.append(p + self.offsets[k])
+                colors.append(c)
+        if self.lines is not None:
+            self.lines.remove()
+            self.lines = None
+        if points:
+            rgb = np.clip(np.concatenate(colors) * 255.0, 0, 255).astype(np.uint8)
+            self.lines = self.server.scene.add_line_segments(
+                "/lines", np.concatenate(points).astype(np.float32),
+                colors=np.repeat(rgb[:, None], 2, axis=1), thickness=2.0,
+                thickness_units="screen")
 
     def _to_host(self, tensors: list) -> list[np.ndarray]:
         """Copies of the shown envs' tensors on the host. On a GPU through a stream of the
