@@ -428,6 +428,9 @@ def test_isaacgym_viewer_calls_drive_the_page(monkeypatch):
         gym.clear_lines(viewer)
         web.draw()
         assert web.lines is None
+        # Isaac Gym's contact drawing is the page's: 0.01 m per newton
+        gym.draw_env_rigid_contacts(viewer, envs[0], gymapi.Vec3(1, 0, 0), 0.01, True)
+        assert web.show_contacts.value and web.force_scale.value == pytest.approx(-2.0)
         viewer.web._ask("toggle_viewer_sync")                 # what a click on its button does
         viewer.web._key("toggle_viewer_sync")                 # ... and a press of V
         events = gym.query_viewer_action_events(viewer)

@@ -1176,6 +1176,16 @@ class Gym:
         if viewer.web is not None:
             viewer.web.set_lines(viewer.lines)
 
+    def draw_env_rigid_contacts(self, viewer, env, color, scale: float, flip_normals: bool
+                                ) -> None:
+        """The page's contact drawing turned on: each shown env's contacts as segments along
+        their forces, `scale` metres per newton (the page's slider, 1e-5..0.1); in the page's
+        red, not `color`."""
+        if isinstance(viewer, Viewer) and viewer.serve() is not None:
+            viewer.web.show_contacts.value = True
+            viewer.web.force_scale.value = float(np.clip(np.log10(max(float(scale), 1e-12)),
+                                                         -5.0, -1.0))
+
     def set_rigid_body_color(self, env, actor_handle, rigid_body_index, mesh_type, color):
         pass    # drawing only
 
