@@ -4,12 +4,14 @@
     python benchmarks/anymal_tracking.py runs/terrain/nn/last.pth --task AnymalTerrain \
         --tiles rough --level 4
     python benchmarks/anymal_tracking.py runs/G1Velocity/nn/last.pth --task G1Velocity --seconds 20
+    python benchmarks/anymal_tracking.py runs/G1Rough/nn/last.pth --task G1Rough --seconds 20 \
+        --tiles stairs-up --level 3
     python benchmarks/anymal_tracking.py src/myriad/policies/G1Velocity.pth --task G1Velocity \
         --sweep --envs 100 --seconds 10
 
-For AnymalTerrain, `--tiles` puts every env on tiles of one kind (flat: the smooth slope's level
-0, which is level ground; rough, stairs-up, stairs-down, obstacles, slope: that kind at
-`--level`), the envs spread over the kind's columns, with the curriculum off.
+For AnymalTerrain and G1Rough, `--tiles` puts every env on tiles of one kind (flat: the
+smooth slope's level 0, which is level ground; rough, stairs-up, stairs-down, obstacles, slope:
+that kind at `--level`), the envs spread over the kind's columns, with the curriculum off.
 
 Runs the deterministic policy in fresh episodes (commands drawn as in training) and reports the
 mean absolute error between commanded and actual base velocity in the base frame (forward,
@@ -27,6 +29,7 @@ from myriad.rl.policy import load_policy
 from myriad.rl.run import compose, task_and_train_configs
 
 
+TERRAIN_TASKS = ("AnymalTerrain", "G1Rough")     # on the terrain grid: --tiles, --level
 # --tiles: (KINDS index, pits / stairs inverted or not)
 TILES = {"flat": (0, False), "slope": (0, False), "rough": (1, None), "stairs-up": (3, None),
          "stairs-down": (2, None), "obstacles": (4, None)}
@@ -50,20 +53,20 @@ def main() -> None:
     ap.add_argument("checkpoint")
     ap.add_argument("--envs", type=int, default=256)
     ap.add_argument("--seconds", type=float, default=10.0)
-    ap.add_argument("--task", default="Anymal", choices=["Anymal", "AnymalTerrain", "G1Velocity"])
+    ap.add_argument("--task", default="Anymal",
+                    choices=["Anymal", *TERRAIN_TASKS, "G1Velocity"])
     ap.add_argument("--tiles", default="flat", choices=list(TILES))
-    ap.add_argument("--level", type=int, default=0, help="AnymalTerrain: difficulty row 0-9")
+    ap.add_argument("--level", type=int, default=0, help="terrain tasks: difficulty row 0-9")
     ap.add_argument("--sweep", action="store_true", help="hold each env at one command of a "
                     "grid of forward speeds and yaw rates: the response to each")
     args = ap.parse_args()
 
     torch.manual_seed(0)
     _, train_cfg, _ = task_and_train_configs(compose([f"task={args.task}", "device=cpu"]))
-    if args.task != "AnymalTerrain":
+    if args.task not in TERRAIN_TASKS:
         task = myriad.make(args.task, num_envs=args.envs)
     else:
-        task = myriad.make("AnymalTerrain", num_envs=args.envs,
-                           **{"env.terrain.curriculum": False})
+        task = myriad.make(args.task, num_envs=args.envs, **{"env.terrain.curriculum": False})
         put_on_tiles(task, *TILES[args.tiles], 0 if args.tiles == "flat" else args.level)
     policy = load_policy(args.checkpoint, train_cfg, task)
     obs = task.reset()["obs"]
@@ -78,7 +81,8 @@ def main() -> None:
         return sweep(task, advance, args.seconds)
     print(f"{args.envs} envs, {args.seconds:g} s, last half: "
           + command_tracking(task, advance, args.seconds)
-          + (f"; tiles {args.tiles}, level {args.level}" if args.task == "AnymalTerrain" else ""))
+          + (f"; tiles {args.tiles}, level {args.level}" if args.task in TERRAIN_TASKS
+             else ""))
 
 
 def sweep(task, advance, seconds: float) -> None:
