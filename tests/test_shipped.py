@@ -45,9 +45,28 @@ def test_every_manifest_entry_has_its_file_its_provenance_and_its_figure():
 LOOSE = {"episode_reward": lambda now, shipped, n: now > 0.5 * shipped["mean"],
          "tracking_error_lin": lambda now, shipped, n: now < 2.0 * shipped["mean"],
          "speed": lambda now, shipped, n: now > 0.5 * shipped["mean"]}
-for _measure in ("consecutive_successes", "success_rate"):
+SHARES = ("consecutive_successes", "success_rate", "lift_rate")
+for _measure in SHARES:
     LOOSE[_measure] = lambda now, shipped, n: now >= shipped["mean"] - 3 * shipped["std"] / n ** 0.5
-EPISODES = {"consecutive_successes": 16, "success_rate": 16}     # others: 4
+EPISODES = {measure: 16 for measure in SHARES}     # others: 4
+
+
+def tested_measure(entry: dict) -> str:
+    """The manifest's primary figure, or, where a fresh policy (a share of about 0) would pass
+    that one's bound (a Franka that lifts but does not yet stack: item 5 ships the best with
+    its measured figure), the first other share of its evaluation that it would not."""
+    primary = entry["eval"]["primary"]
+    if primary == "terrain_level":
+        # levels are the training's state, restored only at the run's env count: on 4 envs
+        # every episode is played at level 0, so the tracking error is what can be compared
+        return "tracking_error_lin"
+    results = entry["eval"]["results"]
+    for measure in [primary] + [m for m in results if m != primary]:
+        if measure in LOOSE and not (measure in EPISODES and LOOSE[measure](
+                0.0, results[measure], EPISODES[measure])):
+            return measure
+    raise AssertionError(f"{entry['command']}: no figure of its evaluation tells it from a "
+                         f"fresh policy ({sorted(results)})")
 
 
 @pytest.mark.parametrize("task", sorted(shipped.manifest()))
@@ -56,11 +75,7 @@ def test_every_shipped_policy_does_what_its_manifest_says(task, tmp_path):
     manifest's 100-episode figure (LOOSE); the extras each task needs must be installed (CI has
     them)."""
     entry = shipped.manifest()[task]
-    primary = entry["eval"]["primary"]
-    if primary == "terrain_level":
-        # levels are the training's state, restored only at the run's env count: on 4 envs
-        # every episode is played at level 0, so the tracking error is what can be compared
-        primary = "tracking_error_lin"
+    primary = tested_measure(entry)
     out = tmp_path / "eval.json"
     n = EPISODES.get(primary, 4)
     assert cli.main(["eval", f"task={task}", "device=cpu", "checkpoint=shipped", f"episodes={n}",
@@ -69,8 +84,6 @@ def test_every_shipped_policy_does_what_its_manifest_says(task, tmp_path):
     now = report["results"][primary]["mean"]
     figure = entry["eval"]["results"][primary]
     assert LOOSE[primary](now, figure, n), (task, primary, now, figure["mean"])
-    if primary in EPISODES:           # a bound a fresh policy (about 0) would meet proves nothing
-        assert not LOOSE[primary](0.0, figure, n), (task, primary, figure)
     assert report["checkpoint"] == os.path.abspath(shipped.checkpoint_for(task))
     if task == "Ant":
         assert figure["mean"] > 2000    # the manifest's own figure is a walking ant's
