@@ -51,7 +51,7 @@ for _measure in SHARES:
 EPISODES = {measure: 16 for measure in SHARES}     # others: 4
 
 
-def tested_measure(entry: dict) -> str:
+def measure_checked(entry: dict) -> str:
     """The manifest's primary figure, or, where a fresh policy (a share of about 0) would pass
     that one's bound (a Franka that lifts but does not yet stack: item 5 ships the best with
     its measured figure), the first other share of its evaluation that it would not."""
@@ -75,7 +75,7 @@ def test_every_shipped_policy_does_what_its_manifest_says(task, tmp_path):
     manifest's 100-episode figure (LOOSE); the extras each task needs must be installed (CI has
     them)."""
     entry = shipped.manifest()[task]
-    primary = tested_measure(entry)
+    primary = measure_checked(entry)
     out = tmp_path / "eval.json"
     n = EPISODES.get(primary, 4)
     assert cli.main(["eval", f"task={task}", "device=cpu", "checkpoint=shipped", f"episodes={n}",
