@@ -271,9 +271,13 @@ class Quat:
                     aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
 
     def rotate(self, v: Vec3) -> Vec3:
-        u, w, v = self._t()[:3], self.w, v._t()
+        return Vec3._of(self.rotate_xyz(v._t()))
+
+    def rotate_xyz(self, v: np.ndarray) -> np.ndarray:
+        """[..., 3] floats rotated by this quaternion."""
+        u, w = self._t()[:3], self.w
         t = 2.0 * np.cross(u, v)
-        return Vec3._of(v + w * t + np.cross(u, t))
+        return v + w * t + np.cross(u, t)
 
     def inverse(self) -> "Quat":
         n = float(self._t() @ self._t())
@@ -308,20 +312,13 @@ class Transform:
         """Each point moved by this transform: a list of Vec3, or an array of Vec3 records
         (any shape; Isaac Gym's line vertices) returned as one of the same shape."""
         if isinstance(points, np.ndarray) and points.dtype.names:
-            return _records(self._rotate(points) + [self.p.x, self.p.y, self.p.z])
+            return _records(self.r.rotate_xyz(_xyz(points)) + self.p._t())
         return [self.transform_point(v) for v in points]
 
     def transform_vectors(self, vectors):
         if isinstance(vectors, np.ndarray) and vectors.dtype.names:
-            return _records(self._rotate(vectors))
+            return _records(self.r.rotate_xyz(_xyz(vectors)))
         return [self.transform_vector(v) for v in vectors]
-
-    def _rotate(self, records: np.ndarray) -> np.ndarray:
-        """[..., 3] floats: Vec3 records rotated by r."""
-        v = np.stack([records["x"], records["y"], records["z"]], axis=-1).astype(np.float64)
-        q, w = np.array([self.r.x, self.r.y, self.r.z]), self.r.w
-        t = 2.0 * np.cross(q, v)
-        return v + w * t + np.cross(q, t)
 
     def inverse(self) -> "Transform":
         r = self.r.inverse()
@@ -755,11 +752,16 @@ def _records(xyz: np.ndarray) -> np.ndarray:
     return out
 
 
+def _xyz(records: np.ndarray) -> np.ndarray:
+    """[..., 3] floats of Vec3 records (`_records` undone)."""
+    return np.stack([records["x"], records["y"], records["z"]], axis=-1).astype(np.float64)
+
+
 def _floats(values, what: str) -> np.ndarray:
     """Floats of Vec3 records (Isaac Gym's line vertices and colors), arrays or lists."""
     array = np.asarray(values)
-    if array.dtype.names:                 # Vec3.dtype records: their x, y, z in order
-        array = np.stack([array[name] for name in array.dtype.names], axis=-1)
+    if array.dtype.names:
+        array = _xyz(array)
     try:
         return np.asarray(array, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):

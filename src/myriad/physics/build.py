@@ -87,8 +87,8 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
     # ones, in ModelArrays), shapes, meshes, height fields
     pairs = (pair_rules.candidate_pairs(model, params.self_collisions, params.filter_ancestors)
              if params.constraints else np.zeros((0, 2), np.int32))
-    # contact slots: the setting, but never more than the pairs can fill (a humanoid's capsules
-    # on a plane: 36 of 64), and narrowphase places up to CANDIDATES_PER_SLOT per slot for
+    # contact slots: the setting, but never more than the pairs can fill (the ant's 13 pairs
+    # with the floor: 25 of 64), and narrowphase places up to CANDIDATES_PER_SLOT per slot for
     # `keep_deepest` to choose from, again no more than the pairs can fill
     most = contact_bound(m.geom_type, pairs)
     contact_capacity = min(params.contacts_per_env, most)

@@ -988,8 +988,7 @@ def most_contacts(t1: int, t2: int) -> int:
 def contact_bound(geom_type, pairs) -> int:
     """The most contacts the candidate `pairs` [npair, 2] of geoms with types `geom_type` can
     produce in one env at once: slots past it can never be filled."""
-    types = [(int(geom_type[g1]), int(geom_type[g2])) for g1, g2 in pairs]
-    return sum(most_contacts(t1, t2) for t1, t2 in types)
+    return sum(most_contacts(int(geom_type[g1]), int(geom_type[g2])) for g1, g2 in pairs)
 
 
 @wp.func
