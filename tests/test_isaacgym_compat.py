@@ -519,3 +519,158 @@ def test_line_geometries_are_the_shapes_they_name():
     # about z and moved to (1, 2, 3) is (0.8, 2.1, 3.3)
     moved = floats(box.instance_verts(pose)).reshape(-1, 3)
     assert np.isclose(moved, [0.8, 2.1, 3.3], atol=1e-6).all(axis=1).any()
+
+
+def _classic_scene(cartpole_file, num_envs=3):
+    """`num_envs` envs of a fixed cartpole (its cart on a position drive, its pole free) and a
+    0.2 m box (8 kg) resting on the ground."""
+    gym = gymapi.acquire_gym()
+    sim = gym.create_sim(-1, -1, gymapi.SIM_PHYSX, cartpole_sim_params())
+    plane = gymapi.PlaneParams()
+    plane.normal = gymapi.Vec3(0, 0, 1)
+    gym.add_ground(sim, plane)
+    options = gymapi.AssetOptions()
+    options.fix_base_link = True
+    cartpole = gym.load_asset(sim, str(cartpole_file.parent), cartpole_file.name, options)
+    box = gym.create_box(sim, 0.2, 0.2, 0.2, gymapi.AssetOptions())
+    envs = []
+    for i in range(num_envs):
+        env = gym.create_env(sim, gymapi.Vec3(-2, -2, 0), gymapi.Vec3(2, 2, 2), 2)
+        handle = gym.create_actor(env, cartpole, gymapi.Transform(gymapi.Vec3(0, 0, 2)),
+                                  "cartpole", i, 1, 0)
+        props = gym.get_actor_dof_properties(env, handle)
+        props["driveMode"] = (gymapi.DOF_MODE_POS, gymapi.DOF_MODE_EFFORT)
+        props["stiffness"], props["damping"] = (400.0, 0.0), (40.0, 0.0)
+        gym.set_actor_dof_properties(env, handle, props)
+        gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(1, 0, 0.1)), "box", i, 0, 0)
+        envs.append(env)
+    gym.prepare_sim(sim)
+    return gym, sim, envs
+
+
+def test_classic_calls_on_one_body_dof_and_joint(cartpole_file):
+    """Isaac Gym's per-handle calls (its examples' style) against the tensor calls on a twin
+    sim, and against closed forms: handles and names, DOF and joint frames, one DOF's target
+    and effort, a root body's pose and velocity, forces on one body, and the contacts."""
+    gym, sim, envs = _classic_scene(cartpole_file)
+    twin, twin_sim, _ = _classic_scene(cartpole_file)
+    env = envs[1]
+    # handles (env domain) and names
+    assert gym.get_env_joint_count(env) == 2 and gym.get_sim_joint_count(sim) == 6
+    assert gym.get_joint_handle(env, "cartpole", "cart_to_pole") == 1
+    assert gym.get_joint_name(env, 1) == "cart_to_pole"
+    assert gym.get_joint_type_string(gym.get_asset_joint_type(
+        gym.get_actor_asset(env, 0), 0)) == "JOINT_PRISMATIC"
+    box = gym.get_actor_rigid_body_handle(env, 1, 0)
+    assert box == 3 == gym.get_rigid_handle(env, "box", "box")
+    assert gym.get_rigid_name(env, box) == "box"
+    assert gym.get_actor_dof_handle(env, 0, 1) == 1
+    assert gym.get_actor_joint_index(env, 0, 1, gymapi.DOMAIN_SIM) == 3
+    with pytest.raises(IndexError, match="3 bodies"):
+        gym.get_actor_rigid_body_handle(env, 0, 3)
+    with pytest.raises(ValueError, match="not a rigid body handle of env 1"):
+        gym.get_rigid_name(env, 4)
+    # the URDF's joints: the rail's axis y at the base (z = 2), the pole's axis x 0.12 m along
+    frames = gym.get_actor_dof_frames(env, 0)
+    np.testing.assert_allclose([tuple(frames["origin"][1]), tuple(frames["axis"][0]),
+                                tuple(frames["axis"][1])],
+                               [(0.12, 0, 2), (0, 1, 0), (1, 0, 0)], atol=1e-6)
+
+    # one DOF's target and another's effort: as the tensor calls on the twin
+    gym.set_dof_target_position(env, 0, 0.3)
+    gym.apply_dof_effort(env, 1, 2.0)
+    assert gym.get_dof_target_position(env, 0) == pytest.approx(0.3)
+    targets = torch.zeros(3, 2)
+    targets[1, 0] = 0.3
+    efforts = torch.zeros(3, 2)
+    efforts[1, 1] = 2.0
+    twin.set_dof_position_target_tensor(twin_sim, gymtorch.unwrap_tensor(targets.view(-1)))
+    twin.set_dof_actuation_force_tensor(twin_sim, gymtorch.unwrap_tensor(efforts.view(-1)))
+    # a root's pose and velocity (the box, env 1) against the twin's root state tensor
+    gym.set_rigid_transform(env, box, gymapi.Transform(gymapi.Vec3(1.0, 0.5, 0.6)))
+    gym.set_rigid_linear_velocity(env, box, gymapi.Vec3(0.0, 0.0, 1.0))
+    root = gymtorch.wrap_tensor(twin.acquire_actor_root_state_tensor(twin_sim))
+    twin.refresh_actor_root_state_tensor(twin_sim)
+    new = root.clone()
+    new[3, :3] = torch.tensor([1.0, 0.5, 0.6])
+    new[3, 3:7] = torch.tensor([0.0, 0.0, 0.0, 1.0])
+    new[3, 7:13] = torch.tensor([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+    twin.set_actor_root_state_tensor(twin_sim, gymtorch.unwrap_tensor(new))
+    for step in range(20):
+        gym.simulate(sim)
+        twin.simulate(twin_sim)
+    ours = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim))
+    gym.refresh_dof_state_tensor(sim)
+    twin.refresh_dof_state_tensor(twin_sim)
+    theirs = gymtorch.wrap_tensor(twin.acquire_dof_state_tensor(twin_sim))
+    torch.testing.assert_close(ours, theirs, atol=0, rtol=0)
+    assert gym.get_dof_position(env, 1) == ours[3, 0].item() != 0.0     # the pole moved
+    assert gym.get_joint_velocity(env, 1) == ours[3, 1].item()
+    twin.refresh_actor_root_state_tensor(twin_sim)
+    p = gym.get_rigid_transform(env, box).p
+    assert (p.x, p.y, p.z) == pytest.approx(root[3, :3].tolist(), abs=0)
+    v = gym.get_rigid_linear_velocity(env, box)
+    assert (v.x, v.y, v.z) == pytest.approx(root[3, 7:10].tolist(), abs=0)
+    # a link's pose follows its DOFs: setting it is refused, naming the root to set instead
+    with pytest.raises(NotImplementedError, match=r"body 1 \('cart'\), a link of actor "
+                                                  r"'cartpole'.*root body \(0\)"):
+        gym.set_rigid_linear_velocity(env, 1, gymapi.Vec3(1, 0, 0))
+    states = gym.get_actor_rigid_body_states(env, 1, gymapi.STATE_ALL)
+    states["pose"]["p"]["z"] = 0.9
+    states["vel"]["linear"]["z"] = 5.0
+    gym.set_actor_rigid_body_states(env, 1, states, gymapi.STATE_POS)   # the pose only
+    after = gym.get_actor_rigid_body_states(env, 1, gymapi.STATE_ALL)
+    assert after["pose"]["p"]["z"][0] == pytest.approx(0.9)
+    assert after["vel"]["linear"]["z"][0] == pytest.approx(float(root[3, 9]), abs=1e-6)
+
+
+def test_classic_forces_and_contacts_on_one_body(cartpole_file):
+    """apply_body_forces / apply_body_force_at_pos act on one body of one env for one
+    simulate (closed forms for a free box); get_env_rigid_contacts reports the resting box's
+    contacts with the ground as Isaac Gym's RigidContact records."""
+    gym, sim, envs = _classic_scene(cartpole_file, num_envs=2)
+    for step in range(60):                      # the boxes settle on the ground
+        gym.simulate(sim)
+    env = envs[0]
+    box = gym.get_rigid_handle(env, "box", "box")
+    contacts = gym.get_env_rigid_contacts(env)
+    assert len(contacts) == 4                  # the four corners of the bottom face
+    assert (contacts["body0"] == -1).all() and (contacts["body1"] == box).all()
+    assert (contacts["env0"] == -1).all() and (contacts["env1"] == 0).all()
+    np.testing.assert_allclose(contacts["normal"]["z"], 1.0, atol=1e-6)
+    np.testing.assert_allclose(contacts["lambda"].sum(), 8.0 * 9.81, rtol=0.01)
+    for axis in "xy":                          # in the box's frame: its bottom corners
+        np.testing.assert_allclose(np.abs(contacts["localPos1"][axis]), 0.1, atol=1e-3)
+    np.testing.assert_allclose(contacts["localPos1"]["z"], -0.1, atol=2e-3)
+    np.testing.assert_allclose(contacts["friction"], 1.0)
+    forces = gym.get_env_rigid_contact_forces(env)
+    assert forces.shape == (4,) and forces["z"][box] == pytest.approx(8.0 * 9.81, rel=0.01)
+    assert gym.get_rigid_contacts(sim).shape == (8,)
+
+    # lifted (turned 90° about z) and spun in one env only: 200 N up through the center of
+    # mass for one simulate, and for another a 10 N force along the box's y at 0.1 m along its
+    # x, given in the box's frame: in the world, -x at +y
+    dt = cartpole_sim_params().dt
+    turned = gymapi.Quat.from_axis_angle(gymapi.Vec3(0, 0, 1), math.pi / 2)
+    gym.set_rigid_transform(env, box, gymapi.Transform(gymapi.Vec3(1, 0, 1.0), turned))
+    gym.simulate(sim)
+    v0 = gym.get_rigid_linear_velocity(env, box).z
+    gym.apply_body_forces(env, box, gymapi.Vec3(0, 0, 200.0), None, gymapi.ENV_SPACE)
+    gym.simulate(sim)
+    assert gym.get_rigid_linear_velocity(env, box).z - v0 == pytest.approx(
+        (200.0 / 8.0 - 9.81) * dt, rel=1e-3)
+    assert gym.get_rigid_linear_velocity(envs[1], box).z == pytest.approx(0.0, abs=1e-3)
+    gym.simulate(sim)                          # the force lasted one simulate
+    assert gym.get_rigid_linear_velocity(env, box).z - v0 == pytest.approx(
+        (200.0 / 8.0 - 9.81) * dt - 9.81 * dt, rel=1e-3)
+    w0, u0 = gym.get_rigid_angular_velocity(env, box), gym.get_rigid_linear_velocity(env, box)
+    gym.apply_body_force_at_pos(env, box, gymapi.Vec3(0, 10.0, 0), gymapi.Vec3(0.1, 0, 0),
+                                gymapi.LOCAL_SPACE)
+    gym.simulate(sim)
+    inertia = 8.0 * (0.2 ** 2 + 0.2 ** 2) / 12.0
+    w, u = gym.get_rigid_angular_velocity(env, box), gym.get_rigid_linear_velocity(env, box)
+    assert w.z - w0.z == pytest.approx(0.1 * 10.0 / inertia * dt, rel=1e-3)
+    assert u.x - u0.x == pytest.approx(-10.0 / 8.0 * dt, rel=1e-3)
+    assert u.y - u0.y == pytest.approx(0.0, abs=1e-6)
+    with pytest.raises(NotImplementedError, match="Flex backend only"):
+        gym.set_rigid_body_state_tensor(sim, None)

@@ -358,6 +358,17 @@ class Mat33:
     def __repr__(self): return f"Mat33({self.x}, {self.y}, {self.z})"
 
 
+class DofFrame:
+    """Where a DOF's joint is (`origin`) and the direction it acts along or about (`axis`)."""
+    dtype = np.dtype([("origin", Vec3.dtype), ("axis", Vec3.dtype)])
+
+    def __init__(self, origin: Vec3 | None = None, axis: Vec3 | None = None):
+        self.origin, self.axis = origin or Vec3(), axis or Vec3()
+
+    def __repr__(self):
+        return f"DofFrame(origin={self.origin}, axis={self.axis})"
+
+
 class Velocity:
     def __init__(self, linear: Vec3 | None = None, angular: Vec3 | None = None):
         self.linear, self.angular = linear or Vec3(), angular or Vec3()
@@ -366,6 +377,12 @@ class Velocity:
 DofState = np.dtype([("pos", "<f4"), ("vel", "<f4")])
 RigidBodyState = np.dtype([("pose", Transform.dtype),
                            ("vel", [("linear", Vec3.dtype), ("angular", Vec3.dtype)])])
+RigidContact = np.dtype([("env0", "<i4"), ("env1", "<i4"), ("body0", "<i4"), ("body1", "<i4"),
+                         ("localPos0", Vec3.dtype), ("localPos1", Vec3.dtype),
+                         ("minDist", "<f4"), ("initialOverlap", "<f4"), ("normal", Vec3.dtype),
+                         ("offset0", Vec3.dtype), ("offset1", Vec3.dtype), ("lambda", "<f4"),
+                         ("lambdaFriction", [("x", "<f4"), ("y", "<f4")]), ("friction", "<f4"),
+                         ("torsionFriction", "<f4"), ("rollingFriction", "<f4")])
 DofProperties = np.dtype([("hasLimits", "?"), ("lower", "<f4"), ("upper", "<f4"),
                           ("driveMode", "<i4"), ("velocity", "<f4"), ("effort", "<f4"),
                           ("stiffness", "<f4"), ("damping", "<f4"), ("friction", "<f4"),
@@ -605,11 +622,13 @@ class Asset:
         # joint (free or none) is not one. So joint i of a chain of single joints moves body
         # i + 1, as IsaacGymEnvs indexes the Jacobian by a joint's index.
         fixed = self.fixed_joint_names = fixed_joints or {}
-        self.joint_names = []
-        for b in self.body_ids[1:]:
-            own = [m.joint(j).name for j in range(m.body_jntadr[b],
-                                                  m.body_jntadr[b] + m.body_jntnum[b])]
-            self.joint_names += own or [fixed.get(m.body(b).name, m.body(b).name + "_fixed")]
+        self.joint_names, self.joint_bodies, self.joint_mj = [], [], []   # (mj: -1 fixed)
+        for i, b in enumerate(self.body_ids[1:], start=1):
+            own = list(range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b]))
+            self.joint_names += [m.joint(j).name for j in own] or \
+                [fixed.get(m.body(b).name, m.body(b).name + "_fixed")]
+            self.joint_mj += own or [-1]
+            self.joint_bodies += [i] * max(len(own), 1)
         # collision shapes, in Myriad's geom order (bodies' geoms; the world's are left out)
         self.shape_geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] != 0
                             and (m.geom_contype[g] or m.geom_conaffinity[g])]
@@ -717,6 +736,7 @@ class _Actor:
         self.scale = 1.0         # set_actor_scale
         self.body_offset = 0     # index of its first body in the env (set by create_actor)
         self.dof_offset = 0
+        self.joint_offset = 0
 
 
 class Env:
@@ -1638,6 +1658,7 @@ class Gym:
             last = env.actors[-1]
             actor.body_offset = last.body_offset + last.asset.num_bodies
             actor.dof_offset = last.dof_offset + last.asset.num_dofs
+            actor.joint_offset = last.joint_offset + len(last.asset.joint_names)
         env.actors.append(actor)
         return index
 
@@ -1857,8 +1878,7 @@ class Gym:
             raise ValueError(f"gym.get_rigid_transform: {handle} is not a body handle of env "
                              f"{env.index}")
         if env.sim.myriad is not None:
-            s = env.sim.myriad.rigid_body_states.view(env.sim.myriad.num_envs, -1, 13)
-            x = s[env.index, int(handle)].tolist()
+            x = self._body_row(env, "get_rigid_transform")[int(handle)].tolist()
             return Transform(Vec3(*x[:3]), Quat(*x[3:7]))
         return actor.pose * actor.asset.start_pose(int(handle) - actor.body_offset)
 
@@ -1909,6 +1929,418 @@ class Gym:
         return env.index * per_env + offset + i
 
     # ------------------------------------------------------------------ actor properties
+    # ------------------------------------------------------------------ one body, DOF, joint
+    # Isaac Gym's older calls on one body, DOF or joint by its handle (env domain), as its
+    # examples and many scripts use them; they read and write the same state as the tensors
+    def _body(self, env: Env, handle: int, call: str):
+        """(actor, env-domain body index) of body handle `handle` in `env`."""
+        h = int(handle)
+        for a in env.actors:
+            if a.body_offset <= h < a.body_offset + a.asset.num_bodies:
+                return a, h
+        raise ValueError(f"gym.{call}: {handle} is not a rigid body handle of env {env.index} "
+                         f"(it has {self.get_env_rigid_body_count(env)} bodies)")
+
+    def _dof(self, env: Env, handle: int, call: str) -> int:
+        h = int(handle)
+        if not 0 <= h < self.get_env_dof_count(env):
+            raise ValueError(f"gym.{call}: {handle} is not a DOF handle of env {env.index} (it "
+                             f"has {self.get_env_dof_count(env)} DOFs)")
+        return h
+
+    def _joint(self, env: Env, handle: int, call: str):
+        """(actor, the joint's index in its asset) of joint handle `handle` in `env`."""
+        h = int(handle)
+        for a in env.actors:
+            if a.joint_offset <= h < a.joint_offset + len(a.asset.joint_names):
+                return a, h - a.joint_offset
+        raise ValueError(f"gym.{call}: {handle} is not a joint handle of env {env.index} (it "
+                         f"has {self.get_env_joint_count(env)} joints)")
+
+    def _body_row(self, env: Env, call: str) -> torch.Tensor:
+        """The env's rigid body states [bodies, 13] (env frame), refreshed."""
+        envs = self._envs(env.sim, call)
+        self._refresh(env.sim, call)
+        return envs.rigid_body_states[env.index]
+
+    def get_rigid_handle(self, env: Env, actor_name: str, body_name: str) -> int:
+        actor = self.find_actor_handle(env, actor_name)
+        return INVALID_HANDLE if actor < 0 else \
+            self.find_actor_rigid_body_handle(env, actor, body_name)
+
+    def get_rigid_name(self, env: Env, handle: int) -> str:
+        actor, b = self._body(env, handle, "get_rigid_name")
+        return actor.asset.body_names[b - actor.body_offset]
+
+    def get_actor_rigid_body_handle(self, env: Env, handle: int, index: int) -> int:
+        actor = self._actor(env, handle)
+        if not 0 <= int(index) < actor.asset.num_bodies:
+            raise IndexError(f"gym.get_actor_rigid_body_handle: actor {actor.name!r} has "
+                             f"{actor.asset.num_bodies} bodies, not an index {index}")
+        return actor.body_offset + int(index)
+
+    def get_actor_dof_handle(self, env: Env, handle: int, index: int) -> int:
+        actor = self._actor(env, handle)
+        if not 0 <= int(index) < actor.asset.num_dofs:
+            raise IndexError(f"gym.get_actor_dof_handle: actor {actor.name!r} has "
+                             f"{actor.asset.num_dofs} DOFs, not an index {index}")
+        return actor.dof_offset + int(index)
+
+    def get_actor_joint_handle(self, env: Env, handle: int, index: int) -> int:
+        actor = self._actor(env, handle)
+        if not 0 <= int(index) < len(actor.asset.joint_names):
+            raise IndexError(f"gym.get_actor_joint_handle: actor {actor.name!r} has "
+                             f"{len(actor.asset.joint_names)} joints, not an index {index}")
+        return actor.joint_offset + int(index)
+
+    def find_actor_joint_handle(self, env: Env, handle: int, name: str) -> int:
+        actor = self._actor(env, handle)
+        i = self.find_asset_joint_index(actor.asset, name)
+        return INVALID_HANDLE if i < 0 else actor.joint_offset + i
+
+    def get_joint_handle(self, env: Env, actor_name: str, joint_name: str) -> int:
+        actor = self.find_actor_handle(env, actor_name)
+        return INVALID_HANDLE if actor < 0 else \
+            self.find_actor_joint_handle(env, actor, joint_name)
+
+    def get_actor_joint_index(self, env: Env, handle: int, index: int, domain) -> int:
+        actor = self._actor(env, handle)
+        if int(domain) == IndexDomain.DOMAIN_ACTOR:
+            return int(index)
+        if int(domain) == IndexDomain.DOMAIN_ENV:
+            return actor.joint_offset + int(index)
+        return env.index * self.get_env_joint_count(env) + actor.joint_offset + int(index)
+
+    def find_actor_joint_index(self, env: Env, handle: int, name: str, domain) -> int:
+        i = self.find_asset_joint_index(self._actor(env, handle).asset, name)
+        return INVALID_HANDLE if i < 0 else self.get_actor_joint_index(env, handle, i, domain)
+
+    def get_joint_name(self, env: Env, handle: int) -> str:
+        actor, j = self._joint(env, handle, "get_joint_name")
+        return actor.asset.joint_names[j]
+
+    def get_asset_joint_name(self, asset: Asset, index: int) -> str:
+        return asset.joint_names[index]
+
+    def get_asset_joint_type(self, asset: Asset, index: int) -> JointType:
+        j = asset.joint_mj[index]
+        if j < 0:
+            return JointType.JOINT_FIXED
+        return {int(mujoco.mjtJoint.mjJNT_HINGE): JointType.JOINT_REVOLUTE,
+                int(mujoco.mjtJoint.mjJNT_SLIDE): JointType.JOINT_PRISMATIC,
+                int(mujoco.mjtJoint.mjJNT_BALL): JointType.JOINT_BALL,
+                int(mujoco.mjtJoint.mjJNT_FREE): JointType.JOINT_FLOATING}[
+                    int(asset.mj.jnt_type[j])]
+
+    def get_env_joint_count(self, env: Env) -> int:
+        return sum(len(a.asset.joint_names) for a in env.actors)
+
+    def get_sim_joint_count(self, sim: Sim) -> int:
+        return sum(self.get_env_joint_count(e) for e in sim.envs)
+
+    def get_dof_type_string(self, dof_type) -> str:
+        return DofType(int(dof_type)).name
+
+    def get_joint_type_string(self, joint_type) -> str:
+        return JointType(int(joint_type)).name
+
+    def get_actor_rigid_body_shape_indices(self, env: Env, handle: int) -> list:
+        """Each body's shapes as a range of the actor's own shapes (the order of
+        get_actor_rigid_shape_properties)."""
+        return self.get_asset_rigid_body_shape_indices(self._actor(env, handle).asset)
+
+    # bodies: poses and velocities in the env's frame; setting one moves an actor's root
+    def _vec3(self, env: Env, handle: int, columns: slice, call: str) -> Vec3:
+        self._body(env, handle, call)
+        return Vec3(*self._body_row(env, call)[int(handle), columns].tolist())
+
+    def get_rigid_linear_velocity(self, env: Env, handle: int) -> Vec3:
+        return self._vec3(env, handle, slice(7, 10), "get_rigid_linear_velocity")
+
+    def get_rigid_angular_velocity(self, env: Env, handle: int) -> Vec3:
+        return self._vec3(env, handle, slice(10, 13), "get_rigid_angular_velocity")
+
+    def _set_root(self, env: Env, actor, state: torch.Tensor, columns) -> None:
+        """Write `columns` of the actor's root state [13] in env (the others as they are)."""
+        envs = self._envs(env.sim, "set_actor_root_state")
+        new = self._root_now(envs).clone()
+        new[env.index, actor.index, columns] = state[columns].to(new)
+        only = torch.zeros(envs.num_envs, dtype=torch.bool, device=envs.device)
+        only[env.index] = True
+        envs.set_root_states(new, env_ids=only, forward=False)
+        envs.sim.forward()
+
+    def _root_body(self, env: Env, handle: int, call: str):
+        actor, b = self._body(env, handle, call)
+        if b != actor.body_offset:
+            raise _unsupported(f"gym.{call} on body {handle} "
+                               f"({actor.asset.body_names[b - actor.body_offset]!r}), a link of "
+                               f"actor {actor.name!r}", "a link's pose follows its DOF states "
+                               "(set_actor_dof_states); set its root body "
+                               f"({actor.body_offset}) instead")
+        return actor
+
+    def set_rigid_transform(self, env: Env, handle: int, transform: Transform) -> None:
+        actor = self._root_body(env, handle, "set_rigid_transform")
+        p, r = transform.p, transform.r
+        state = torch.tensor([p.x, p.y, p.z, r.x, r.y, r.z, r.w] + [0.0] * 6)
+        self._set_root(env, actor, state, slice(0, 7))
+
+    def set_rigid_linear_velocity(self, env: Env, handle: int, velocity: Vec3) -> None:
+        actor = self._root_body(env, handle, "set_rigid_linear_velocity")
+        state = torch.zeros(13)
+        state[7:10] = torch.tensor([velocity.x, velocity.y, velocity.z])
+        self._set_root(env, actor, state, slice(7, 10))
+
+    def set_rigid_angular_velocity(self, env: Env, handle: int, velocity: Vec3) -> None:
+        actor = self._root_body(env, handle, "set_rigid_angular_velocity")
+        state = torch.zeros(13)
+        state[10:13] = torch.tensor([velocity.x, velocity.y, velocity.z])
+        self._set_root(env, actor, state, slice(10, 13))
+
+    def set_actor_rigid_body_states(self, env: Env, handle: int, states,
+                                    flags: int = STATE_ALL) -> bool:
+        """The actor's root body takes its state from `states` (the actor's bodies, as
+        get_actor_rigid_body_states gives them); an articulated actor's other bodies follow
+        from its root and its DOF states (set_actor_dof_states), as in PhysX's
+        reduced-coordinate articulations, so their entries are not read."""
+        actor = self._actor(env, handle)
+        states = np.asarray(states)
+        if states.shape != (actor.asset.num_bodies,) or states.dtype != RigidBodyState:
+            raise ValueError(f"gym.set_actor_rigid_body_states: expected "
+                             f"{actor.asset.num_bodies} RigidBodyState records for actor "
+                             f"{actor.name!r}, got {states.shape} of {states.dtype}")
+        self._refresh(env.sim, "set_actor_rigid_body_states")
+        root = states[0]
+        state = torch.tensor([*root["pose"]["p"].item(), *root["pose"]["r"].item(),
+                              *root["vel"]["linear"].item(), *root["vel"]["angular"].item()])
+        columns = [c for c in range(13) if int(flags) & (STATE_POS if c < 7 else STATE_VEL)]
+        if columns:
+            self._set_root(env, actor, state, columns)
+        return True
+
+    def set_env_rigid_body_states(self, env: Env, states, flags: int = STATE_ALL) -> bool:
+        states = np.asarray(states)
+        if states.shape != (self.get_env_rigid_body_count(env),):
+            raise ValueError(f"gym.set_env_rigid_body_states: {states.shape} states for env "
+                             f"{env.index}'s {self.get_env_rigid_body_count(env)} bodies")
+        for a in env.actors:
+            self.set_actor_rigid_body_states(
+                env, a.index, states[a.body_offset:a.body_offset + a.asset.num_bodies], flags)
+        return True
+
+    def get_sim_rigid_body_states(self, sim: Sim, flags: int = STATE_ALL) -> np.ndarray:
+        return np.concatenate([self.get_env_rigid_body_states(e, flags) for e in sim.envs])
+
+    def set_sim_rigid_body_states(self, sim: Sim, states, flags: int = STATE_ALL) -> bool:
+        states = np.asarray(states)
+        per_env = self.get_env_rigid_body_count(sim.envs[0]) if sim.envs else 0
+        if states.shape != (per_env * len(sim.envs),):
+            raise ValueError(f"gym.set_sim_rigid_body_states: {states.shape} states for the "
+                             f"sim's {per_env * len(sim.envs)} bodies")
+        for e in sim.envs:
+            self.set_env_rigid_body_states(e, states[e.index * per_env:(e.index + 1) * per_env],
+                                           flags)
+        return True
+
+    def set_rigid_body_state_tensor(self, sim: Sim, states) -> bool:
+        raise _unsupported("gym.set_rigid_body_state_tensor", "Isaac Gym offers it with the "
+                           "Flex backend only; with PhysX, set the roots "
+                           "(set_actor_root_state_tensor) and the DOF states "
+                           "(set_dof_state_tensor)")
+
+    def apply_body_forces(self, env: Env, rigidHandle: int, force: Vec3 | None = None,
+                          torque: Vec3 | None = None,
+                          space=CoordinateSpace.ENV_SPACE) -> None:
+        """A force at the body's center of mass and a torque, for the next simulate only."""
+        self._body_wrench(env, rigidHandle, force, torque, None, space, "apply_body_forces")
+
+    def apply_body_force_at_pos(self, env: Env, rigidHandle: int, force: Vec3,
+                                pos: Vec3 | None = None,
+                                space=CoordinateSpace.ENV_SPACE) -> None:
+        """A force at point `pos` (the center of mass if None), for the next simulate only."""
+        self._body_wrench(env, rigidHandle, force, None, pos, space, "apply_body_force_at_pos")
+
+    def _body_wrench(self, env, handle, force, torque, pos, space, call) -> None:
+        from myriad.api.envs import world_wrench
+        envs = self._envs(env.sim, call)
+        _, b = self._body(env, handle, call)
+        s = envs.sim
+
+        def vec(v):
+            return None if v is None else torch.tensor([[float(v.x), float(v.y), float(v.z)]],
+                                                       device=envs.device)
+        f, t = world_wrench(s.body_pose[env.index, b][None], s.body_com[env.index, b][None],
+                            vec(force), vec(torque), vec(pos),
+                            local=_frame(space) == "local")
+        s.body_force[env.index, b, :3] += f[0]
+        s.body_force[env.index, b, 3:] += t[0]
+
+    # DOFs: state, targets and efforts of one DOF
+    def get_dof_position(self, env: Env, handle: int) -> float:
+        return self._dof_state(env, handle, 0, "get_dof_position")
+
+    def get_dof_velocity(self, env: Env, handle: int) -> float:
+        return self._dof_state(env, handle, 1, "get_dof_velocity")
+
+    def _dof_state(self, env, handle, column, call) -> float:
+        d = self._dof(env, handle, call)
+        envs = self._envs(env.sim, call)
+        self._refresh(env.sim, call)
+        return float(envs.dof_state[env.index, d, column])
+
+    def apply_dof_effort(self, env: Env, handle: int, effort: float) -> None:
+        """The DOF's effort (N or N·m), kept until changed, as set_dof_actuation_force_tensor."""
+        d = self._dof(env, handle, "apply_dof_effort")
+        envs = self._envs(env.sim, "apply_dof_effort")
+        envs.sim.joint_force[env.index, envs.dof_columns[d]] = float(effort)
+
+    def set_dof_target_position(self, env: Env, handle: int, target: float) -> None:
+        self._dof_target(env, handle, target, "pos", "set_dof_target_position")
+
+    def set_dof_target_velocity(self, env: Env, handle: int, target: float) -> None:
+        self._dof_target(env, handle, target, "vel", "set_dof_target_velocity")
+
+    def get_dof_target_position(self, env: Env, handle: int) -> float:
+        d = self._dof(env, handle, "get_dof_target_position")
+        self._envs(env.sim, "get_dof_target_position")
+        return float(env.sim.position_targets[env.index, d])
+
+    def get_dof_target_velocity(self, env: Env, handle: int) -> float:
+        d = self._dof(env, handle, "get_dof_target_velocity")
+        self._envs(env.sim, "get_dof_target_velocity")
+        return float(env.sim.velocity_targets[env.index, d])
+
+    def _dof_target(self, env, handle, target, kind, call) -> None:
+        d = self._dof(env, handle, call)
+        envs = self._envs(env.sim, call)
+        store = env.sim.position_targets if kind == "pos" else env.sim.velocity_targets
+        store[env.index, d] = float(target)
+        dofs, cols = env.sim.drive_dofs[kind], env.sim.drive_ctrl[kind]
+        if len(dofs):
+            envs.sim.ctrl[env.index, cols] = store[env.index, dofs]
+
+    # joints: a joint with one DOF reads as that DOF; frames in the env's frame
+    def _joint_dof(self, env, handle, call) -> int:
+        actor, j = self._joint(env, handle, call)
+        mj = actor.asset.joint_mj[j]
+        if mj < 0:
+            return -1
+        if mj not in actor.asset.dof_joints:
+            kind = self.get_joint_type_string(self.get_asset_joint_type(actor.asset, j))
+            raise ValueError(f"gym.{call}: joint {actor.asset.joint_names[j]!r} of actor "
+                             f"{actor.name!r} is a {kind} with several DOFs: read them with "
+                             "get_actor_dof_states")
+        return actor.dof_offset + actor.asset.dof_joints.index(mj)
+
+    def get_joint_position(self, env: Env, handle: int) -> float:
+        d = self._joint_dof(env, handle, "get_joint_position")
+        return 0.0 if d < 0 else self.get_dof_position(env, d)
+
+    def get_joint_velocity(self, env: Env, handle: int) -> float:
+        d = self._joint_dof(env, handle, "get_joint_velocity")
+        return 0.0 if d < 0 else self.get_dof_velocity(env, d)
+
+    def get_joint_target_position(self, env: Env, handle: int) -> float:
+        d = self._joint_dof(env, handle, "get_joint_target_position")
+        return 0.0 if d < 0 else self.get_dof_target_position(env, d)
+
+    def get_joint_target_velocity(self, env: Env, handle: int) -> float:
+        d = self._joint_dof(env, handle, "get_joint_target_velocity")
+        return 0.0 if d < 0 else self.get_dof_target_velocity(env, d)
+
+    def _joint_frame(self, env: Env, actor, j: int, call: str):
+        """(anchor, axis, child body's rotation xyzw) of joint j of actor, env frame."""
+        rows = self._body_row(env, call)
+        b = actor.body_offset + actor.asset.joint_bodies[j]
+        pose = rows[b, :7].double()
+        mj, m = actor.asset.joint_mj[j], actor.asset.mj
+        local = torch.tensor(m.jnt_pos[mj] if mj >= 0 else np.zeros(3), dtype=torch.float64)
+        axis = torch.tensor(m.jnt_axis[mj] if mj >= 0 else np.zeros(3), dtype=torch.float64)
+        anchor = quat_rotate(pose[None, 3:7], local[None])[0] + pose[:3]
+        return anchor, quat_rotate(pose[None, 3:7], axis[None])[0], pose[3:7]
+
+    def get_joint_transform(self, env: Env, handle: int) -> Transform:
+        """The joint's frame: at its anchor, turned as its child body."""
+        actor, j = self._joint(env, handle, "get_joint_transform")
+        anchor, _, rot = self._joint_frame(env, actor, j, "get_joint_transform")
+        return Transform(Vec3(*anchor.tolist()), Quat(*rot.tolist()))
+
+    def get_actor_joint_transforms(self, env: Env, handle: int) -> np.ndarray:
+        actor = self._actor(env, handle)
+        out = np.zeros(len(actor.asset.joint_names), Transform.dtype)
+        for j in range(len(out)):
+            t = self.get_joint_transform(env, actor.joint_offset + j)
+            out[j] = ((t.p.x, t.p.y, t.p.z), (t.r.x, t.r.y, t.r.z, t.r.w))
+        return out
+
+    def get_dof_frame(self, env: Env, handle: int) -> DofFrame:
+        """Where the DOF's joint is (env frame) and the direction it acts along or about."""
+        d = self._dof(env, handle, "get_dof_frame")
+        actor = next(a for a in env.actors
+                     if a.dof_offset <= d < a.dof_offset + a.asset.num_dofs)
+        j = actor.asset.joint_mj.index(actor.asset.dof_joints[d - actor.dof_offset])
+        anchor, axis, _ = self._joint_frame(env, actor, j, "get_dof_frame")
+        return DofFrame(Vec3(*anchor.tolist()), Vec3(*axis.tolist()))
+
+    def get_actor_dof_frames(self, env: Env, handle: int) -> np.ndarray:
+        actor = self._actor(env, handle)
+        out = np.zeros(actor.asset.num_dofs, DofFrame.dtype)
+        for i in range(actor.asset.num_dofs):
+            f = self.get_dof_frame(env, actor.dof_offset + i)
+            out[i] = ((f.origin.x, f.origin.y, f.origin.z), (f.axis.x, f.axis.y, f.axis.z))
+        return out
+
+    # contacts of the last simulate
+    def get_env_rigid_contacts(self, env: Env) -> np.ndarray:
+        """The env's contacts in the last substep, as RigidContact records: bodies in the env
+        domain (-1: the ground or other static geometry), `normal` from body0 to body1
+        (world), `lambda` the normal force (N), `lambdaFriction` the friction force's
+        magnitude (and 0), `initialOverlap` the penetration depth, `localPos*` the contact
+        point in each body's frame (for the ground: in the env's frame)."""
+        envs = self._envs(env.sim, "get_env_rigid_contacts")
+        s, e = envs.sim, env.index
+        n = min(int(s.contact_count[e]), int(s.contact_force.shape[1]))
+        out = np.zeros(n, RigidContact)
+        if not n:
+            return out
+        geom = s.contact_geom[e, :n].long().cpu()
+        body = torch.as_tensor(envs.model.geom_body)[geom]                 # [n, 2], -1 static
+        pos, normal = s.contact_pos[e, :n].cpu(), s.contact_normal[e, :n].cpu()
+        force = s.contact_force[e, :n].cpu()
+        lam = (force * normal).sum(-1)
+        mu = s.geom_friction[e].cpu()[geom].mean(-1)    # the engine's combine: the average
+        poses = s.body_pose[e].cpu()
+        out["env0"] = np.where(body[:, 0] >= 0, e, -1)
+        out["env1"] = np.where(body[:, 1] >= 0, e, -1)
+        out["body0"], out["body1"] = body[:, 0].numpy(), body[:, 1].numpy()
+        for k, key in ((0, "localPos0"), (1, "localPos1")):
+            b = body[:, k].clamp(min=0)
+            local = quat_rotate_inverse(poses[b, 3:7], pos - poses[b, :3])
+            out[key] = _records(torch.where(body[:, k, None] >= 0, local, pos).numpy())
+        out["normal"] = _records(normal.numpy())
+        out["initialOverlap"] = (-s.contact_dist[e, :n].cpu()).clamp(min=0).numpy()
+        out["lambda"] = lam.numpy()
+        out["lambdaFriction"]["x"] = (force - lam[:, None] * normal).norm(dim=-1).numpy()
+        out["friction"] = mu.numpy()
+        return out
+
+    def get_rigid_contacts(self, sim: Sim) -> np.ndarray:
+        return np.concatenate([self.get_env_rigid_contacts(e) for e in sim.envs]) if sim.envs \
+            else np.zeros(0, RigidContact)
+
+    def get_env_rigid_contact_forces(self, env: Env) -> np.ndarray:
+        """Each body's net contact force (N, world) in the last substep, as Vec3 records."""
+        envs = self._envs(env.sim, "get_env_rigid_contact_forces")
+        return _records(envs.net_contact_force[env.index].cpu().numpy())
+
+    def get_rigid_contact_forces(self, sim: Sim) -> np.ndarray:
+        return self.get_vec_env_rigid_contact_forces(sim.envs)
+
+    def get_vec_env_rigid_contact_forces(self, envs: list) -> np.ndarray:
+        return np.concatenate([self.get_env_rigid_contact_forces(e) for e in envs])
+
+
     def get_actor_dof_properties(self, env: Env, handle: int) -> np.ndarray:
         return self._actor(env, handle).dof_props.copy()
 

@@ -297,20 +297,13 @@ class Envs:
         if frame not in ("world", "local"):
             raise ValueError(f"apply_body_forces: frame={frame!r}; valid: 'world', 'local'")
         shape = (self.num_envs, self.num_bodies, 3)
-        rot = self.sim.body_pose[..., 3:7]
-        wrench = self.sim.body_force
-        if forces is not None:
-            f = self._check("apply_body_forces (forces)", forces, shape)
-            f = quat_rotate(rot, f) if frame == "local" else f
-            wrench[..., :3] += f
-            if positions is not None:
-                p = self._check("apply_body_forces (positions)", positions, shape)
-                if frame == "local":
-                    p = quat_rotate(rot, p) + self.sim.body_pose[..., :3]
-                wrench[..., 3:] += torch.cross(p - self.sim.body_com, f, dim=-1)
-        if torques is not None:
-            t = self._check("apply_body_forces (torques)", torques, shape)
-            wrench[..., 3:] += quat_rotate(rot, t) if frame == "local" else t
+        checked = [None if v is None else self._check(f"apply_body_forces ({name})", v, shape)
+                   for name, v in (("forces", forces), ("torques", torques),
+                                   ("positions", positions))]
+        force, torque = world_wrench(self.sim.body_pose, self.sim.body_com, *checked,
+                                     local=frame == "local")
+        self.sim.body_force[..., :3] += force
+        self.sim.body_force[..., 3:] += torque
 
     # ------------------------------------------------------------------ per-articulation algebra
     def jacobians(self, actor: str) -> torch.Tensor:
@@ -342,3 +335,20 @@ class Envs:
     def __repr__(self) -> str:
         return (f"Envs({self.num_envs} envs on {self.device}: actors {self.actor_names}, "
                 f"{self.num_dofs} dofs, {self.num_bodies} bodies, {self.num_sensors} sensors)")
+
+
+def world_wrench(pose: torch.Tensor, com: torch.Tensor, force: torch.Tensor | None = None,
+                 torque: torch.Tensor | None = None, position: torch.Tensor | None = None,
+                 local: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
+    """(force, torque about the center of mass), world axes, [..., 3] each, of a force at
+    `position` (at the center of mass if None) and a torque on bodies at `pose` [..., 7]
+    (position, quaternion xyzw) with centers of mass `com` [..., 3] (world). With `local`
+    the vectors and the point are in each body's frame."""
+    rot = pose[..., 3:7]
+    zero = torch.zeros_like(com)
+    f = zero if force is None else (quat_rotate(rot, force) if local else force)
+    t = zero if torque is None else (quat_rotate(rot, torque) if local else torque)
+    if force is not None and position is not None:
+        p = quat_rotate(rot, position) + pose[..., :3] if local else position
+        t = t + torch.cross(p - com, f, dim=-1)
+    return f, t
