@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 import torch
 
-from myriad.tasks.terrain import (KINDS, TerrainConfig, column_kind, generate_terrain,
-                                  height_points, next_levels, sample_heights, tile_heights)
+from myriad.tasks.terrain import (KINDS, TerrainConfig, TerrainCurriculum, column_kind,
+                                  generate_terrain, height_points, next_levels, sample_heights,
+                                  tile_heights)
 
 CONFIG = TerrainConfig()
 UNIT = CONFIG.vertical_scale
@@ -152,6 +153,14 @@ def test_impossible_terrain_settings_are_named():
         TerrainConfig(levels=0)
     with pytest.raises(ValueError, match="step_height"):
         TerrainConfig(step_height=(-0.05, 0.1))
+    # a typo in a task file's env.terrain is named (it would leave the setting at its default)
+    import yaml
+    from importlib.resources import files
+    env = yaml.safe_load((files("myriad") / "cfg/task/G1Rough.yaml").read_text())["env"]
+    env["terrain"]["stepHeight"] = env["terrain"].pop("step_height")
+    with pytest.raises(ValueError, match=r"env.terrain: unknown keys \['stepHeight'\].*"
+                                         r"step_height"):
+        TerrainCurriculum().init_terrain(env)
 
 
 def test_steps_and_boxes_that_start_at_zero_leave_level_0_flat():

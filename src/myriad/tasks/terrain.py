@@ -270,6 +270,8 @@ def next_levels(levels: torch.Tensor, walked: torch.Tensor, command_speed: torch
 TERRAIN_KEYS = ("levels", "types", "proportions", "tile", "border", "horizontal_scale",
                 "vertical_scale")
 TERRAIN_OPTIONAL_KEYS = ("step_height", "obstacle_height", "rough_noise")   # else the defaults
+# read by the task from env.terrain besides the grid's shape
+TERRAIN_TASK_KEYS = ("seed", "mesh", "slopeThreshold", "staticFriction", "curriculum")
 
 
 class TerrainCurriculum:
@@ -282,6 +284,11 @@ class TerrainCurriculum:
     def init_terrain(self, env: dict) -> None:
         """Before `VecTask.__init__` (which builds the scene): the grid."""
         terrain = env["terrain"]
+        known = TERRAIN_KEYS + TERRAIN_OPTIONAL_KEYS + TERRAIN_TASK_KEYS
+        unknown = sorted(set(terrain) - set(known))
+        if unknown:     # a task file's typo would otherwise leave that setting at its default
+            raise ValueError(f"env.terrain: unknown keys {unknown}; the keys it reads: "
+                             f"{', '.join(sorted(known))}")
         keys = TERRAIN_KEYS + tuple(k for k in TERRAIN_OPTIONAL_KEYS if k in terrain)
         self.terrain_config = TerrainConfig(**{
             k: (tuple(terrain[k]) if isinstance(TerrainConfig.__dataclass_fields__[k].default,
