@@ -571,6 +571,13 @@ def test_classic_calls_on_one_body_dof_and_joint(cartpole_file):
     with pytest.raises(ValueError, match="not a rigid body handle of env 1"):
         gym.get_rigid_name(env, 4)
     # the URDF's joints: the rail's axis y at the base (z = 2), the pole's axis x 0.12 m along
+    # colors: the model's until set, then the one set; segmentation ids: the actor's until set
+    c = gym.get_rigid_body_color(env, 1, 0, gymapi.MESH_VISUAL)
+    assert (c.x, c.y, c.z) == pytest.approx(tuple(gym.get_actor_asset(env, 1).mj.geom_rgba[0, :3]))
+    gym.set_rigid_body_color(env, 1, 0, gymapi.MESH_VISUAL, gymapi.Vec3(0.9, 0.1, 0.2))
+    c = gym.get_rigid_body_color(env, 1, 0, gymapi.MESH_VISUAL)
+    assert (c.x, c.y, c.z) == pytest.approx((0.9, 0.1, 0.2))
+    assert gym.get_rigid_body_segmentation_id(env, 1, 0) == 0
     frames = gym.get_actor_dof_frames(env, 0)
     np.testing.assert_allclose([tuple(frames["origin"][1]), tuple(frames["axis"][0]),
                                 tuple(frames["axis"][1])],

@@ -487,6 +487,15 @@ def test_tendon_properties_take_physx_semantics(tmp_path):
     torch.testing.assert_close(own.tendon_limit_stiffness[:, t], torch.tensor([10.0, 30.0]))
     torch.testing.assert_close(own.tendon_damping[:, t], torch.tensor([0.1, 0.5]))
     assert gym.get_actor_tendon_properties(envs[1], 0)[0].damping == pytest.approx(0.5)
+    # the file's joints and coefficients, through the asset and through an actor
+    assert gym.get_asset_fixed_tendon_joint_coefficients(asset, 0) == pytest.approx(
+        [0.007, -0.007])
+    assert [gym.get_actor_fixed_tendon_joint_name(envs[1], 0, 0, j) for j in (0, 1)] == \
+        ["j1", "j2"]
+    assert gym.get_actor_tendon_count(envs[0], 0) == 1
+    assert gym.find_actor_tendon_index(envs[0], 0, "couple") == 0
+    with pytest.raises(IndexError, match="1 tendons, not an index 1"):
+        gym.get_asset_fixed_tendon_joint_coefficients(asset, 1)
 
 
 def test_tendon_limits_and_spring_per_actor(tmp_path):

@@ -404,6 +404,19 @@ def test_isaacgym_viewer_calls_drive_the_page(monkeypatch):
             gym.draw_viewer(viewer, sim, True)
             gym.sync_frame_time(sim)
         assert gym.query_viewer_action_events(viewer) == []
+        # the camera where look_at put it (no page open), in Isaac Gym's camera frame (+z
+        # ahead, +y up), in the world's frame and in env 1's (its origin 2 m along x)
+        camera = gym.get_viewer_camera_transform(viewer, None)
+        assert (camera.p.x, camera.p.y, camera.p.z) == pytest.approx((2, 2, 2))
+        ahead, up = camera.r.rotate(gymapi.Vec3(0, 0, 1)), camera.r.rotate(gymapi.Vec3(0, 1, 0))
+        assert (ahead.x, ahead.y, ahead.z) == pytest.approx((-3 ** -0.5,) * 3)
+        assert up.z > 0.8 and abs(up.dot(ahead)) < 1e-6
+        left = camera.r.rotate(gymapi.Vec3(1, 0, 0))        # facing (-1, -1, -1): left is +x-y
+        assert left.x > 0.5 and left.y < -0.5
+        moved = gym.get_viewer_camera_transform(viewer, sim.envs[1])
+        assert (moved.p.x, moved.p.y, moved.p.z) == pytest.approx((0, 2, 2))
+        size = gym.get_viewer_size(viewer)
+        assert (size.x, size.y) == (gymapi.DEFAULT_VIEWER_WIDTH, gymapi.DEFAULT_VIEWER_HEIGHT)
         # each env at its grid origin (2 per row, 2 m apart), its lines with it
         web, envs = viewer.web, sim.envs
         assert web.shown_envs == [0, 1]
@@ -442,3 +455,40 @@ def test_isaacgym_viewer_calls_drive_the_page(monkeypatch):
     finally:
         gym.destroy_viewer(viewer)
     assert gym.query_viewer_has_closed(viewer)
+
+
+@needs_browser
+def test_isaacgym_viewer_camera_reads_the_open_page(browser, monkeypatch):
+    """get_viewer_camera_transform with a page open reads the page's camera (viser's, in
+    OpenCV's frame) and gives it in Isaac Gym's: at the eye look_at set, +z toward the
+    target, +y up."""
+    import numpy as np
+    from isaacgym import gymapi
+    port = free_port()
+    monkeypatch.setenv("MYRIAD_VIEWER_PORT", str(port))
+    gym = gymapi.acquire_gym()
+    params = gymapi.SimParams()
+    params.up_axis, params.gravity = gymapi.UP_AXIS_Z, gymapi.Vec3(0.0, 0.0, -9.81)
+    sim = gym.create_sim(-1, -1, gymapi.SIM_PHYSX, params)
+    box = gym.create_box(sim, 0.2, 0.2, 0.2)
+    env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 1)
+    gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(0, 0, 1)), "box", 0, 0, 0)
+    gym.prepare_sim(sim)
+    viewer = gym.create_viewer(sim, gymapi.CameraProperties())
+    eye, target = np.array([3.0, -2.0, 2.0]), np.array([0.0, 0.0, 1.0])
+    gym.viewer_camera_look_at(viewer, None, gymapi.Vec3(*eye), gymapi.Vec3(*target))
+    try:
+        open_when_served(browser, port)
+        deadline = time.monotonic() + 30
+        while viewer.web.camera_pose() is None or not np.allclose(
+                viewer.web.camera_pose()[0], eye, atol=1e-3):
+            assert time.monotonic() < deadline, "the page's camera never reached the eye"
+            time.sleep(0.2)
+        camera = gym.get_viewer_camera_transform(viewer, None)
+        assert (camera.p.x, camera.p.y, camera.p.z) == pytest.approx(tuple(eye), abs=1e-3)
+        ahead, up = camera.r.rotate(gymapi.Vec3(0, 0, 1)), camera.r.rotate(gymapi.Vec3(0, 1, 0))
+        expected = (target - eye) / np.linalg.norm(target - eye)
+        assert (ahead.x, ahead.y, ahead.z) == pytest.approx(tuple(expected), abs=1e-3)
+        assert up.z > 0.8
+    finally:
+        gym.destroy_viewer(viewer)

@@ -227,6 +227,24 @@ class Vec2:
     def __repr__(self): return f"Vec2({self.x:g}, {self.y:g})"
 
 
+class Int2:
+    __slots__ = ("x", "y")
+
+    def __init__(self, x: int = 0, y: int = 0):
+        self.x, self.y = int(x), int(y)
+
+    def __repr__(self): return f"Int2({self.x}, {self.y})"
+
+
+class Int3:
+    __slots__ = ("x", "y", "z")
+
+    def __init__(self, x: int = 0, y: int = 0, z: int = 0):
+        self.x, self.y, self.z = int(x), int(y), int(z)
+
+    def __repr__(self): return f"Int3({self.x}, {self.y}, {self.z})"
+
+
 class Quat:
     """A rotation quaternion (x, y, z, w); the default is the identity."""
     dtype = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("w", "<f4")])
@@ -729,6 +747,7 @@ class _Actor:
         self.name, self.group, self.filter = name, int(group), int(filter)
         self.segmentation_id = segmentation_id
         self.body_segmentation: dict = {}   # body index -> segmentation id (camera images)
+        self.body_colors: dict = {}         # (body index, mesh type) -> set_rigid_body_color's
         self.dof_props = asset.dof_props.copy()
         self.shape_props = copy.deepcopy(asset.shape_props)
         self.body_props = copy.deepcopy(asset.body_props)
@@ -1112,6 +1131,47 @@ class Gym:
         viewer.serve()
         return viewer
 
+    def get_viewer_size(self, viewer) -> Int2:
+        """The CameraProperties' width and height the viewer was created with (the page itself
+        takes the browser window's size)."""
+        props = viewer.props if isinstance(viewer, Viewer) and viewer.props else \
+            CameraProperties()
+        return Int2(props.width, props.height)
+
+    def get_viewer_camera_transform(self, viewer, env) -> Transform:
+        """The viewer's camera in `env`'s frame (the world's for None), in Isaac Gym's camera
+        frame: looking along +z, +y up, +x to the left: the open page's camera, else where
+        viewer_camera_look_at put it."""
+        if not isinstance(viewer, Viewer):
+            raise TypeError(f"gym.get_viewer_camera_transform: expected a Viewer (from "
+                            f"gym.create_viewer), got {type(viewer).__name__}")
+        page = viewer.web.camera_pose() if viewer.serve() is not None else None
+        if page is not None:
+            eye, wxyz = page
+            rot = np.empty(9)
+            mujoco.mju_quat2Mat(rot, wxyz)
+            opencv = rot.reshape(3, 3)
+        elif viewer.camera is not None:
+            target, eye = (np.asarray(v, float) for v in viewer.camera)
+            up = np.array([0.0, 1.0, 0.0] if int(viewer.sim.params.up_axis)
+                          == UpAxis.UP_AXIS_Y else [0.0, 0.0, 1.0])
+            forward = (target - eye) / max(np.linalg.norm(target - eye), 1e-12)
+            right = np.cross(forward, up)
+            if np.linalg.norm(right) < 1e-9:           # looking straight along up
+                right = np.cross(forward, [1.0, 0.0, 0.0] if abs(forward[0]) < 0.9
+                                 else [0.0, 1.0, 0.0])
+            right /= np.linalg.norm(right)
+            opencv = np.stack([right, np.cross(forward, right), forward], axis=1)
+        else:
+            raise RuntimeError("gym.get_viewer_camera_transform: the camera has no pose yet: "
+                               "no page is open and viewer_camera_look_at was not called")
+        # Isaac Gym's camera frame is OpenCV's turned half a turn about the view axis
+        frame = opencv * np.array([-1.0, -1.0, 1.0])
+        q = np.empty(4)
+        mujoco.mju_mat2Quat(q, frame.reshape(-1))
+        o = env.origin if isinstance(env, Env) else Vec3()
+        return Transform(Vec3(eye[0] - o.x, eye[1] - o.y, eye[2] - o.z), Quat(*q[1:], q[0]))
+
     def destroy_viewer(self, viewer) -> None:
         if isinstance(viewer, Viewer) and viewer.web is not None:
             viewer.web.close()
@@ -1209,7 +1269,29 @@ class Gym:
                                                          -5.0, -1.0))
 
     def set_rigid_body_color(self, env, actor_handle, rigid_body_index, mesh_type, color):
-        pass    # drawing only
+        """Kept for get_rigid_body_color (the page draws bodies in their model's colors)."""
+        actor = self._actor(env, actor_handle)
+        actor.body_colors[(int(rigid_body_index), int(mesh_type))] = Vec3(color.x, color.y,
+                                                                          color.z)
+
+    def get_rigid_body_color(self, env, actor_handle, rigid_body_index, mesh_type) -> Vec3:
+        """The color set_rigid_body_color gave, else the body's first geom's in its model."""
+        actor = self._actor(env, actor_handle)
+        b = int(rigid_body_index)
+        if not 0 <= b < actor.asset.num_bodies:
+            raise IndexError(f"gym.get_rigid_body_color: actor {actor.name!r} has "
+                             f"{actor.asset.num_bodies} bodies, not an index {b}")
+        color = actor.body_colors.get((b, int(mesh_type)))
+        if color is None:
+            m = actor.asset.mj
+            body = actor.asset.body_ids[b]
+            geoms = [g for g in actor.asset.body_geoms if m.geom_bodyid[g] == body]
+            color = Vec3(*m.geom_rgba[geoms[0], :3]) if geoms else Vec3(1.0, 1.0, 1.0)
+        return Vec3(color.x, color.y, color.z)
+
+    def get_rigid_body_segmentation_id(self, env, actor_handle, rigid_body_index) -> int:
+        actor = self._actor(env, actor_handle)
+        return actor.body_segmentation.get(int(rigid_body_index), actor.segmentation_id)
 
     def set_rigid_body_segmentation_id(self, env, actor_handle, rigid_body_index, sid):
         """The id camera sensors' segmentation images show for this body (else its actor's)."""
@@ -2048,6 +2130,56 @@ class Gym:
         """Each body's shapes as a range of the actor's own shapes (the order of
         get_actor_rigid_shape_properties)."""
         return self.get_asset_rigid_body_shape_indices(self._actor(env, handle).asset)
+
+    # actuators and fixed tendons of an actor: its asset's (Myriad keeps them per asset)
+    def get_actor_actuator_count(self, env: Env, handle: int) -> int:
+        return self.get_asset_actuator_count(self._actor(env, handle).asset)
+
+    def get_actor_actuator_name(self, env: Env, handle: int, index: int) -> str:
+        return self.get_asset_actuator_name(self._actor(env, handle).asset, index)
+
+    def get_actor_actuator_joint_name(self, env: Env, handle: int, index: int) -> str:
+        return self.get_asset_actuator_joint_name(self._actor(env, handle).asset, index)
+
+    def get_actor_actuator_properties(self, env: Env, handle: int) -> list:
+        return self.get_asset_actuator_properties(self._actor(env, handle).asset)
+
+    def find_actor_actuator_index(self, env: Env, handle: int, name: str) -> int:
+        return self.find_asset_actuator_index(self._actor(env, handle).asset, name)
+
+    def get_actor_tendon_count(self, env: Env, handle: int) -> int:
+        return self.get_asset_tendon_count(self._actor(env, handle).asset)
+
+    def get_actor_tendon_name(self, env: Env, handle: int, index: int) -> str:
+        return self.get_asset_tendon_name(self._actor(env, handle).asset, index)
+
+    def find_actor_tendon_index(self, env: Env, handle: int, name: str) -> int:
+        return self.find_asset_tendon_index(self._actor(env, handle).asset, name)
+
+    def _tendon_wraps(self, asset: Asset, tendon: int, call: str) -> range:
+        if not 0 <= int(tendon) < len(asset.tendon_names):
+            raise IndexError(f"gym.{call}: the asset has {len(asset.tendon_names)} tendons, not "
+                             f"an index {tendon}")
+        adr = int(asset.mj.tendon_adr[int(tendon)])
+        return range(adr, adr + int(asset.mj.tendon_num[int(tendon)]))
+
+    def get_asset_fixed_tendon_joint_coefficients(self, asset: Asset, tendon: int) -> list:
+        wraps = self._tendon_wraps(asset, tendon, "get_asset_fixed_tendon_joint_coefficients")
+        return [float(asset.mj.wrap_prm[w]) for w in wraps]
+
+    def get_asset_fixed_tendon_joint_name(self, asset: Asset, tendon: int, joint: int) -> str:
+        wraps = self._tendon_wraps(asset, tendon, "get_asset_fixed_tendon_joint_name")
+        return asset.mj.joint(int(asset.mj.wrap_objid[wraps[int(joint)]])).name
+
+    def get_actor_fixed_tendon_joint_coefficients(self, env: Env, handle: int,
+                                                  tendon: int) -> list:
+        return self.get_asset_fixed_tendon_joint_coefficients(self._actor(env, handle).asset,
+                                                              tendon)
+
+    def get_actor_fixed_tendon_joint_name(self, env: Env, handle: int, tendon: int,
+                                          joint: int) -> str:
+        return self.get_asset_fixed_tendon_joint_name(self._actor(env, handle).asset, tendon,
+                                                      joint)
 
     # bodies: poses and velocities in the env's frame; setting one moves an actor's root
     def _vec3(self, env: Env, handle: int, columns: slice, call: str) -> Vec3:

@@ -303,6 +303,14 @@ class Viewer:
             if eye is not None:
                 client.camera.position = np.asarray(eye, dtype=np.float64)
 
+    def camera_pose(self):
+        """(position, wxyz) of the first open page's camera (world; its frame as OpenCV's:
+        looking along +z, y down), or None while no page is open."""
+        for client in self.server.get_clients().values():
+            return (np.asarray(client.camera.position, dtype=np.float64),
+                    np.asarray(client.camera.wxyz, dtype=np.float64))
+        return None
+
     def _offsets(self) -> np.ndarray:
         """[shown, 3]: where each shown env is drawn: at its origin, or beside the one before
         it along y."""
