@@ -492,3 +492,65 @@ def test_isaacgym_viewer_camera_reads_the_open_page(browser, monkeypatch):
         assert up.z > 0.8
     finally:
         gym.destroy_viewer(viewer)
+
+
+def test_isaacgym_viewer_image_shows_each_env_at_its_grid_origin(tmp_path, monkeypatch):
+    """write_viewer_image_to_file (IsaacGymEnvs' record_frames) draws the envs the page shows
+    at their grid origins from the viewer's camera: each env's box is at the pixel the camera's
+    projection puts it, and moving one env's box away changes its pixel alone."""
+    import numpy as np
+    import imageio.v2 as imageio
+    import mujoco
+    from isaacgym import gymapi
+    from myriad.rl.video import before_offscreen_gl
+    before_offscreen_gl()           # else a later torch.compile (triton) crashes this process
+    try:
+        mujoco.Renderer(mujoco.MjModel.from_xml_string("<mujoco/>"), 8, 8).close()
+    except Exception as err:
+        pytest.skip(f"no offscreen OpenGL for MuJoCo's renderer: {err}")
+    monkeypatch.setenv("MYRIAD_VIEWER_PORT", str(free_port()))
+    gym = gymapi.acquire_gym()
+    params = gymapi.SimParams()
+    params.up_axis, params.gravity = gymapi.UP_AXIS_Z, gymapi.Vec3(0.0, 0.0, -9.81)
+    sim = gym.create_sim(-1, -1, gymapi.SIM_PHYSX, params)
+    plane = gymapi.PlaneParams()
+    plane.normal = gymapi.Vec3(0, 0, 1)
+    gym.add_ground(sim, plane)
+    props = gymapi.CameraProperties()
+    props.width, props.height = 320, 180
+    viewer = gym.create_viewer(sim, props)
+    box = gym.create_box(sim, 0.4, 0.4, 0.4)
+    envs = []
+    for i in range(2):             # two per row, 2 m apart: env 1 drawn 2 m along x
+        envs.append(gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 2))
+        gym.create_actor(envs[-1], box, gymapi.Transform(gymapi.Vec3(0, 0, 0.2)), "box", i, 0)
+    gym.prepare_sim(sim)
+    eye, target = np.array([1.0, -3.0, 1.5]), np.array([1.0, 0.0, 0.2])
+    gym.viewer_camera_look_at(viewer, None, gymapi.Vec3(*eye), gymapi.Vec3(*target))
+    try:
+        gym.write_viewer_image_to_file(viewer, str(tmp_path / "a.png"))
+        camera = gym.get_viewer_camera_transform(viewer, None)
+        axes = [camera.r.rotate(gymapi.Vec3(*a)) for a in ((1, 0, 0), (0, 1, 0), (0, 0, 1))]
+        left, up, ahead = (np.array([a.x, a.y, a.z]) for a in axes)
+        focal = 160 / np.tan(np.radians(props.horizontal_fov) / 2)
+
+        def pixel(point):          # (row, column) of a point of the world
+            d = np.asarray(point) - eye
+            return (int(round(90 - focal * d @ up / (d @ ahead))),
+                    int(round(160 - focal * d @ left / (d @ ahead))))
+
+        image = imageio.imread(tmp_path / "a.png")
+        assert image.shape[:2] == (180, 320)
+        boxes = [pixel((0, 0, 0.2)), pixel((2, 0, 0.2))]
+        beside = pixel((1, 0, 0.0))                   # the ground between the two boxes
+        for row, column in boxes:
+            assert np.abs(image[row, column, :3].astype(int)
+                          - image[beside][:3].astype(int)).sum() > 30
+        gym.set_rigid_transform(envs[1], 0, gymapi.Transform(gymapi.Vec3(0, 50, 0.2)))
+        gym.write_viewer_image_to_file(viewer, str(tmp_path / "b.png"))
+        moved = imageio.imread(tmp_path / "b.png")
+        assert (moved[boxes[0]] == image[boxes[0]]).all()
+        assert np.abs(moved[boxes[1]][:3].astype(int) - image[boxes[1]][:3].astype(int)).sum() \
+            > 30
+    finally:
+        gym.destroy_viewer(viewer)

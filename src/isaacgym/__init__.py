@@ -13,6 +13,9 @@ the semantics map: docs/isaacgym.md.
 Importing `isaacgym` before or after `torch` both work (the original required it first).
 """
 
-from . import gymapi, gymtorch, gymutil, terrain_utils, torch_utils  # noqa: F401
+# myriad first: it picks MuJoCo's offscreen OpenGL (EGL on a machine without a display), which
+# MuJoCo fixes when it is imported; gymapi imports MuJoCo (camera sensors, viewer images)
+import myriad  # noqa: E402,F401,I001
+from . import gymapi, gymtorch, gymutil, terrain_utils, torch_utils  # noqa: E402,F401
 
 __all__ = ["gymapi", "gymtorch", "gymutil", "terrain_utils", "torch_utils"]

@@ -169,6 +169,40 @@ class Cameras:
             for c in cameras:
                 self._render(c, mj, extent, bodies)
 
+    def render_view(self, position, forward, up, size: tuple[int, int], vertical_fov: float,
+                    near: float, far: float, envs: list[int], origins) -> np.ndarray:
+        """RGB [height, width, 3] of `envs` drawn at their `origins` (the viewer's grid) around
+        the shared ground, seen from `position` along `forward` (world)."""
+        import mujoco
+
+        built = self.sim.myriad
+        mj = built.model.mj_model
+        if self._data is None:
+            self._data = mujoco.MjData(mj)
+            self._segment = self._segmentation_ids(built)
+        width, height = size
+        renderer = self._renderer(mj, width, height)
+        extent = max(float(mj.stat.extent), 1e-9)
+        mj.vis.global_.fovy = vertical_fov
+        mj.vis.map.znear, mj.vis.map.zfar = near / extent, far / extent
+        scene, option, perturb = renderer.scene, mujoco.MjvOption(), mujoco.MjvPerturb()
+        for k, (e, origin) in enumerate(zip(envs, origins)):
+            q = built.sim.q[e].detach().cpu().numpy().astype(np.float64)
+            self._data.qpos[:] = built.model.qpos_to_mujoco(q)
+            mujoco.mj_kinematics(mj, self._data)
+            before = 0 if k == 0 else scene.ngeom
+            if k == 0:       # the ground and the first env's bodies
+                renderer.update_scene(self._data)
+            else:            # the next env's bodies only
+                mujoco.mjv_addGeoms(mj, self._data, option, perturb,
+                                    int(mujoco.mjtCatBit.mjCAT_DYNAMIC), scene)
+            for g in range(before, scene.ngeom):
+                if scene.geoms[g].category == int(mujoco.mjtCatBit.mjCAT_DYNAMIC):
+                    scene.geoms[g].pos[:] += np.asarray(origin, np.float64)
+        for gl in scene.camera:
+            gl.pos[:], gl.forward[:], gl.up[:] = position, forward, up
+        return renderer.render().copy()
+
     def _render(self, camera: Camera, mj, extent: float, bodies) -> None:
         import mujoco
 

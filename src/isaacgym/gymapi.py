@@ -1172,6 +1172,29 @@ class Gym:
         o = env.origin if isinstance(env, Env) else Vec3()
         return Transform(Vec3(eye[0] - o.x, eye[1] - o.y, eye[2] - o.z), Quat(*q[1:], q[0]))
 
+    def write_viewer_image_to_file(self, viewer, filename: str) -> None:
+        """A PNG of what the viewer shows: the envs the page shows at their grid origins, seen
+        from the viewer's camera (get_viewer_camera_transform) at the viewer's size and field
+        of view, drawn by MuJoCo's offscreen renderer from the simulated state (the lines
+        add_lines drew and the contact arrows are not in it). IsaacGymEnvs' record_frames
+        writes its frames with this."""
+        import imageio.v2 as imageio
+        camera = self.get_viewer_camera_transform(viewer, None)
+        web, sim = viewer.web, viewer.sim
+        props = viewer.props or CameraProperties()
+        ahead, up = camera.r.rotate(Vec3(0, 0, 1)), camera.r.rotate(Vec3(0, 1, 0))
+        h = math.radians(float(props.horizontal_fov))
+        fovy = math.degrees(2 * math.atan(math.tan(h / 2) * props.height / props.width))
+        envs = web.shown_envs
+        origins = [(sim.envs[e].origin.x, sim.envs[e].origin.y, sim.envs[e].origin.z)
+                   for e in envs]
+        rgb = sim.cameras.render_view(camera.p._t(), ahead._t(), up._t(),
+                                      (int(props.width), int(props.height)), fovy,
+                                      float(props.near_plane), float(props.far_plane),
+                                      envs, origins)
+        os.makedirs(os.path.dirname(os.path.abspath(filename)), exist_ok=True)
+        imageio.imwrite(filename, rgb)
+
     def destroy_viewer(self, viewer) -> None:
         if isinstance(viewer, Viewer) and viewer.web is not None:
             viewer.web.close()
