@@ -368,6 +368,18 @@ def test_training_in_a_real_browser_shows_progress_and_says_when_it_ended(tmp_pa
     assert seen.get("training ended") is True, f"the page froze instead: {seen}"
 
 
+def z_up_sim_with_ground(gym):
+    """An Isaac Gym sim, z up, with a ground plane."""
+    from isaacgym import gymapi
+    params = gymapi.SimParams()
+    params.up_axis, params.gravity = gymapi.UP_AXIS_Z, gymapi.Vec3(0.0, 0.0, -9.81)
+    sim = gym.create_sim(-1, -1, gymapi.SIM_PHYSX, params)
+    plane = gymapi.PlaneParams()
+    plane.normal = gymapi.Vec3(0, 0, 1)
+    gym.add_ground(sim, plane)
+    return sim
+
+
 def test_isaacgym_viewer_calls_drive_the_page(monkeypatch):
     """Isaac Gym's viewer calls (issue 41) on Myriad's page: created before prepare_sim as
     IsaacGymEnvs' examples do, served once the sim is built, the envs at their grid origins
@@ -379,12 +391,7 @@ def test_isaacgym_viewer_calls_drive_the_page(monkeypatch):
     port = free_port()
     monkeypatch.setenv("MYRIAD_VIEWER_PORT", str(port))
     gym = gymapi.acquire_gym()
-    params = gymapi.SimParams()
-    params.up_axis, params.gravity = gymapi.UP_AXIS_Z, gymapi.Vec3(0.0, 0.0, -9.81)
-    sim = gym.create_sim(-1, -1, gymapi.SIM_PHYSX, params)
-    plane = gymapi.PlaneParams()
-    plane.normal = gymapi.Vec3(0, 0, 1)
-    gym.add_ground(sim, plane)
+    sim = z_up_sim_with_ground(gym)
     viewer = gym.create_viewer(sim, gymapi.CameraProperties())
     assert viewer is not None and viewer.web is None          # nothing to draw yet
     gym.subscribe_viewer_keyboard_event(viewer, gymapi.KEY_V, "toggle_viewer_sync")
@@ -467,9 +474,7 @@ def test_isaacgym_viewer_camera_reads_the_open_page(browser, monkeypatch):
     port = free_port()
     monkeypatch.setenv("MYRIAD_VIEWER_PORT", str(port))
     gym = gymapi.acquire_gym()
-    params = gymapi.SimParams()
-    params.up_axis, params.gravity = gymapi.UP_AXIS_Z, gymapi.Vec3(0.0, 0.0, -9.81)
-    sim = gym.create_sim(-1, -1, gymapi.SIM_PHYSX, params)
+    sim = z_up_sim_with_ground(gym)
     box = gym.create_box(sim, 0.2, 0.2, 0.2)
     env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 1)
     gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(0, 0, 1)), "box", 0, 0, 0)
@@ -510,12 +515,7 @@ def test_isaacgym_viewer_image_shows_each_env_at_its_grid_origin(tmp_path, monke
         pytest.skip(f"no offscreen OpenGL for MuJoCo's renderer: {err}")
     monkeypatch.setenv("MYRIAD_VIEWER_PORT", str(free_port()))
     gym = gymapi.acquire_gym()
-    params = gymapi.SimParams()
-    params.up_axis, params.gravity = gymapi.UP_AXIS_Z, gymapi.Vec3(0.0, 0.0, -9.81)
-    sim = gym.create_sim(-1, -1, gymapi.SIM_PHYSX, params)
-    plane = gymapi.PlaneParams()
-    plane.normal = gymapi.Vec3(0, 0, 1)
-    gym.add_ground(sim, plane)
+    sim = z_up_sim_with_ground(gym)
     props = gymapi.CameraProperties()
     props.width, props.height = 320, 180
     viewer = gym.create_viewer(sim, props)

@@ -2078,25 +2078,25 @@ class Gym:
         return actor.asset.body_names[b - actor.body_offset]
 
     def get_actor_rigid_body_handle(self, env: Env, handle: int, index: int) -> int:
-        actor = self._actor(env, handle)
-        if not 0 <= int(index) < actor.asset.num_bodies:
-            raise IndexError(f"gym.get_actor_rigid_body_handle: actor {actor.name!r} has "
-                             f"{actor.asset.num_bodies} bodies, not an index {index}")
-        return actor.body_offset + int(index)
+        return self._handle_of(env, handle, index, "body", "get_actor_rigid_body_handle")
 
     def get_actor_dof_handle(self, env: Env, handle: int, index: int) -> int:
-        actor = self._actor(env, handle)
-        if not 0 <= int(index) < actor.asset.num_dofs:
-            raise IndexError(f"gym.get_actor_dof_handle: actor {actor.name!r} has "
-                             f"{actor.asset.num_dofs} DOFs, not an index {index}")
-        return actor.dof_offset + int(index)
+        return self._handle_of(env, handle, index, "DOF", "get_actor_dof_handle")
 
     def get_actor_joint_handle(self, env: Env, handle: int, index: int) -> int:
+        return self._handle_of(env, handle, index, "joint", "get_actor_joint_handle")
+
+    def _handle_of(self, env: Env, handle: int, index: int, kind: str, call: str) -> int:
+        """The env-domain handle of the actor's `index`-th body, DOF or joint."""
         actor = self._actor(env, handle)
-        if not 0 <= int(index) < len(actor.asset.joint_names):
-            raise IndexError(f"gym.get_actor_joint_handle: actor {actor.name!r} has "
-                             f"{len(actor.asset.joint_names)} joints, not an index {index}")
-        return actor.joint_offset + int(index)
+        count, offset = {"body": (actor.asset.num_bodies, actor.body_offset),
+                         "DOF": (actor.asset.num_dofs, actor.dof_offset),
+                         "joint": (len(actor.asset.joint_names), actor.joint_offset)}[kind]
+        if not 0 <= int(index) < count:
+            plural = "bodies" if kind == "body" else kind + "s"
+            raise IndexError(f"gym.{call}: actor {actor.name!r} has {count} {plural}, not an "
+                             f"index {index}")
+        return offset + int(index)
 
     def find_actor_joint_handle(self, env: Env, handle: int, name: str) -> int:
         actor = self._actor(env, handle)
