@@ -587,6 +587,9 @@ def test_classic_calls_on_one_body_dof_and_joint(cartpole_file):
     gym.set_dof_target_position(env, 0, 0.3)
     gym.apply_dof_effort(env, 1, 2.0)
     assert gym.get_dof_target_position(env, 0) == pytest.approx(0.3)
+    gym.set_joint_target_position(env, 0, 0.2)          # joint 0 (the rail) moves DOF 0
+    assert gym.get_dof_target_position(env, 0) == pytest.approx(0.2)
+    gym.set_joint_target_position(env, 0, 0.3)
     targets = torch.zeros(3, 2)
     targets[1, 0] = 0.3
     efforts = torch.zeros(3, 2)
@@ -681,3 +684,7 @@ def test_classic_forces_and_contacts_on_one_body(cartpole_file):
     assert u.y - u0.y == pytest.approx(0.0, abs=1e-6)
     with pytest.raises(NotImplementedError, match="Flex backend only"):
         gym.set_rigid_body_state_tensor(sim, None)
+    gym.destroy_env(envs[1])                   # as code tearing a sim down does
+    with pytest.raises(NotImplementedError, match=r"simulate after destroy_env of envs \[1\]"):
+        gym.simulate(sim)
+    gym.destroy_sim(sim)

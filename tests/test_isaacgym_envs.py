@@ -417,6 +417,17 @@ def test_attractor_targets_move_per_env():
                                atol=2e-3, rtol=0)
     with pytest.raises(ValueError, match="attractor handle 3"):
         gym.set_attractor_target(envs[0], 3, gymapi.Transform())
+    # its properties: a new target moves it as set_attractor_target does; its body cannot change
+    props = gym.get_attractor_properties(envs[1], handles[1])
+    props.target.p = gymapi.Vec3(0.0, -0.05, 1.0)
+    gym.set_attractor_properties(envs[1], handles[1], props)
+    settle(gym, sim, 200)
+    gym.refresh_rigid_body_state_tensor(sim)
+    top = bodies[1, :3] + rotate(bodies[1, 3:7], torch.tensor([0.0, 0.0, 0.1]))
+    torch.testing.assert_close(top, torch.tensor([0.0, -0.05, 1.0]), atol=2e-3, rtol=0)
+    props.rigid_handle = 1
+    with pytest.raises(NotImplementedError, match=r"changing \['rigid_handle'\]"):
+        gym.set_attractor_properties(envs[1], handles[1], props)
 
 
 def rotate(q, v):
@@ -494,6 +505,11 @@ def test_tendon_properties_take_physx_semantics(tmp_path):
         ["j1", "j2"]
     assert gym.get_actor_tendon_count(envs[0], 0) == 1
     assert gym.find_actor_tendon_index(envs[0], 0, "couple") == 0
+    assert gym.find_actor_fixed_tendon_joint_index(envs[0], 0, 0, "j2") == 1
+    gym.debug_print_asset(asset, str(tmp_path / "asset.txt"))
+    text = (tmp_path / "asset.txt").read_text()
+    assert "joint 1: j2 (JOINT_REVOLUTE)" in text and "tendon 0: couple" in text
+    assert "dof 0: j1 (DOF_ROTATION): hasLimits=" in text
     with pytest.raises(IndexError, match="1 tendons, not an index 1"):
         gym.get_asset_fixed_tendon_joint_coefficients(asset, 1)
 
@@ -759,6 +775,11 @@ def test_camera_sensors_see_depth_segmentation_and_colour_of_each_env():
     assert torch.equal(colour.reshape(48, -1).cpu(),
                        torch.from_numpy(gym.get_camera_image(sim, envs[1], cams[1],
                                                              gymapi.IMAGE_COLOR)))
+    # a destroyed camera is gone; the env's next camera takes a new handle
+    gym.destroy_camera_sensor(sim, envs[0], cams[0])
+    with pytest.raises(ValueError, match="not a camera sensor of env 0"):
+        gym.get_camera_image(sim, envs[0], cams[0], gymapi.IMAGE_DEPTH)
+    assert gym.create_camera_sensor(envs[0], props) == cams[0] + 1
 
 
 def test_a_setter_leaves_the_other_tensors_pending_edits_alone(tmp_path):

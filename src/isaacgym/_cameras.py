@@ -96,6 +96,7 @@ class Cameras:
     def __init__(self, sim):
         self.sim = sim
         self.cameras: list[Camera] = []
+        self._made: dict[int, int] = {}        # env index -> cameras made in it
         self._renderers: dict[tuple[int, int], object] = {}
         self._data = None
         self._segment = None                   # geom id -> segmentation id
@@ -108,7 +109,9 @@ class Cameras:
                              f"{props.height} must be >= 1, horizontal_fov "
                              f"{props.horizontal_fov} in (0, 180) degrees and 0 < near_plane "
                              f"{props.near_plane} < far_plane {props.far_plane}")
-        handle = sum(1 for c in self.cameras if c.env is env)
+        # the env's next handle (a destroyed camera's handle is not given again)
+        handle = self._made.get(env.index, 0)
+        self._made[env.index] = handle + 1
         camera = Camera(env, handle, props)
         self.cameras.append(camera)
         return camera

@@ -769,6 +769,7 @@ class Env:
         self.origin = Vec3(col * spacing.x, row * spacing.y, 0.0)
         self.actors: list[_Actor] = []
         self.attractors: list[tuple] = []      # (actor index, asset body index, props)
+        self.destroyed = False                 # destroy_env
 
     def __repr__(self):
         return f"gymapi.Env({self.index}: {[a.name for a in self.actors]})"
@@ -1092,6 +1093,10 @@ class Gym:
 
     def simulate(self, sim: Sim) -> None:
         envs = self._envs(sim, "simulate")
+        gone = [e.index for e in sim.envs if e.destroyed]
+        if gone:
+            raise _unsupported(f"gym.simulate after destroy_env of envs {gone}", "Myriad builds "
+                               "all envs together: destroy the sim (destroy_sim) to end them")
         envs.step()                     # refreshes the state tensors
         sim.fresh = _versions(envs)
         sim.time += sim.params.dt
@@ -1108,6 +1113,13 @@ class Gym:
 
     def get_frame_count(self, sim: Sim) -> int:
         return sim.frames
+
+    def destroy_env(self, env: Env) -> None:
+        """Marks the env destroyed, as code tearing a sim down does before destroy_sim; a sim
+        cannot go on without one of its envs (simulate then raises)."""
+        if not isinstance(env, Env):
+            raise TypeError(f"gym.destroy_env: expected an Env, got {type(env).__name__}")
+        env.destroyed = True
 
     def destroy_sim(self, sim: Sim) -> None:
         sim.myriad, sim.envs, sim.closed = None, [], True
@@ -1363,6 +1375,16 @@ class Gym:
                             f"{type(sim).__name__} and {type(env).__name__}")
         return sim.cameras.find(env, handle)
 
+    def destroy_camera_sensor(self, sim: Sim, env: Env, camera_handle: int) -> None:
+        sim.cameras.cameras.remove(self._camera(sim, env, camera_handle))
+
+    def set_light_parameters(self, sim: Sim, light_index: int, intensity: Vec3, ambient: Vec3,
+                             direction: Vec3) -> None:
+        """Accepted, and not applied: the page and the offscreen images keep MuJoCo's lights
+        (drawing only, no effect on the motion)."""
+        if not isinstance(sim, Sim):
+            raise TypeError(f"gym.set_light_parameters: expected a Sim, got {type(sim).__name__}")
+
     def render_all_camera_sensors(self, sim: Sim) -> None:
         self._envs(sim, "render_all_camera_sensors")
         sim.cameras.render_all()
@@ -1538,6 +1560,29 @@ class Gym:
                 == int(mujoco.mjtJoint.mjJNT_SLIDE)
                 else DofType.DOF_ROTATION)
 
+    def debug_print_asset(self, asset: Asset, outpath: str | None = None) -> None:
+        """The asset's bodies, joints, DOFs (with their properties), shapes and tendons, as
+        text on stdout or into `outpath`."""
+        lines = [repr(asset)]
+        lines += [f"body {i}: {n}" for i, n in enumerate(asset.body_names)]
+        lines += [f"joint {i}: {n} "
+                  f"({self.get_joint_type_string(self.get_asset_joint_type(asset, i))})"
+                  for i, n in enumerate(asset.joint_names)]
+        for i, (n, p) in enumerate(zip(asset.dof_names, asset.dof_props)):
+            fields = ", ".join(f"{k}={p[k]}" for k in DofProperties.names)
+            kind = self.get_dof_type_string(self.get_asset_dof_type(asset, i))
+            lines.append(f"dof {i}: {n} ({kind}): {fields}")
+        lines += [f"shape {i}: geom {g} of body {asset.mj.body(asset.mj.geom_bodyid[g]).name}, "
+                  f"friction {p.friction:g}" for i, (g, p) in
+                  enumerate(zip(asset.shape_geoms, asset.shape_props))]
+        lines += [f"tendon {i}: {n}" for i, n in enumerate(asset.tendon_names)]
+        text = "\n".join(lines) + "\n"
+        if outpath:
+            with open(outpath, "w") as f:
+                f.write(text)
+        else:
+            print(text, end="")
+
     def get_asset_dof_properties(self, asset: Asset) -> np.ndarray:
         return asset.dof_props.copy()
 
@@ -1629,6 +1674,24 @@ class Gym:
         props.target = copy.deepcopy(target)
         if env.sim.myriad is not None:
             _apply_attractor_targets(env.sim, [env])
+
+    def set_attractor_properties(self, env: Env, attractor_handle: int,
+                                 props: AttractorProperties) -> None:
+        """A new target (as set_attractor_target), stiffness or damping (Myriad holds every
+        attractor as a hard constraint); its body, offset and axes are fixed at creation."""
+        old = self._attractor(env, attractor_handle, "set_attractor_properties")
+        fixed = [f for f in ("axes", "rigid_handle")
+                 if int(getattr(props, f)) != int(getattr(old, f))]
+        if props.offset.p != old.offset.p or props.offset.r != old.offset.r:
+            fixed.append("offset")
+        if fixed:
+            raise _unsupported(f"gym.set_attractor_properties changing {fixed}", "an attractor's "
+                               "body, offset and axes are set by create_rigid_body_attractor")
+        if float(props.stiffness) < 1e6:
+            _warn_once(f"an attractor of stiffness {props.stiffness:g} N/m is held as a hard "
+                       "constraint (Myriad has no attractor springs)")
+        old.stiffness, old.damping = float(props.stiffness), float(props.damping)
+        self.set_attractor_target(env, attractor_handle, props.target)
 
     def get_attractor_properties(self, env: Env, attractor_handle: int) -> AttractorProperties:
         return copy.deepcopy(self._attractor(env, attractor_handle, "get_attractor_properties"))
@@ -2194,6 +2257,13 @@ class Gym:
         wraps = self._tendon_wraps(asset, tendon, "get_asset_fixed_tendon_joint_name")
         return asset.mj.joint(int(asset.mj.wrap_objid[wraps[int(joint)]])).name
 
+    def find_actor_fixed_tendon_joint_index(self, env: Env, handle: int, tendon: int,
+                                            name: str) -> int:
+        asset = self._actor(env, handle).asset
+        wraps = self._tendon_wraps(asset, tendon, "find_actor_fixed_tendon_joint_index")
+        names = [asset.mj.joint(int(asset.mj.wrap_objid[w])).name for w in wraps]
+        return names.index(name) if name in names else INVALID_HANDLE
+
     def get_actor_fixed_tendon_joint_coefficients(self, env: Env, handle: int,
                                                   tendon: int) -> list:
         return self.get_asset_fixed_tendon_joint_coefficients(self._actor(env, handle).asset,
@@ -2403,6 +2473,16 @@ class Gym:
     def get_joint_target_velocity(self, env: Env, handle: int) -> float:
         d = self._joint_dof(env, handle, "get_joint_target_velocity")
         return 0.0 if d < 0 else self.get_dof_target_velocity(env, d)
+
+    def set_joint_target_position(self, env: Env, handle: int, target: float) -> None:
+        d = self._joint_dof(env, handle, "set_joint_target_position")
+        if d >= 0:
+            self.set_dof_target_position(env, d, target)
+
+    def set_joint_target_velocity(self, env: Env, handle: int, target: float) -> None:
+        d = self._joint_dof(env, handle, "set_joint_target_velocity")
+        if d >= 0:
+            self.set_dof_target_velocity(env, d, target)
 
     def _joint_frame(self, env: Env, actor, j: int, call: str):
         """(anchor, axis, child body's rotation xyzw) of joint j of actor, env frame."""
