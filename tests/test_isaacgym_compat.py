@@ -621,6 +621,12 @@ def test_classic_calls_on_one_body_dof_and_joint(cartpole_file):
     assert (p.x, p.y, p.z) == pytest.approx(root[3, :3].tolist(), abs=0)
     v = gym.get_rigid_linear_velocity(env, box)
     assert (v.x, v.y, v.z) == pytest.approx(root[3, 7:10].tolist(), abs=0)
+    # the vector forms: the same body in several envs at once
+    poses = gym.get_vec_rigid_transform([envs[2], env], box)
+    assert poses.shape == (2,) and poses["p"]["z"][1] == p.z and poses["r"]["w"][1] == \
+        pytest.approx(root[3, 6].item(), abs=0)
+    speeds = gym.get_vec_rigid_linear_velocity(envs, box)
+    assert speeds["z"].tolist() == pytest.approx(root[[1, 3, 5], 9].tolist(), abs=0)
     # a link's pose follows its DOFs: setting it is refused, naming the root to set instead
     with pytest.raises(NotImplementedError, match=r"body 1 \('cart'\), a link of actor "
                                                   r"'cartpole'.*root body \(0\)"):

@@ -792,6 +792,14 @@ def _records(xyz: np.ndarray) -> np.ndarray:
     return out
 
 
+def _records4(xyzw: np.ndarray) -> np.ndarray:
+    """Quat records of [..., 4] floats (x, y, z, w)."""
+    out = np.empty(xyzw.shape[:-1], Quat.dtype)
+    for k, name in enumerate("xyzw"):
+        out[name] = xyzw[..., k]
+    return out
+
+
 def _xyz(records: np.ndarray) -> np.ndarray:
     """[..., 3] floats of Vec3 records (`_records` undone)."""
     return np.stack([records["x"], records["y"], records["z"]], axis=-1).astype(np.float64)
@@ -2294,6 +2302,32 @@ class Gym:
         only[env.index] = True
         envs.set_root_states(new, env_ids=only, forward=False)
         envs.sim.forward()
+
+    def get_vec_rigid_transform(self, envs: list, handle: int) -> np.ndarray:
+        """Body `handle`'s pose in each of `envs` (in its env's frame), as Transform records."""
+        rows = self._vec_rows(envs, handle, "get_vec_rigid_transform")
+        out = np.zeros(len(rows), Transform.dtype)
+        out["p"], out["r"] = _records(rows[:, :3]), _records4(rows[:, 3:7])
+        return out
+
+    def get_vec_rigid_linear_velocity(self, envs: list, handle: int) -> np.ndarray:
+        return _records(self._vec_rows(envs, handle, "get_vec_rigid_linear_velocity")[:, 7:10])
+
+    def get_vec_rigid_angular_velocity(self, envs: list, handle: int) -> np.ndarray:
+        return _records(self._vec_rows(envs, handle, "get_vec_rigid_angular_velocity")[:, 10:])
+
+    def _vec_rows(self, envs: list, handle, call: str) -> np.ndarray:
+        """[len(envs), 13] states of body `handle` in each env (one read for all)."""
+        if not isinstance(handle, (int, np.integer)):
+            raise _unsupported(f"gym.{call} with a list of handles", "one body handle per call")
+        if not envs:
+            return np.zeros((0, 13), np.float32)
+        for env in envs:
+            self._body(env, handle, call)
+        states = self._envs(envs[0].sim, call)
+        self._refresh(envs[0].sim, call)
+        index = torch.tensor([e.index for e in envs], device=states.device)
+        return states.rigid_body_states[index, int(handle)].cpu().numpy()
 
     def _root_body(self, env: Env, handle: int, call: str):
         actor, b = self._body(env, handle, call)
