@@ -1200,7 +1200,10 @@ class Gym:
         writes its frames with this."""
         import imageio.v2 as imageio
         camera = self.get_viewer_camera_transform(viewer, None)
-        web, sim = viewer.web, viewer.sim
+        web, sim = viewer.serve(), viewer.sim
+        if web is None:
+            raise RuntimeError("gym.write_viewer_image_to_file: the viewer shows nothing before "
+                               "gym.prepare_sim(sim)")
         props = viewer.props or CameraProperties()
         ahead, up = camera.r.rotate(Vec3(0, 0, 1)), camera.r.rotate(Vec3(0, 1, 0))
         h = math.radians(float(props.horizontal_fov))
