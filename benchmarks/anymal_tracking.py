@@ -22,6 +22,7 @@ and the share of episodes (those running at the start and those begun since) tha
 import argparse
 
 import torch
+import yaml
 
 import myriad
 from myriad.rl.evaluate import command_tracking
@@ -59,14 +60,24 @@ def main() -> None:
     ap.add_argument("--level", type=int, default=0, help="terrain tasks: difficulty row 0-9")
     ap.add_argument("--sweep", action="store_true", help="hold each env at one command of a "
                     "grid of forward speeds and yaw rates: the response to each")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a task setting, as myriad.make takes it (e.g. "
+                    "sim.physx.limit_block_contacts=16: the physics the policy trained with)")
     args = ap.parse_args()
+    settings = {}
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep:
+            ap.error(f"--set {item}: expected KEY=VALUE")
+        settings[key] = yaml.safe_load(value)
 
     torch.manual_seed(0)
     _, train_cfg, _ = task_and_train_configs(compose([f"task={args.task}", "device=cpu"]))
     if args.task not in TERRAIN_TASKS:
-        task = myriad.make(args.task, num_envs=args.envs)
+        task = myriad.make(args.task, num_envs=args.envs, **settings)
     else:
-        task = myriad.make(args.task, num_envs=args.envs, **{"env.terrain.curriculum": False})
+        task = myriad.make(args.task, num_envs=args.envs,
+                           **{"env.terrain.curriculum": False, **settings})
         put_on_tiles(task, *TILES[args.tiles], 0 if args.tiles == "flat" else args.level)
     policy = load_policy(args.checkpoint, train_cfg, task)
     obs = task.reset()["obs"]

@@ -46,6 +46,12 @@ def test_unknown_command_line_keys_fail_naming_the_nearest(capsys):
     assert myriad.tasks.base.sim_params(cfg.task.sim).limit_block_contacts == 16
     assert "no key task.sim.physx.limit_blok_contacts" in _fails(
         capsys, "task.sim.physx.limit_blok_contacts=16")
+    # ... and through myriad.make's overrides (apply_overrides), as on the command line
+    from myriad.tasks import apply_overrides, task_config
+    cfg = apply_overrides(task_config("Ant"), {"sim.physx.limit_block_contacts": 16}, "Ant")
+    assert cfg["sim"]["physx"]["limit_block_contacts"] == 16
+    with pytest.raises(KeyError, match="no config key 'sim.physx.limit_blok'"):
+        apply_overrides(task_config("Ant"), {"sim.physx.limit_blok": 16}, "Ant")
 
 
 def test_bad_numbers_name_their_key_and_value(capsys):

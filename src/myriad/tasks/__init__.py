@@ -84,7 +84,10 @@ def task_config(name: str) -> dict:
 def apply_overrides(cfg: dict, overrides: dict, where: str) -> dict:
     """Set `key=value` pairs in cfg: a dotted path ("sim.dt", "env.plane.restitution"), a bare
     key of the `env` section ("episodeLength") or a whole top-level section
-    ("randomization={...}"). Unknown keys fail, listing the valid ones."""
+    ("randomization={...}"). Unknown keys fail, listing the valid ones; a SimParams setting of
+    `sim.physx` (`base.PHYSX_KEYS`) may be added where the YAML leaves it out, as on the
+    command line."""
+    from .base import PHYSX_KEYS
     for key, value in overrides.items():
         if "." in key:
             path = key.split(".")
@@ -92,6 +95,9 @@ def apply_overrides(cfg: dict, overrides: dict, where: str) -> dict:
             path = ["env", key] if key in cfg["env"] or key not in cfg else [key]
         node = cfg
         for i, part in enumerate(path):
+            if path[:i] == ["sim", "physx"] and i == len(path) - 1 and part in PHYSX_KEYS \
+                    and isinstance(node, dict):
+                node.setdefault(part, value)
             if not isinstance(node, dict) or part not in node:
                 parent = ".".join(path[:i]) or "(top)"
                 valid = sorted(node) if isinstance(node, dict) else []
