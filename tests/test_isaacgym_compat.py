@@ -627,6 +627,14 @@ def test_classic_calls_on_one_body_dof_and_joint(cartpole_file):
         pytest.approx(root[3, 6].item(), abs=0)
     speeds = gym.get_vec_rigid_linear_velocity(envs, box)
     assert speeds["z"].tolist() == pytest.approx(root[[1, 3, 5], 9].tolist(), abs=0)
+    mixed = gym.get_vec_rigid_transform([envs[0], env], [box, 0])     # one handle per env
+    assert mixed["p"]["z"][1] == pytest.approx(2.0) and mixed["p"]["x"][0] == \
+        pytest.approx(root[1, 0].item(), abs=0)
+    dofs = gym.get_vec_actor_dof_states(envs, [0, 0, 0], gymapi.STATE_ALL)
+    assert dofs.shape == (3, 2) and dofs["pos"][1].tolist() == ours[2:4, 0].tolist()
+    assert (gym.get_vec_actor_dof_states(envs, 0, gymapi.STATE_POS)["vel"] == 0).all()
+    with pytest.raises(ValueError, match="the actors have \\[0, 2\\] DOFs"):
+        gym.get_vec_actor_dof_states(envs[:2], [0, 1])
     # a link's pose follows its DOFs: setting it is refused, naming the root to set instead
     with pytest.raises(NotImplementedError, match=r"body 1 \('cart'\), a link of actor "
                                                   r"'cartpole'.*root body \(0\)"):

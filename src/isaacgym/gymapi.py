@@ -2306,31 +2306,67 @@ class Gym:
         envs.set_root_states(new, env_ids=only, forward=False)
         envs.sim.forward()
 
-    def get_vec_rigid_transform(self, envs: list, handle: int) -> np.ndarray:
-        """Body `handle`'s pose in each of `envs` (in its env's frame), as Transform records."""
+    def get_vec_rigid_transform(self, envs: list, handle) -> np.ndarray:
+        """A body's pose in each of `envs` (in its env's frame), as Transform records: body
+        `handle` in every env, or handle[i] in envs[i]."""
         rows = self._vec_rows(envs, handle, "get_vec_rigid_transform")
         out = np.zeros(len(rows), Transform.dtype)
         out["p"], out["r"] = _records(rows[:, :3]), _records4(rows[:, 3:7])
         return out
 
-    def get_vec_rigid_linear_velocity(self, envs: list, handle: int) -> np.ndarray:
+    def get_vec_rigid_linear_velocity(self, envs: list, handle) -> np.ndarray:
         return _records(self._vec_rows(envs, handle, "get_vec_rigid_linear_velocity")[:, 7:10])
 
-    def get_vec_rigid_angular_velocity(self, envs: list, handle: int) -> np.ndarray:
+    def get_vec_rigid_angular_velocity(self, envs: list, handle) -> np.ndarray:
         return _records(self._vec_rows(envs, handle, "get_vec_rigid_angular_velocity")[:, 10:])
 
-    def _vec_rows(self, envs: list, handle, call: str) -> np.ndarray:
-        """[len(envs), 13] states of body `handle` in each env (one read for all)."""
-        if not isinstance(handle, (int, np.integer)):
-            raise _unsupported(f"gym.{call} with a list of handles", "one body handle per call")
+    def _vec_rows(self, envs: list, handles, call: str) -> np.ndarray:
+        """[len(envs), 13] states of a body in each env (one read for all): body `handles`
+        in every env, or, given a list, handles[i] in envs[i]."""
+        handles = self._per_env(envs, handles, call)
         if not envs:
             return np.zeros((0, 13), np.float32)
-        for env in envs:
+        for env, handle in zip(envs, handles):
             self._body(env, handle, call)
         states = self._envs(envs[0].sim, call)
         self._refresh(envs[0].sim, call)
         index = torch.tensor([e.index for e in envs], device=states.device)
-        return states.rigid_body_states[index, int(handle)].cpu().numpy()
+        return states.rigid_body_states[index, torch.tensor(handles)].cpu().numpy()
+
+    def _per_env(self, envs: list, handles, call: str) -> list:
+        """One handle per env: `handles` for all, or a list as long as `envs`."""
+        if isinstance(handles, (int, np.integer)):
+            return [int(handles)] * len(envs)
+        handles = [int(h) for h in handles]
+        if len(handles) != len(envs):
+            raise ValueError(f"gym.{call}: {len(handles)} handles for {len(envs)} envs (one "
+                             "per env, or one for all)")
+        return handles
+
+    def get_vec_actor_dof_states(self, envs: list, actors, flags: int = STATE_ALL) -> np.ndarray:
+        """[len(envs), DOFs] DofState records of an actor in each env (`actors`: its handle in
+        every env, or one handle per env); the actors must have as many DOFs."""
+        call = "get_vec_actor_dof_states"
+        actors = self._per_env(envs, actors, call)
+        chosen = [self._actor(env, a) for env, a in zip(envs, actors)]
+        counts = {a.asset.num_dofs for a in chosen}
+        if len(counts) > 1:
+            raise ValueError(f"gym.{call}: the actors have {sorted(counts)} DOFs; one array "
+                             "needs the same count in every env")
+        out = np.zeros((len(envs), counts.pop() if counts else 0), DofState)
+        if not envs:
+            return out
+        states = self._envs(envs[0].sim, call)
+        self._refresh(envs[0].sim, call)
+        index = torch.tensor([e.index for e in envs], device=states.device)
+        columns = torch.tensor([[a.dof_offset + d for d in range(a.asset.num_dofs)]
+                                for a in chosen], device=states.device)
+        values = states.dof_state[index[:, None], columns].cpu().numpy()
+        if int(flags) & STATE_POS:
+            out["pos"] = values[..., 0]
+        if int(flags) & STATE_VEL:
+            out["vel"] = values[..., 1]
+        return out
 
     def _root_body(self, env: Env, handle: int, call: str):
         actor, b = self._body(env, handle, call)
