@@ -29,6 +29,26 @@ IMAGE_COLOR, IMAGE_DEPTH, IMAGE_SEGMENTATION = 0, 1, 2
 FOLLOW_POSITION, FOLLOW_TRANSFORM = 0, 1
 
 
+def look_rotation(position, target, up, call: str) -> np.ndarray:
+    """3x3 rotation whose columns are a camera's axes looking from `position` at `target`:
+    x ahead, y to the left, z up (as near `up` as looking ahead allows)."""
+    forward = np.asarray(target, float) - np.asarray(position, float)
+    if np.linalg.norm(forward) < 1e-9:
+        raise ValueError(f"{call}: the target is the camera's own position")
+    forward /= np.linalg.norm(forward)
+    side = np.cross(np.asarray(up, float), forward)
+    if np.linalg.norm(side) < 1e-9:                 # looking straight along up
+        side = np.cross([1.0, 0.0, 0.0], forward)
+    side /= np.linalg.norm(side)
+    return np.stack([forward, side, np.cross(forward, side)], axis=1)
+
+
+def vertical_fov(props) -> float:
+    """Degrees, from CameraProperties' horizontal field of view and aspect ratio."""
+    h = math.radians(float(props.horizontal_fov))
+    return math.degrees(2 * math.atan(math.tan(h / 2) * props.height / props.width))
+
+
 class Camera:
     """One camera sensor of one env: its properties, its pose or the body it rides on, its
     last images."""
@@ -42,16 +62,8 @@ class Camera:
         self.tensors: dict[int, torch.Tensor] = {}
 
     def look(self, position, target, up) -> None:
-        forward = np.asarray(target, float) - np.asarray(position, float)
-        if np.linalg.norm(forward) < 1e-9:
-            raise ValueError("set_camera_location: the target is the camera's own position")
-        forward /= np.linalg.norm(forward)
-        side = np.cross(np.asarray(up, float), forward)
-        if np.linalg.norm(side) < 1e-9:                 # looking straight along up
-            side = np.cross([1.0, 0.0, 0.0], forward)
-        side /= np.linalg.norm(side)
         self.position = np.asarray(position, float)
-        self.rotation = np.stack([forward, side, np.cross(forward, side)], axis=1)
+        self.rotation = look_rotation(position, target, up, "set_camera_location")
 
     def pose(self, body_states: torch.Tensor):
         """(position, rotation) in the env's frame now (following its body if attached)."""
@@ -67,10 +79,7 @@ class Camera:
         return state[:3] + p_off, r_off
 
     def vertical_fov(self) -> float:
-        """Degrees, from the horizontal field of view and the aspect ratio."""
-        h = math.radians(float(self.props.horizontal_fov))
-        return math.degrees(2 * math.atan(math.tan(h / 2) * self.props.height
-                                          / self.props.width))
+        return vertical_fov(self.props)
 
     def matrices(self, body_states) -> tuple[np.ndarray, np.ndarray]:
         """(view, projection), 4x4, for row vectors (see the module's docstring)."""
@@ -152,47 +161,46 @@ class Cameras:
                 ids[:-1][np.asarray(m.geom_body) == b] = sid
         return ids
 
-    def render_all(self) -> None:
+    def _pose(self, e: int) -> None:
+        """The MjData drawn from (made once, with the geoms' segmentation ids) at env e's
+        simulated state."""
         import mujoco
+        built = self.sim.myriad
+        if self._data is None:
+            self._data = mujoco.MjData(built.model.mj_model)
+            self._segment = self._segmentation_ids(built)
+        q = built.sim.q[e].detach().cpu().numpy().astype(np.float64)
+        self._data.qpos[:] = built.model.qpos_to_mujoco(q)
+        mujoco.mj_kinematics(built.model.mj_model, self._data)
 
+    def render_all(self) -> None:
         built = self.sim.myriad
         mj = built.model.mj_model
-        if self._data is None:
-            self._data = mujoco.MjData(mj)
-            self._segment = self._segmentation_ids(built)
         extent = max(float(mj.stat.extent), 1e-9)
         bodies = built.rigid_body_states
         by_env: dict[int, list[Camera]] = {}
         for c in self.cameras:
             by_env.setdefault(c.env.index, []).append(c)
         for e, cameras in by_env.items():
-            q = built.sim.q[e].detach().cpu().numpy().astype(np.float64)
-            self._data.qpos[:] = built.model.qpos_to_mujoco(q)
-            mujoco.mj_kinematics(mj, self._data)
+            self._pose(e)
             for c in cameras:
                 self._render(c, mj, extent, bodies)
 
-    def render_view(self, position, forward, up, size: tuple[int, int], vertical_fov: float,
+    def render_view(self, position, forward, up, size: tuple[int, int], fovy: float,
                     near: float, far: float, envs: list[int], origins) -> np.ndarray:
         """RGB [height, width, 3] of `envs` drawn at their `origins` (the viewer's grid) around
         the shared ground, seen from `position` along `forward` (world)."""
         import mujoco
 
-        built = self.sim.myriad
-        mj = built.model.mj_model
-        if self._data is None:
-            self._data = mujoco.MjData(mj)
-            self._segment = self._segmentation_ids(built)
+        mj = self.sim.myriad.model.mj_model
         width, height = size
         renderer = self._renderer(mj, width, height)
         extent = max(float(mj.stat.extent), 1e-9)
-        mj.vis.global_.fovy = vertical_fov
+        mj.vis.global_.fovy = fovy
         mj.vis.map.znear, mj.vis.map.zfar = near / extent, far / extent
         scene, option, perturb = renderer.scene, mujoco.MjvOption(), mujoco.MjvPerturb()
         for k, (e, origin) in enumerate(zip(envs, origins)):
-            q = built.sim.q[e].detach().cpu().numpy().astype(np.float64)
-            self._data.qpos[:] = built.model.qpos_to_mujoco(q)
-            mujoco.mj_kinematics(mj, self._data)
+            self._pose(e)
             before = 0 if k == 0 else scene.ngeom
             if k == 0:       # the ground and the first env's bodies
                 renderer.update_scene(self._data)

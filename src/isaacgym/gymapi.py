@@ -785,18 +785,11 @@ class ActionEvent:
         return f"ActionEvent({self.action!r}, {self.value})"
 
 
-def _records(xyz: np.ndarray) -> np.ndarray:
-    """Vec3 records of [..., 3] floats."""
-    out = np.empty(xyz.shape[:-1], Vec3.dtype)
-    out["x"], out["y"], out["z"] = xyz[..., 0], xyz[..., 1], xyz[..., 2]
-    return out
-
-
-def _records4(xyzw: np.ndarray) -> np.ndarray:
-    """Quat records of [..., 4] floats (x, y, z, w)."""
-    out = np.empty(xyzw.shape[:-1], Quat.dtype)
-    for k, name in enumerate("xyzw"):
-        out[name] = xyzw[..., k]
+def _records(values: np.ndarray, dtype: np.dtype = Vec3.dtype) -> np.ndarray:
+    """Records of `dtype` (Vec3's, Quat's) of [..., fields] floats, in the fields' order."""
+    out = np.empty(values.shape[:-1], dtype)
+    for k, name in enumerate(dtype.names):
+        out[name] = values[..., k]
     return out
 
 
@@ -1172,16 +1165,11 @@ class Gym:
             mujoco.mju_quat2Mat(rot, wxyz)
             opencv = rot.reshape(3, 3)
         elif viewer.camera is not None:
+            from ._cameras import look_rotation
             target, eye = (np.asarray(v, float) for v in viewer.camera)
-            up = np.array([0.0, 1.0, 0.0] if int(viewer.sim.params.up_axis)
-                          == UpAxis.UP_AXIS_Y else [0.0, 0.0, 1.0])
-            forward = (target - eye) / max(np.linalg.norm(target - eye), 1e-12)
-            right = np.cross(forward, up)
-            if np.linalg.norm(right) < 1e-9:           # looking straight along up
-                right = np.cross(forward, [1.0, 0.0, 0.0] if abs(forward[0]) < 0.9
-                                 else [0.0, 1.0, 0.0])
-            right /= np.linalg.norm(right)
-            opencv = np.stack([right, np.cross(forward, right), forward], axis=1)
+            ahead, left, up = look_rotation(eye, target, _up(viewer.sim),
+                                            "viewer_camera_look_at").T
+            opencv = np.stack([-left, -up, ahead], axis=1)
         else:
             raise RuntimeError("gym.get_viewer_camera_transform: the camera has no pose yet: "
                                "no page is open and viewer_camera_look_at was not called")
@@ -1199,6 +1187,8 @@ class Gym:
         add_lines drew and the contact arrows are not in it). IsaacGymEnvs' record_frames
         writes its frames with this."""
         import imageio.v2 as imageio
+
+        from ._cameras import vertical_fov
         camera = self.get_viewer_camera_transform(viewer, None)
         web, sim = viewer.serve(), viewer.sim
         if web is None:
@@ -1206,13 +1196,12 @@ class Gym:
                                "gym.prepare_sim(sim)")
         props = viewer.props or CameraProperties()
         ahead, up = camera.r.rotate(Vec3(0, 0, 1)), camera.r.rotate(Vec3(0, 1, 0))
-        h = math.radians(float(props.horizontal_fov))
-        fovy = math.degrees(2 * math.atan(math.tan(h / 2) * props.height / props.width))
         envs = web.shown_envs
         origins = [(sim.envs[e].origin.x, sim.envs[e].origin.y, sim.envs[e].origin.z)
                    for e in envs]
         rgb = sim.cameras.render_view(camera.p._t(), ahead._t(), up._t(),
-                                      (int(props.width), int(props.height)), fovy,
+                                      (int(props.width), int(props.height)),
+                                      vertical_fov(props),
                                       float(props.near_plane), float(props.far_plane),
                                       envs, origins)
         os.makedirs(os.path.dirname(os.path.abspath(filename)), exist_ok=True)
@@ -1355,10 +1344,9 @@ class Gym:
     def set_camera_location(self, camera_handle: int, env: Env, position: Vec3,
                             target: Vec3) -> None:
         camera = env.sim.cameras.find(env, camera_handle)
-        up = (0.0, 1.0, 0.0) if int(env.sim.params.up_axis) == UpAxis.UP_AXIS_Y \
-            else (0.0, 0.0, 1.0)
         camera.body = None
-        camera.look((position.x, position.y, position.z), (target.x, target.y, target.z), up)
+        camera.look((position.x, position.y, position.z), (target.x, target.y, target.z),
+                    _up(env.sim))
 
     def set_camera_transform(self, camera_handle: int, env: Env, transform: Transform) -> None:
         """The camera at `transform` in the env's frame (it looks along the transform's +x)."""
@@ -1966,9 +1954,7 @@ class Gym:
         return self._body_states(env, slice(None), flags)
 
     def _body_states(self, env: Env, bodies: slice, flags: int) -> np.ndarray:
-        envs = self._envs(env.sim, "get_actor_rigid_body_states")
-        self._refresh(env.sim, "get_actor_rigid_body_states")
-        rows = envs.rigid_body_states.view(envs.num_envs, -1, 13)[env.index, bodies].cpu()
+        rows = self._body_row(env, "get_actor_rigid_body_states")[bodies].cpu()
         out = np.zeros(len(rows), dtype=RigidBodyState)
         x = rows.numpy()
         if int(flags) & STATE_POS:
@@ -2051,11 +2037,7 @@ class Gym:
         """The pose of the env's body `handle` (env-domain), in the env's frame: from the
         simulated state once the sim is prepared; before, the pose it starts in (its actor's
         pose, the asset's joints at their defaults)."""
-        actor = next((a for a in env.actors
-                      if a.body_offset <= int(handle) < a.body_offset + a.asset.num_bodies), None)
-        if actor is None:
-            raise ValueError(f"gym.get_rigid_transform: {handle} is not a body handle of env "
-                             f"{env.index}")
+        actor, _ = self._body(env, handle, "get_rigid_transform")
         if env.sim.myriad is not None:
             x = self._body_row(env, "get_rigid_transform")[int(handle)].tolist()
             return Transform(Vec3(*x[:3]), Quat(*x[3:7]))
@@ -2074,7 +2056,7 @@ class Gym:
         i = self.find_asset_dof_index(actor.asset, name)
         if i < 0:
             return INVALID_HANDLE
-        return self._in_domain(env, actor, i, domain, "dof")
+        return self._in_domain(env, actor, i, domain, "DOF")
 
     def find_actor_rigid_body_handle(self, env: Env, handle: int, name: str) -> int:
         actor = self._actor(env, handle)
@@ -2092,49 +2074,54 @@ class Gym:
         return self._in_domain(env, self._actor(env, handle), int(index), domain, "body")
 
     def get_actor_dof_index(self, env: Env, handle: int, index: int, domain) -> int:
-        return self._in_domain(env, self._actor(env, handle), int(index), domain, "dof")
+        return self._in_domain(env, self._actor(env, handle), int(index), domain, "DOF")
 
     def get_actor_root_rigid_body_handle(self, env: Env, handle: int) -> int:
         return self._actor(env, handle).body_offset
 
     def _in_domain(self, env, actor, i, domain, kind) -> int:
-        offset = actor.body_offset if kind == "body" else actor.dof_offset
-        per_env = (self.get_env_rigid_body_count(env) if kind == "body"
-                   else self.get_env_dof_count(env))
+        """The actor's `i`-th body, DOF or joint (`kind`) indexed in `domain`."""
+        offset = self._span(actor, kind)[0]
         if int(domain) == IndexDomain.DOMAIN_ACTOR:
             return i
         if int(domain) == IndexDomain.DOMAIN_ENV:
             return offset + i
-        return env.index * per_env + offset + i
+        return env.index * sum(self._span(a, kind)[1] for a in env.actors) + offset + i
 
-    # ------------------------------------------------------------------ actor properties
     # ------------------------------------------------------------------ one body, DOF, joint
     # Isaac Gym's older calls on one body, DOF or joint by its handle (env domain), as its
     # examples and many scripts use them; they read and write the same state as the tensors
-    def _body(self, env: Env, handle: int, call: str):
-        """(actor, env-domain body index) of body handle `handle` in `env`."""
+    def _span(self, actor, kind: str) -> tuple[int, int]:
+        """(first env-domain handle, count) of the actor's bodies, DOFs or joints."""
+        return {"body": (actor.body_offset, actor.asset.num_bodies),
+                "DOF": (actor.dof_offset, actor.asset.num_dofs),
+                "joint": (actor.joint_offset, len(actor.asset.joint_names))}[kind]
+
+    def _owner(self, env: Env, handle: int, kind: str, call: str):
+        """(actor, index within the actor) of the env-domain body, DOF or joint `handle`."""
         h = int(handle)
         for a in env.actors:
-            if a.body_offset <= h < a.body_offset + a.asset.num_bodies:
-                return a, h
-        raise ValueError(f"gym.{call}: {handle} is not a rigid body handle of env {env.index} "
-                         f"(it has {self.get_env_rigid_body_count(env)} bodies)")
+            first, count = self._span(a, kind)
+            if first <= h < first + count:
+                return a, h - first
+        total = sum(self._span(a, kind)[1] for a in env.actors)
+        name, plural = {"body": ("rigid body", "bodies"), "DOF": ("DOF", "DOFs"),
+                        "joint": ("joint", "joints")}[kind]
+        raise ValueError(f"gym.{call}: {handle} is not a {name} handle of env {env.index} (it "
+                         f"has {total} {plural})")
+
+    def _body(self, env: Env, handle: int, call: str):
+        """(actor, env-domain body index) of body handle `handle` in `env`."""
+        actor, _ = self._owner(env, handle, "body", call)
+        return actor, int(handle)
 
     def _dof(self, env: Env, handle: int, call: str) -> int:
-        h = int(handle)
-        if not 0 <= h < self.get_env_dof_count(env):
-            raise ValueError(f"gym.{call}: {handle} is not a DOF handle of env {env.index} (it "
-                             f"has {self.get_env_dof_count(env)} DOFs)")
-        return h
+        self._owner(env, handle, "DOF", call)
+        return int(handle)
 
     def _joint(self, env: Env, handle: int, call: str):
         """(actor, the joint's index in its asset) of joint handle `handle` in `env`."""
-        h = int(handle)
-        for a in env.actors:
-            if a.joint_offset <= h < a.joint_offset + len(a.asset.joint_names):
-                return a, h - a.joint_offset
-        raise ValueError(f"gym.{call}: {handle} is not a joint handle of env {env.index} (it "
-                         f"has {self.get_env_joint_count(env)} joints)")
+        return self._owner(env, handle, "joint", call)
 
     def _body_row(self, env: Env, call: str) -> torch.Tensor:
         """The env's rigid body states [bodies, 13] (env frame), refreshed."""
@@ -2163,9 +2150,7 @@ class Gym:
     def _handle_of(self, env: Env, handle: int, index: int, kind: str, call: str) -> int:
         """The env-domain handle of the actor's `index`-th body, DOF or joint."""
         actor = self._actor(env, handle)
-        count, offset = {"body": (actor.asset.num_bodies, actor.body_offset),
-                         "DOF": (actor.asset.num_dofs, actor.dof_offset),
-                         "joint": (len(actor.asset.joint_names), actor.joint_offset)}[kind]
+        offset, count = self._span(actor, kind)
         if not 0 <= int(index) < count:
             plural = "bodies" if kind == "body" else kind + "s"
             raise IndexError(f"gym.{call}: actor {actor.name!r} has {count} {plural}, not an "
@@ -2183,12 +2168,7 @@ class Gym:
             self.find_actor_joint_handle(env, actor, joint_name)
 
     def get_actor_joint_index(self, env: Env, handle: int, index: int, domain) -> int:
-        actor = self._actor(env, handle)
-        if int(domain) == IndexDomain.DOMAIN_ACTOR:
-            return int(index)
-        if int(domain) == IndexDomain.DOMAIN_ENV:
-            return actor.joint_offset + int(index)
-        return env.index * self.get_env_joint_count(env) + actor.joint_offset + int(index)
+        return self._in_domain(env, self._actor(env, handle), int(index), domain, "joint")
 
     def find_actor_joint_index(self, env: Env, handle: int, name: str, domain) -> int:
         i = self.find_asset_joint_index(self._actor(env, handle).asset, name)
@@ -2296,9 +2276,9 @@ class Gym:
     def get_rigid_angular_velocity(self, env: Env, handle: int) -> Vec3:
         return self._vec3(env, handle, slice(10, 13), "get_rigid_angular_velocity")
 
-    def _set_root(self, env: Env, actor, state: torch.Tensor, columns) -> None:
+    def _set_root(self, env: Env, actor, state: torch.Tensor, columns, call: str) -> None:
         """Write `columns` of the actor's root state [13] in env (the others as they are)."""
-        envs = self._envs(env.sim, "set_actor_root_state")
+        envs = self._envs(env.sim, call)
         new = self._root_now(envs).clone()
         new[env.index, actor.index, columns] = state[columns].to(new)
         only = torch.zeros(envs.num_envs, dtype=torch.bool, device=envs.device)
@@ -2311,7 +2291,7 @@ class Gym:
         `handle` in every env, or handle[i] in envs[i]."""
         rows = self._vec_rows(envs, handle, "get_vec_rigid_transform")
         out = np.zeros(len(rows), Transform.dtype)
-        out["p"], out["r"] = _records(rows[:, :3]), _records4(rows[:, 3:7])
+        out["p"], out["r"] = _records(rows[:, :3]), _records(rows[:, 3:7], Quat.dtype)
         return out
 
     def get_vec_rigid_linear_velocity(self, envs: list, handle) -> np.ndarray:
@@ -2382,19 +2362,19 @@ class Gym:
         actor = self._root_body(env, handle, "set_rigid_transform")
         p, r = transform.p, transform.r
         state = torch.tensor([p.x, p.y, p.z, r.x, r.y, r.z, r.w] + [0.0] * 6)
-        self._set_root(env, actor, state, slice(0, 7))
+        self._set_root(env, actor, state, slice(0, 7), "set_rigid_transform")
 
     def set_rigid_linear_velocity(self, env: Env, handle: int, velocity: Vec3) -> None:
         actor = self._root_body(env, handle, "set_rigid_linear_velocity")
         state = torch.zeros(13)
         state[7:10] = torch.tensor([velocity.x, velocity.y, velocity.z])
-        self._set_root(env, actor, state, slice(7, 10))
+        self._set_root(env, actor, state, slice(7, 10), "set_rigid_linear_velocity")
 
     def set_rigid_angular_velocity(self, env: Env, handle: int, velocity: Vec3) -> None:
         actor = self._root_body(env, handle, "set_rigid_angular_velocity")
         state = torch.zeros(13)
         state[10:13] = torch.tensor([velocity.x, velocity.y, velocity.z])
-        self._set_root(env, actor, state, slice(10, 13))
+        self._set_root(env, actor, state, slice(10, 13), "set_rigid_angular_velocity")
 
     def set_actor_rigid_body_states(self, env: Env, handle: int, states,
                                     flags: int = STATE_ALL) -> bool:
@@ -2414,7 +2394,7 @@ class Gym:
                               *root["vel"]["linear"].item(), *root["vel"]["angular"].item()])
         columns = [c for c in range(13) if int(flags) & (STATE_POS if c < 7 else STATE_VEL)]
         if columns:
-            self._set_root(env, actor, state, columns)
+            self._set_root(env, actor, state, columns, "set_actor_rigid_body_states")
         return True
 
     def set_env_rigid_body_states(self, env: Env, states, flags: int = STATE_ALL) -> bool:
@@ -2584,10 +2564,8 @@ class Gym:
 
     def get_dof_frame(self, env: Env, handle: int) -> DofFrame:
         """Where the DOF's joint is (env frame) and the direction it acts along or about."""
-        d = self._dof(env, handle, "get_dof_frame")
-        actor = next(a for a in env.actors
-                     if a.dof_offset <= d < a.dof_offset + a.asset.num_dofs)
-        j = actor.asset.joint_mj.index(actor.asset.dof_joints[d - actor.dof_offset])
+        actor, d = self._owner(env, handle, "DOF", "get_dof_frame")
+        j = actor.asset.joint_mj.index(actor.asset.dof_joints[d])
         anchor, axis, _ = self._joint_frame(env, actor, j, "get_dof_frame")
         return DofFrame(Vec3(*anchor.tolist()), Vec3(*axis.tolist()))
 
@@ -2648,7 +2626,7 @@ class Gym:
     def get_vec_env_rigid_contact_forces(self, envs: list) -> np.ndarray:
         return np.concatenate([self.get_env_rigid_contact_forces(e) for e in envs])
 
-
+    # ------------------------------------------------------------------ actor properties
     def get_actor_dof_properties(self, env: Env, handle: int) -> np.ndarray:
         return self._actor(env, handle).dof_props.copy()
 
@@ -2989,6 +2967,11 @@ class Gym:
         pos = None if posTensor is None else self._values(sim, call, posTensor, shape)
         envs.apply_body_forces(forces, positions=pos, frame=_frame(space))
         return True
+
+
+def _up(sim: Sim) -> tuple:
+    """The sim's up direction (its SimParams.up_axis)."""
+    return (0.0, 1.0, 0.0) if int(sim.params.up_axis) == UpAxis.UP_AXIS_Y else (0.0, 0.0, 1.0)
 
 
 def _frame(space) -> str:
