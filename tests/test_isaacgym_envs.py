@@ -471,14 +471,19 @@ def test_tendon_properties_take_physx_semantics(tmp_path):
     assert gym.get_asset_tendon_count(asset) == 1
     assert gym.get_asset_tendon_name(asset, 0) == "couple"
     props = gym.get_asset_tendon_properties(asset)
-    assert props[0].limit_stiffness == 1.0 and props[0].is_limited     # the options' default
+    assert props[0].limit_stiffness == 1.0 and props[0].is_fixed_limited   # the options' default
+    assert (props[0].num_joints, props[0].num_attachments, props[0].type) == \
+        (2, 0, gymapi.TendonType.TENDON_FIXED)
+    assert (props[0].fixed_lower_limit, props[0].fixed_upper_limit) == \
+        pytest.approx((-0.001, 0.001))
     props[0].limit_stiffness, props[0].damping = 30.0, 0.1             # as ShadowHand sets them
     assert gym.set_asset_tendon_properties(asset, props)
-    props[0].is_limited = False
-    with pytest.raises(NotImplementedError, match="is_limited"):
+    props[0].is_fixed_limited = False
+    with pytest.raises(NotImplementedError, match="is_fixed_limited"):
         gym.set_asset_tendon_properties(asset, props)
-    props[0].is_limited, props[0].lower_limit = True, 0.01
-    with pytest.raises(ValueError, match="lower_limit 0.01 above upper_limit 0.001"):
+    props[0].is_fixed_limited, props[0].fixed_lower_limit = True, 0.01
+    with pytest.raises(ValueError, match="fixed_lower_limit 0.01 above fixed_upper_limit "
+                                         "0.001"):
         gym.set_asset_tendon_properties(asset, props)
     envs = envs_with(gym, sim, asset, [gymapi.Transform()] * 2)
     # an actor's own values, in its env alone: env 1's damping before prepare_sim, env 0's
@@ -524,8 +529,8 @@ def test_tendon_limits_and_spring_per_actor(tmp_path):
     gym.set_asset_tendon_properties(asset, props)
     envs = envs_with(gym, sim, asset, [gymapi.Transform()] * 2)
     wide = gym.get_actor_tendon_properties(envs[1], 0)
-    wide[0].lower_limit, wide[0].upper_limit = -0.003, 0.003
-    wide[0].fixed_spring_stiffness = 0.0
+    wide[0].fixed_lower_limit, wide[0].fixed_upper_limit = -0.003, 0.003
+    wide[0].stiffness = 0.0
     gym.set_actor_tendon_properties(envs[1], 0, wide)
     gym.prepare_sim(sim)
     own = sim.myriad.sim
@@ -543,6 +548,55 @@ def test_tendon_limits_and_spring_per_actor(tmp_path):
     length = 0.007 * (state[:, 0, 0] - state[:, 1, 0])
     assert abs(float(length[0]) - 0.001) < 2e-4
     assert abs(float(length[1]) - 0.003) < 5e-4
+
+
+TENDON_LEVER = """<mujoco><worldbody><body name="base">
+  <geom type="box" size=".05 .05 .01"/>
+  <body name="lever" pos="0 0 .02"><joint name="turn" type="hinge" axis="0 0 1"/>
+    <geom type="capsule" fromto="0 0 0 .2 0 0" size=".02"/></body></body></worldbody>
+  <tendon><fixed name="spring" limited="true" range="-0.4 1"><joint joint="turn" coef="1"/>
+  </fixed></tendon>
+</mujoco>"""
+
+
+def test_tendon_spring_rest_length_and_offset(tmp_path):
+    """PhysX's fixed tendon: the spring pulls Σ coef·q + offset to the rest length, and the
+    limits hold Σ coef·q itself. A lever turning about the vertical, spring rest length 0.2:
+    offset 0 settles at 0.2 rad, offset 0.5 at -0.3, and offset 0.7 (set after prepare_sim)
+    at the lower limit -0.4 rather than at -0.5."""
+    gym, sim, asset, _ = fixed_base_asset(tmp_path, "lever.xml", TENDON_LEVER)
+    props = gym.get_asset_tendon_properties(asset)
+    props[0].stiffness, props[0].damping = 1.0, 0.2
+    props[0].fixed_spring_rest_length, props[0].limit_stiffness = 0.2, 0.0
+    gym.set_asset_tendon_properties(asset, props)
+    envs = envs_with(gym, sim, asset, [gymapi.Transform()] * 3)
+    assert gym.get_actor_tendon_offset(envs[1], 0, 0) == 0.0
+    assert gym.set_actor_tendon_offset(envs[1], 0, 0, 0.5)
+    gym.prepare_sim(sim)
+    gym.set_actor_tendon_offset(envs[2], 0, 0, 0.7)
+    assert gym.get_actor_tendon_offset(envs[2], 0, 0) == pytest.approx(0.7)
+    with pytest.raises(IndexError, match="has 1 tendons; 1 is not one"):
+        gym.set_actor_tendon_offset(envs[0], 0, 1, 0.1)
+    state = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim)).view(3, 2)
+    for _ in range(300):
+        gym.simulate(sim)
+        gym.fetch_results(sim, True)
+    gym.refresh_dof_state_tensor(sim)
+    torch.testing.assert_close(state[:, 0], torch.tensor([0.2, -0.3, -0.4]), atol=5e-3,
+                               rtol=0)
+    assert float(state[:, 1].abs().max()) < 1e-2          # at rest there
+
+
+def test_create_aggregate_and_tensor_descriptors(tmp_path):
+    gym, sim, asset, _ = fixed_base_asset(tmp_path, "lever.xml", TENDON_LEVER)
+    env = envs_with(gym, sim, asset, [gymapi.Transform()])[0]
+    assert gym.create_aggregate(env, [0])
+    with pytest.raises(IndexError, match="no actor handle 3"):
+        gym.create_aggregate(env, [3])
+    gym.prepare_sim(sim)
+    dofs = gym.acquire_dof_state_tensor(sim)
+    t = gymtorch.wrap_tensor(dofs)
+    assert dofs.ndim == 2 and dofs.data_ptr == dofs.data_address == t.data_ptr()
 
 
 # ------------------------------------------------------------------ convex decomposition

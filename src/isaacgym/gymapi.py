@@ -560,8 +560,14 @@ class AttractorProperties(_Struct):
 
 
 class TendonProperties(_Struct):
-    _fields = dict(damping=0.0, fixed_spring_stiffness=0.0, is_limited=False,
-                   limit_stiffness=0.0, lower_limit=0.0, upper_limit=0.0, num_joints=0)
+    """A fixed tendon's properties, by Isaac Gym's names: the spring (`stiffness`,
+    `fixed_spring_rest_length`), the length limits (`is_fixed_limited`, `fixed_lower_limit`,
+    `fixed_upper_limit`, `limit_stiffness`) and `damping`; `num_joints`, `num_attachments` and
+    `type` describe the tendon and stay the asset's."""
+    _fields = dict(damping=0.0, stiffness=0.0, fixed_spring_rest_length=0.0,
+                   is_fixed_limited=False, limit_stiffness=0.0, fixed_lower_limit=0.0,
+                   fixed_upper_limit=0.0, num_joints=0, num_attachments=0,
+                   type=TendonType.TENDON_FIXED)
 
 
 class ActuatorProperties(_Struct):
@@ -602,6 +608,18 @@ class Tensor:
     @property
     def dtype(self):
         return self.torch.dtype
+
+    @property
+    def ndim(self):
+        return self.torch.dim()
+
+    @property
+    def data_ptr(self):
+        return self.torch.data_ptr()
+
+    @property
+    def data_address(self):
+        return self.torch.data_ptr()
 
     @property
     def own_data(self):
@@ -660,10 +678,12 @@ class Asset:
         self.tendon_props = [TendonProperties(
             damping=float(m.tendon_damping[t, 0] if m.tendon_damping.ndim > 1
                           else m.tendon_damping[t]),
-            fixed_spring_stiffness=float(np.ravel(m.tendon_stiffness[t])[0]),
-            is_limited=bool(m.tendon_limited[t]),
+            stiffness=float(np.ravel(m.tendon_stiffness[t])[0]),
+            fixed_spring_rest_length=float(m.tendon_lengthspring[t, 0]),
+            is_fixed_limited=bool(m.tendon_limited[t]),
             limit_stiffness=float(options.tendon_limit_stiffness),
-            lower_limit=float(m.tendon_range[t, 0]), upper_limit=float(m.tendon_range[t, 1]),
+            fixed_lower_limit=float(m.tendon_range[t, 0]),
+            fixed_upper_limit=float(m.tendon_range[t, 1]),
             num_joints=int(m.tendon_num[t])) for t in range(m.ntendon)]
         spatial = [self.tendon_names[t] for t in range(m.ntendon)
                    if any(int(m.wrap_type[w]) != int(mujoco.mjtWrap.mjWRAP_JOINT)
@@ -752,6 +772,7 @@ class _Actor:
         self.shape_props = copy.deepcopy(asset.shape_props)
         self.body_props = copy.deepcopy(asset.body_props)
         self.tendon_props = copy.deepcopy(asset.tendon_props)
+        self.tendon_offsets = [0.0] * len(asset.tendon_props)   # set_actor_tendon_offset
         self.scale = 1.0         # set_actor_scale
         self.body_offset = 0     # index of its first body in the env (set by create_actor)
         self.dof_offset = 0
@@ -1711,6 +1732,13 @@ class Gym:
             raise TypeError(f"gym.begin_aggregate: expected an Env, got {type(env).__name__}")
         return True
 
+    def create_aggregate(self, env: Env, actors: list) -> bool:
+        """The CPU pipeline's form of begin/end_aggregate, for actors already created: no
+        effect on the motion here either."""
+        for handle in actors:
+            self._actor(env, handle)
+        return True
+
     def end_aggregate(self, env: Env) -> bool:
         if not isinstance(env, Env):
             raise TypeError(f"gym.end_aggregate: expected an Env, got {type(env).__name__}")
@@ -1752,6 +1780,28 @@ class Gym:
         if env.sim.myriad is not None:
             _apply_tendon_props(env.sim, [actor])
         return True
+
+    def get_actor_tendon_offset(self, env: Env, handle: int, index: int) -> float:
+        actor = self._actor(env, handle)
+        return actor.tendon_offsets[self._tendon_index(actor, index,
+                                                       "get_actor_tendon_offset")]
+
+    def set_actor_tendon_offset(self, env: Env, handle: int, index: int, offset: float) -> bool:
+        """PhysX's length offset of one of this actor's tendons, in its env alone: added to
+        the accumulated length Σ coef·q where the spring reads it, so that an offset actuates
+        the tendon (shortens or lengthens it); the length limits stay on Σ coef·q."""
+        actor = self._actor(env, handle)
+        actor.tendon_offsets[self._tendon_index(actor, index, "set_actor_tendon_offset")] = \
+            float(offset)
+        if env.sim.myriad is not None:
+            _apply_tendon_props(env.sim, [actor])
+        return True
+
+    def _tendon_index(self, actor: _Actor, index: int, call: str) -> int:
+        if not 0 <= int(index) < len(actor.tendon_offsets):
+            raise IndexError(f"gym.{call}: actor {actor.name!r} has "
+                             f"{len(actor.tendon_offsets)} tendons; {index} is not one")
+        return int(index)
 
     def get_asset_force_sensor_count(self, asset: Asset) -> int:
         return len(asset.force_sensors)
@@ -3614,42 +3664,47 @@ def _apply_attractor_targets(sim: Sim, envs: list) -> None:
 
 
 def _checked_tendon_props(call: str, asset: Asset, props: list) -> list:
-    """A copy of `props` for the asset's tendons: limit stiffness, damping, spring stiffness and
-    the limits may change (per actor: Myriad's per-env tendon parameters); whether a tendon is
-    limited and its joints must stay the asset's (they decide the rows the engine builds)."""
+    """A copy of `props` for the asset's tendons: damping, the spring and the limits may change
+    (per actor: Myriad's per-env tendon parameters); whether a tendon is limited, its joints
+    and its type must stay the asset's (they decide the rows the engine builds)."""
     if len(props) != len(asset.tendon_props):
         raise ValueError(f"gym.{call}: {len(props)} entries for {len(asset.tendon_props)} "
                          f"tendons of {asset.source}")
     for i, (new, old) in enumerate(zip(props, asset.tendon_props)):
         name = asset.tendon_names[i]
-        for field in ("is_limited", "num_joints"):
+        for field in ("is_fixed_limited", "num_joints", "num_attachments", "type"):
             if getattr(new, field) != getattr(old, field):
                 raise _unsupported(f"gym.{call} changing {field} of tendon {name!r}",
-                                   "limit_stiffness, damping, fixed_spring_stiffness, "
-                                   "lower_limit and upper_limit can change")
-        if not (new.limit_stiffness >= 0 and new.damping >= 0
-                and new.fixed_spring_stiffness >= 0):
+                                   "limit_stiffness, damping, stiffness, "
+                                   "fixed_spring_rest_length, fixed_lower_limit and "
+                                   "fixed_upper_limit can change")
+        if not (new.limit_stiffness >= 0 and new.damping >= 0 and new.stiffness >= 0):
             raise ValueError(f"gym.{call}: tendon {name!r}: limit_stiffness, damping and "
-                             f"fixed_spring_stiffness must be >= 0")
-        if not new.lower_limit <= new.upper_limit:
-            raise ValueError(f"gym.{call}: tendon {name!r}: lower_limit {new.lower_limit} above "
-                             f"upper_limit {new.upper_limit}")
+                             f"stiffness must be >= 0")
+        if not new.fixed_lower_limit <= new.fixed_upper_limit:
+            raise ValueError(f"gym.{call}: tendon {name!r}: fixed_lower_limit "
+                             f"{new.fixed_lower_limit} above fixed_upper_limit "
+                             f"{new.fixed_upper_limit}")
     return copy.deepcopy(list(props))
 
 
 def _apply_tendon_props(sim: Sim, actors: list) -> None:
-    """Each actor's tendon properties into its env's parameters."""
+    """Each actor's tendon properties and offsets into its env's parameters. PhysX's offset
+    is added to the accumulated length Σ coef·q where the spring reads it (no force at
+    Σ coef·q + offset = rest length), not where the limits do: Myriad's rest length takes it."""
     built = sim.myriad
     names, s = built.model.tendon_names, built.sim
     for actor in actors:
         e = actor.env.index
-        for name, props in zip(actor.asset.tendon_names, actor.tendon_props):
+        for name, props, offset in zip(actor.asset.tendon_names, actor.tendon_props,
+                                       actor.tendon_offsets):
             t = names.index(f"a{actor.index}/{name}")
             s.tendon_limit_stiffness[e, t] = float(props.limit_stiffness)
             s.tendon_damping[e, t] = float(props.damping)
-            s.tendon_stiffness[e, t] = float(props.fixed_spring_stiffness)
-            s.tendon_range[e, t] = torch.tensor([float(props.lower_limit),
-                                                 float(props.upper_limit)])
+            s.tendon_stiffness[e, t] = float(props.stiffness)
+            s.tendon_rest_length[e, t] = float(props.fixed_spring_rest_length) - float(offset)
+            s.tendon_range[e, t] = torch.tensor([float(props.fixed_lower_limit),
+                                                 float(props.fixed_upper_limit)])
 
 
 def _apply_dof_props(sim: Sim, actors: list) -> None:
