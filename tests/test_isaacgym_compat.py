@@ -358,6 +358,18 @@ def test_math_conventions():
                                torch.tensor([[qq.x, qq.y, qq.z, qq.w]]))
     torch.testing.assert_close(quat_rotate_inverse(qt, quat_apply(qt, torch.ones(1, 3))),
                                torch.ones(1, 3))
+    # from_buffer: a record's bytes, a record, or numbers
+    record = np.zeros((), gymapi.Transform.dtype)
+    record["p"]["y"], record["r"]["z"], record["r"]["w"] = 2.0, 0.6, 0.8
+    for buf in (record.tobytes(), record):
+        back = gymapi.Transform.from_buffer(buf)
+        assert (back.p.y, back.r.z, back.r.w) == pytest.approx((2.0, 0.6, 0.8))
+    assert gymapi.Quat.from_buffer(record["r"]) == gymapi.Quat(0, 0, np.float32(0.6),
+                                                               np.float32(0.8))
+    assert gymapi.Vec3.from_buffer([1, 2, 3]) == gymapi.Vec3(1, 2, 3)
+    frame = gymapi.DofFrame.from_buffer(np.arange(6, dtype=np.float32).tobytes())
+    assert (frame.origin.z, frame.axis.x) == (2.0, 3.0)
+    assert gymapi.Velocity.from_buffer(np.ones(6)).angular == gymapi.Vec3(1, 1, 1)
 
 
 def test_position_drive_gains_stick_to_each_env(cartpole_file):

@@ -174,12 +174,24 @@ STATE_NONE, STATE_POS, STATE_VEL, STATE_ALL = 0, 1, 2, 3
 RIGID_BODY_NONE, RIGID_BODY_DISABLE_GRAVITY, RIGID_BODY_DISABLE_SIMULATION = 0, 1, 2
 RIGID_BODY_ENABLE_GYROSCOPIC_FORCES = 4
 AXIS_NONE, AXIS_X, AXIS_Y, AXIS_Z, AXIS_TWIST = 0, 1, 2, 4, 8
+AXIS_SWING_1, AXIS_SWING_2 = 16, 32
 AXIS_TRANSLATION, AXIS_ROTATION, AXIS_ALL = 7, 56, 63
 INVALID_HANDLE = -1
 DEFAULT_VIEWER_WIDTH, DEFAULT_VIEWER_HEIGHT = 1600, 900
 
 
 # ---------------------------------------------------------------------------------- math
+def _buffer_floats(buf) -> np.ndarray:
+    """The floats of what `from_buffer` takes: float32 bytes (a record's buffer), a record of
+    float32 fields (Vec3.dtype, Transform.dtype, ...) or an array of numbers."""
+    if isinstance(buf, (bytes, bytearray, memoryview)):
+        return np.frombuffer(buf, np.float32).astype(np.float64)
+    array = np.asarray(buf)
+    if array.dtype.names:
+        return np.frombuffer(array.tobytes(), np.float32).astype(np.float64)
+    return array.astype(np.float64).reshape(-1)
+
+
 class Vec3:
     """A 3-vector (x, y, z)."""
     dtype = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4")])
@@ -212,6 +224,10 @@ class Vec3:
     def normalize(self) -> "Vec3":
         n = self.length()
         return Vec3._of(self._t() / n) if n > 0 else Vec3(self.x, self.y, self.z)
+
+    @staticmethod
+    def from_buffer(buf) -> "Vec3":
+        return Vec3(*_buffer_floats(buf)[:3])
 
     def __getstate__(self): return (self.x, self.y, self.z)
     def __setstate__(self, s): self.x, self.y, self.z = s
@@ -305,6 +321,10 @@ class Quat:
         n = float(np.linalg.norm(self._t()))
         return Quat(*(self._t() / n)) if n > 0 else Quat()
 
+    @staticmethod
+    def from_buffer(buf) -> "Quat":
+        return Quat(*_buffer_floats(buf)[:4])
+
     def __eq__(self, o): return isinstance(o, Quat) and np.allclose(self._t(), o._t(), 0, 0)
     def __hash__(self): return hash((self.x, self.y, self.z, self.w))
     def __getstate__(self): return (self.x, self.y, self.z, self.w)
@@ -347,7 +367,7 @@ class Transform:
 
     @staticmethod
     def from_buffer(buf) -> "Transform":
-        b = np.asarray(buf).reshape(-1)
+        b = _buffer_floats(buf)
         return Transform(Vec3(*b[:3]), Quat(*b[3:7]))
 
     def __getstate__(self): return (self.p.__getstate__(), self.r.__getstate__())
@@ -383,6 +403,11 @@ class DofFrame:
     def __init__(self, origin: Vec3 | None = None, axis: Vec3 | None = None):
         self.origin, self.axis = origin or Vec3(), axis or Vec3()
 
+    @staticmethod
+    def from_buffer(buf) -> "DofFrame":
+        b = _buffer_floats(buf)
+        return DofFrame(Vec3(*b[:3]), Vec3(*b[3:6]))
+
     def __repr__(self):
         return f"DofFrame(origin={self.origin}, axis={self.axis})"
 
@@ -390,6 +415,11 @@ class DofFrame:
 class Velocity:
     def __init__(self, linear: Vec3 | None = None, angular: Vec3 | None = None):
         self.linear, self.angular = linear or Vec3(), angular or Vec3()
+
+    @staticmethod
+    def from_buffer(buf) -> "Velocity":
+        b = _buffer_floats(buf)
+        return Velocity(Vec3(*b[:3]), Vec3(*b[3:6]))
 
 
 DofState = np.dtype([("pos", "<f4"), ("vel", "<f4")])
