@@ -4,9 +4,11 @@
                                  [--rounds 60]
 
 Both trees' simulators (the old one imported as `myriad_old`, as in `task_step_ab.py`) and
-MuJoCo (one `MjData`, two 1/120 s steps per env step, its own solver) take turns in short
-rounds: each round, one step of 1024 envs per tree and 1024 env-steps of MuJoCo, the first in
-turn changing every round. A shared machine's drifting speed then falls on all three alike, so
+MuJoCo (two 1/120 s steps per env step, its own solver) take turns in short rounds: each
+round, one step of 1024 envs per tree and 1024 env-steps of MuJoCo twice, on one `MjData`
+("MuJoCo C": one world's state stays in the core's caches, MuJoCo's peak per core) and on 1024
+`MjData` ("MuJoCo C, n worlds": 1024 worlds each stepped once, the workload the trees run),
+the first in turn changing every round. A shared machine's drifting speed then falls on all three alike, so
 the ratios are comparable between runs even where the absolute rates are not. One CPU thread
 each, Isaac Gym timing (dt 1/60 s in 2 substeps, TGS 4/0, contacts on), the same fresh random
 controls for both trees every step, after a 60-step settle from the model's initial state.
@@ -46,8 +48,10 @@ def main() -> None:
     wp.config.log_level = wp.LOG_WARNING
     torch.set_num_threads(1)
     old = import_old(args.old)
-    print(f"env-steps/s, one thread, {args.rounds} rounds; ratio to MuJoCo C in brackets")
-    print("| model | envs | old | new | MuJoCo C | new / old |\n|---|---|---|---|---|---|")
+    print(f"env-steps/s, one thread, {args.rounds} rounds; ratio to MuJoCo C (one MjData) "
+          f"and to MuJoCo C on n MjData in brackets")
+    print("| model | envs | old | new | MuJoCo C | MuJoCo C, n worlds | new / old |\n"
+          "|---|---|---|---|---|---|---|")
     for name in args.models:
         n, slots = (16, 512) if name in ("boxes", "meshes") else (args.envs, 64)
         sims = {}
@@ -62,22 +66,25 @@ def main() -> None:
         mj = model.mj_model
         mj.opt.timestep = 1 / 120
         data = mujoco.MjData(mj)
+        worlds = [mujoco.MjData(mj) for _ in range(n)]
         rng = np.random.default_rng(0)
         gen = torch.Generator().manual_seed(0)
 
-        def step_mujoco():
-            for _ in range(n):
+        def step_mujoco(each):
+            for d in each:
                 if mj.nu:
-                    data.ctrl[:] = rng.uniform(-1, 1, mj.nu)
-                mujoco.mj_step(mj, data, nstep=2)
-        spent = {"old": 0.0, "new": 0.0, "mujoco": 0.0}
+                    d.ctrl[:] = rng.uniform(-1, 1, mj.nu)
+                mujoco.mj_step(mj, d, nstep=2)
+        spent = {"old": 0.0, "new": 0.0, "mujoco": 0.0, "mujoco_n": 0.0}
         order = list(spent)
         for i in range(60 + args.rounds):
             ctrl = torch.rand(n, mj.nu, generator=gen) * 2 - 1
-            for variant in order[i % 3:] + order[:i % 3]:
+            for variant in order[i % 4:] + order[:i % 4]:
                 start = time.perf_counter()
                 if variant == "mujoco":
-                    step_mujoco()
+                    step_mujoco([data] * n)
+                elif variant == "mujoco_n":
+                    step_mujoco(worlds)
                 else:
                     if mj.nu:
                         sims[variant].ctrl = ctrl
@@ -85,9 +92,11 @@ def main() -> None:
                 if i >= 60:
                     spent[variant] += time.perf_counter() - start
         rate = {v: n * args.rounds / t for v, t in spent.items()}
-        print(f"| {name} | {n} | {rate['old']:,.0f} ({rate['old'] / rate['mujoco']:.2f}) | "
-              f"{rate['new']:,.0f} ({rate['new'] / rate['mujoco']:.2f}) | {rate['mujoco']:,.0f} | "
-              f"{rate['new'] / rate['old']:.3f} |", flush=True)
+        def vs(v):
+            return f"{rate[v]:,.0f} ({rate[v] / rate['mujoco']:.2f}, " \
+                   f"{rate[v] / rate['mujoco_n']:.2f})"
+        print(f"| {name} | {n} | {vs('old')} | {vs('new')} | {rate['mujoco']:,.0f} | "
+              f"{rate['mujoco_n']:,.0f} | {rate['new'] / rate['old']:.3f} |", flush=True)
 
 
 if __name__ == "__main__":
