@@ -112,12 +112,18 @@ def sweep(task, advance, seconds: float) -> None:
     if hasattr(task, "push_every"):
         task.push_every = 10 ** 9
     steps = round(seconds / task.dt)
+    counted = steps - steps // 2
     mean = torch.zeros_like(commands)
+    square = torch.zeros_like(commands)         # of the velocity, for its swing about the mean
+    error = torch.zeros_like(commands)          # |command - velocity|, step by step
     for step in range(steps):
         with torch.no_grad():
             advance()
         if step >= steps // 2:
-            mean += base_velocity(task) / (steps - steps // 2)
+            v = base_velocity(task)
+            mean += v / counted
+            square += v * v / counted
+            error += (commands - v).abs() / counted
     print(f"{task.num_envs} envs, {seconds:g} s, no pushes, mean velocity over the last half "
           "(forward m/s, lateral m/s, yaw rad/s) per command:")
     for k, (vx, yaw) in enumerate(grid.tolist()):
@@ -126,6 +132,12 @@ def sweep(task, advance, seconds: float) -> None:
     c, y = commands[:, 2], mean[:, 2]
     gain = float(((c - c.mean()) * (y - y.mean())).sum() / ((c - c.mean()) ** 2).sum())
     print(f"turning gain (yaw rate per commanded yaw rate): {gain:.2f}")
+    # the yaw error step by step, against its two parts: the mean rate's miss (what the gain
+    # and a bias leave) and the rate's swing about its mean within the window (the stride's)
+    swing = (square[:, 2] - mean[:, 2] ** 2).clamp(min=0).sqrt()
+    print(f"yaw error |command - rate| over all steps {error[:, 2].mean():.3f} rad/s: the mean "
+          f"rate's miss {(mean[:, 2] - c).abs().mean():.3f}, the rate's swing about its mean "
+          f"(standard deviation) {swing.mean():.3f}")
 
 
 if __name__ == "__main__":
