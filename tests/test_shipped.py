@@ -3,6 +3,7 @@ policy doing under `myriad eval` what its manifest says, play and eval falling b
 for a task that ships none, fine-tuning from it, and `shipped.ship` making one from a run."""
 
 import json
+import math
 import os
 
 import pytest
@@ -48,7 +49,18 @@ LOOSE = {"episode_reward": lambda now, shipped, n: now > 0.5 * shipped["mean"],
 SHARES = ("consecutive_successes", "success_rate", "lift_rate")
 for _measure in SHARES:
     LOOSE[_measure] = lambda now, shipped, n: now >= shipped["mean"] - 3 * shipped["std"] / n ** 0.5
-EPISODES = {measure: 16 for measure in SHARES}     # others: 4
+EPISODES = {measure: 16 for measure in SHARES}
+# the others' bounds sit this share of the figure from it: enough episodes that the share is
+# three standard errors of the manifest's spread (an Allegro hand that keeps its cube in most
+# episodes and drops it in some: reward 212, standard deviation 242, needs 47), 4 at least
+MARGIN = {"episode_reward": 0.5, "speed": 0.5, "tracking_error_lin": 1.0}
+
+
+def episodes_for(measure: str, figure: dict) -> int:
+    if measure in EPISODES:
+        return EPISODES[measure]
+    spread = 3 * figure["std"] / (MARGIN[measure] * abs(figure["mean"]))
+    return min(64, max(4, math.ceil(spread ** 2)))
 
 
 def measure_checked(entry: dict) -> str:
@@ -71,13 +83,13 @@ def measure_checked(entry: dict) -> str:
 
 @pytest.mark.parametrize("task", sorted(shipped.manifest()))
 def test_every_shipped_policy_does_what_its_manifest_says(task, tmp_path):
-    """`myriad eval` of each shipped policy, 4 episodes on 4 envs (EPISODES), against its
-    manifest's 100-episode figure (LOOSE); the extras each task needs must be installed (CI has
-    them)."""
+    """`myriad eval` of each shipped policy, a few episodes on as many envs (`episodes_for`),
+    against its manifest's 100-episode figure (LOOSE); the extras each task needs must be
+    installed (CI has them)."""
     entry = shipped.manifest()[task]
     primary = measure_checked(entry)
     out = tmp_path / "eval.json"
-    n = EPISODES.get(primary, 4)
+    n = episodes_for(primary, entry["eval"]["results"][primary])
     assert cli.main(["eval", f"task={task}", "device=cpu", "checkpoint=shipped", f"episodes={n}",
                      f"num_envs={n}", "seed=1", f"output={out}"]) == 0
     report = json.loads(out.read_text())
