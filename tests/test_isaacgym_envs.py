@@ -575,7 +575,7 @@ def test_tendon_spring_rest_length_and_offset(tmp_path):
     gym.prepare_sim(sim)
     gym.set_actor_tendon_offset(envs[2], 0, 0, 0.7)
     assert gym.get_actor_tendon_offset(envs[2], 0, 0) == pytest.approx(0.7)
-    with pytest.raises(IndexError, match="has 1 tendons; 1 is not one"):
+    with pytest.raises(IndexError, match="has 1 tendons, not an index 1"):
         gym.set_actor_tendon_offset(envs[0], 0, 1, 0.1)
     state = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim)).view(3, 2)
     for _ in range(300):

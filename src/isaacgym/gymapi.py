@@ -1813,25 +1813,18 @@ class Gym:
 
     def get_actor_tendon_offset(self, env: Env, handle: int, index: int) -> float:
         actor = self._actor(env, handle)
-        return actor.tendon_offsets[self._tendon_index(actor, index,
-                                                       "get_actor_tendon_offset")]
+        return actor.tendon_offsets[self._tendon(actor.asset, index, "get_actor_tendon_offset")]
 
     def set_actor_tendon_offset(self, env: Env, handle: int, index: int, offset: float) -> bool:
         """PhysX's length offset of one of this actor's tendons, in its env alone: added to
         the accumulated length Σ coef·q where the spring reads it, so that an offset actuates
         the tendon (shortens or lengthens it); the length limits stay on Σ coef·q."""
         actor = self._actor(env, handle)
-        actor.tendon_offsets[self._tendon_index(actor, index, "set_actor_tendon_offset")] = \
+        actor.tendon_offsets[self._tendon(actor.asset, index, "set_actor_tendon_offset")] = \
             float(offset)
         if env.sim.myriad is not None:
             _apply_tendon_props(env.sim, [actor])
         return True
-
-    def _tendon_index(self, actor: _Actor, index: int, call: str) -> int:
-        if not 0 <= int(index) < len(actor.tendon_offsets):
-            raise IndexError(f"gym.{call}: actor {actor.name!r} has "
-                             f"{len(actor.tendon_offsets)} tendons; {index} is not one")
-        return int(index)
 
     def get_asset_force_sensor_count(self, asset: Asset) -> int:
         return len(asset.force_sensors)
@@ -2313,12 +2306,17 @@ class Gym:
     def find_actor_tendon_index(self, env: Env, handle: int, name: str) -> int:
         return self.find_asset_tendon_index(self._actor(env, handle).asset, name)
 
-    def _tendon_wraps(self, asset: Asset, tendon: int, call: str) -> range:
+    def _tendon(self, asset: Asset, tendon: int, call: str) -> int:
+        """The asset's tendon index `tendon`, checked."""
         if not 0 <= int(tendon) < len(asset.tendon_names):
             raise IndexError(f"gym.{call}: the asset has {len(asset.tendon_names)} tendons, not "
                              f"an index {tendon}")
-        adr = int(asset.mj.tendon_adr[int(tendon)])
-        return range(adr, adr + int(asset.mj.tendon_num[int(tendon)]))
+        return int(tendon)
+
+    def _tendon_wraps(self, asset: Asset, tendon: int, call: str) -> range:
+        t = self._tendon(asset, tendon, call)
+        adr = int(asset.mj.tendon_adr[t])
+        return range(adr, adr + int(asset.mj.tendon_num[t]))
 
     def get_asset_fixed_tendon_joint_coefficients(self, asset: Asset, tendon: int) -> list:
         wraps = self._tendon_wraps(asset, tendon, "get_asset_fixed_tendon_joint_coefficients")
