@@ -273,8 +273,8 @@ def test_falling_box_lands_on_y_up_ground():
 def test_errors_name_what_is_missing(cartpole_file):
     gym = gymapi.acquire_gym()
     with pytest.raises(NotImplementedError, match=r"isaacgym\.gymapi\.Gym\."
-                                                  r"get_viewer_mouse_position is not provided"):
-        gym.get_viewer_mouse_position(None)
+                                                  r"create_usd_exporter is not provided"):
+        gym.create_usd_exporter(None)
     with pytest.raises(TypeError, match="expected a Sim and an Env"):
         gym.get_camera_image(None, None, 0, gymapi.IMAGE_COLOR)
     assert not hasattr(gym, "create_cloth_grid")    # still an AttributeError for hasattr

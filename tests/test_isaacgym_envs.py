@@ -7,6 +7,8 @@ tensors acquired before prepare_sim (FrankaCubeStack), start poses (FrankaCabine
 """
 
 
+import time
+
 import numpy as np
 import pytest
 import torch
@@ -834,6 +836,129 @@ def test_camera_sensors_see_depth_segmentation_and_colour_of_each_env():
     with pytest.raises(ValueError, match="not a camera sensor of env 0"):
         gym.get_camera_image(sim, envs[0], cams[0], gymapi.IMAGE_DEPTH)
     assert gym.create_camera_sensor(envs[0], props) == cams[0] + 1
+
+
+def test_camera_images_show_each_envs_colors_textures_and_segmentation_ids(tmp_path):
+    """Per-env looks in camera images, as visual domain randomization sets them: a camera
+    straight above a box in each of three envs sees it green where set_rigid_body_color made
+    it green, half red and half blue where a texture from a file covers it, in the model's
+    grey elsewhere; a ball's segmentation id set in one env shows there only. A texture made
+    after the first render draws too, and a freed one leaves its body in its color."""
+    import imageio.v2 as imageio
+    renderer_or_skip()
+    gym, sim = z_up_sim()
+    plane = gymapi.PlaneParams()
+    plane.normal = gymapi.Vec3(0, 0, 1)
+    gym.add_ground(sim, plane)
+    box = gym.create_box(sim, 0.6, 0.6, 0.4)
+    ball = gym.create_sphere(sim, 0.1)
+    picture = np.zeros((32, 32, 3), np.uint8)
+    picture[:, :16, 0] = picture[:, 16:, 2] = 255               # red | blue
+    imageio.imwrite(tmp_path / "halves.png", picture)
+    halves = gym.create_texture_from_file(sim, str(tmp_path / "halves.png"))
+    props = gymapi.CameraProperties()
+    props.width, props.height, props.horizontal_fov = 64, 64, 60.0
+    envs, cams = [], []
+    for i in range(3):
+        env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 3)
+        gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(0, 0, 0.2)), "box", i, 0, 1)
+        gym.create_actor(env, ball, gymapi.Transform(gymapi.Vec3(0.6, 0, 0.1)), "ball", i, 0, 2)
+        cam = gym.create_camera_sensor(env, props)
+        gym.set_camera_location(cam, env, gymapi.Vec3(0.0, 0.0, 1.5), gymapi.Vec3(0.001, 0, 0))
+        envs.append(env)
+        cams.append(cam)
+    gym.set_rigid_body_color(envs[0], 0, 0, gymapi.MESH_VISUAL, gymapi.Vec3(0.1, 0.9, 0.1))
+    gym.set_rigid_body_texture(envs[1], 0, 0, gymapi.MESH_VISUAL, halves)
+    gym.set_rigid_body_segmentation_id(envs[2], 1, 0, 9)
+    gym.prepare_sim(sim)
+
+    def images(e):
+        gym.render_all_camera_sensors(sim)
+        rgb = gym.get_camera_image(sim, envs[e], cams[e], gymapi.IMAGE_COLOR)
+        seg = gym.get_camera_image(sim, envs[e], cams[e], gymapi.IMAGE_SEGMENTATION)
+        return rgb.reshape(64, 64, 4)[..., :3].astype(float), seg
+
+    def shares(rgb, seg):
+        """(green, red, blue, grey) shares of the box's pixels."""
+        top = rgb[seg == 1]
+        r, g, b = top[:, 0], top[:, 1], top[:, 2]
+        return ((g > 2 * r + 20) & (g > 2 * b + 20)).mean(), \
+            ((r > 2 * g + 20) & (r > 2 * b + 20)).mean(), \
+            ((b > 2 * r + 20) & (b > 2 * g + 20)).mean(), \
+            ((np.ptp(top, axis=1) < 20) & (r > 30)).mean()
+
+    (rgb0, seg0), (rgb1, seg1), (rgb2, seg2) = images(0), images(1), images(2)
+    assert (seg0 == 1).sum() > 200
+    green, red, blue, grey = shares(rgb0, seg0)
+    assert green > 0.95, f"env 0: {green:.0%} of the box green"
+    green, red, blue, grey = shares(rgb1, seg1)
+    assert red > 0.3 and blue > 0.3 and red + blue > 0.9, f"env 1: {red:.0%} red, {blue:.0%} blue"
+    green, red, blue, grey = shares(rgb2, seg2)
+    assert grey > 0.95, f"env 2: {grey:.0%} of the box grey"
+    assert (seg2 == 9).sum() > 20 and not (seg2 == 2).any()        # the ball, with its new id
+    assert (seg0 == 2).sum() > 20 and not (seg0 == 9).any()
+    color = gym.get_rigid_body_color(envs[0], 0, 0, gymapi.MESH_VISUAL)
+    assert (color.x, color.y, color.z) == pytest.approx((0.1, 0.9, 0.1))
+    assert gym.get_rigid_body_texture(envs[1], 0, 0, gymapi.MESH_VISUAL) == halves
+    assert gym.get_rigid_body_texture(envs[0], 0, 0, gymapi.MESH_VISUAL) == gymapi.INVALID_HANDLE
+    # a texture made now (the drawing model is compiled again), tinted by env 0's green
+    pixels = np.full((4, 4, 4), 255, np.uint8)
+    white = gym.create_texture_from_buffer(sim, 4, 4, pixels.reshape(4, 16))
+    gym.set_rigid_body_texture(envs[0], 0, 0, gymapi.MESH_VISUAL_AND_COLLISION, white)
+    gym.set_rigid_body_texture(envs[2], 0, 0, gymapi.MESH_VISUAL, halves)
+    green, red, blue, grey = shares(*images(0))
+    assert green > 0.95
+    green, red, blue, grey = shares(*images(2))
+    assert red > 0.3 and blue > 0.3
+    gym.free_texture(sim, halves)
+    green, red, blue, grey = shares(*images(1))
+    assert grey > 0.95, f"env 1 after free_texture: {grey:.0%} grey"
+    assert gym.get_rigid_body_texture(envs[1], 0, 0, gymapi.MESH_VISUAL) == gymapi.INVALID_HANDLE
+    # what is wrong is named
+    with pytest.raises(FileNotFoundError, match="no file"):
+        gym.create_texture_from_file(sim, str(tmp_path / "missing.png"))
+    with pytest.raises(ValueError, match="4 x 4 RGBA pixels take 64 uint8 values; got 48"):
+        gym.create_texture_from_buffer(sim, 4, 4, np.zeros((4, 12), np.uint8))
+    with pytest.raises(ValueError, match=f"{halves} is not a texture of this sim"):
+        gym.set_rigid_body_texture(envs[0], 0, 0, gymapi.MESH_VISUAL, halves)
+    with pytest.raises(IndexError, match="has 1 bodies, not an index 3"):
+        gym.set_rigid_body_color(envs[0], 0, 3, gymapi.MESH_VISUAL, gymapi.Vec3(1, 0, 0))
+
+
+def test_performance_timers_add_up_the_time_of_each_activity():
+    """Performance timers count the wall time spent in the calls of each activity since they
+    were last read: a loop of simulate, refresh and sync_frame_time spends its time in
+    physics_sim, physics_data_movement and frame_idling, which add up to the loop's time; a
+    read starts them again; timers made later count from then on."""
+    gym, sim = z_up_sim(dt=0.1)
+    box = gym.create_box(sim, 0.2, 0.2, 0.2)
+    env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 1)
+    gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(0, 0, 1)), "box", 0, 0, 0)
+    gym.prepare_sim(sim)
+    early = gym.create_performance_timers(sim)
+    start = time.perf_counter()
+    for _ in range(4):
+        gym.simulate(sim)
+        gym.fetch_results(sim, True)
+        gym.refresh_actor_root_state_tensor(sim)
+        gym.sync_frame_time(sim)                   # waits out the rest of dt
+    loop = time.perf_counter() - start
+    late = gym.create_performance_timers(sim)
+    timers = gym.get_performance_timers(sim, early)
+    assert timers.physics_sim > 0 and timers.physics_data_movement > 0
+    assert timers.frame_idling > 0.1              # 3 waits of 0.1 s less each step's work
+    assert timers.graphics_sensor_rendering == timers.graphics_viewer_rendering == 0.0
+    counted = (timers.physics_sim + timers.physics_data_movement + timers.frame_idling)
+    assert timers.total_time == pytest.approx(counted)
+    assert 0.8 * loop < counted <= loop
+    gym.simulate(sim)
+    again, later = gym.get_performance_timers(sim, early), gym.get_performance_timers(sim, late)
+    assert again.frame_idling == 0.0 and 0 < again.physics_sim < timers.physics_sim
+    assert later.physics_sim == pytest.approx(again.physics_sim)
+    assert gym.get_elapsed_time(sim) > loop and gym.get_sim_time(sim) == pytest.approx(0.5)
+    gym.destroy_performance_timers(sim, early)
+    with pytest.raises(ValueError, match="not a performance timers handle"):
+        gym.get_performance_timers(sim, early)
 
 
 def test_a_setter_leaves_the_other_tensors_pending_edits_alone(tmp_path):

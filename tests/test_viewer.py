@@ -464,6 +464,43 @@ def test_isaacgym_viewer_calls_drive_the_page(monkeypatch):
     assert gym.query_viewer_has_closed(viewer)
 
 
+def test_isaacgym_colors_reach_the_page_per_env(monkeypatch):
+    """set_rigid_body_color's per-env colors are the page's colors for the envs it shows (a
+    textured body in its texture's mean color), the model's for the rest, and they follow
+    later calls."""
+    import numpy as np
+    from isaacgym import gymapi
+    monkeypatch.setenv("MYRIAD_VIEWER_PORT", str(free_port()))
+    gym = gymapi.acquire_gym()
+    sim = z_up_sim_with_ground(gym)
+    box = gym.create_box(sim, 0.2, 0.2, 0.2)
+    envs = []
+    for i in range(3):
+        env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 3)
+        gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(0, 0, 1)), "box", i, 0, 0)
+        envs.append(env)
+    gym.set_rigid_body_color(envs[1], 0, 0, gymapi.MESH_VISUAL, gymapi.Vec3(1.0, 0.5, 0.0))
+    gym.prepare_sim(sim)
+    viewer = gym.create_viewer(sim, gymapi.CameraProperties())
+    try:
+        web = viewer.web
+        gym.draw_viewer(viewer, sim, True)
+        web.draw()
+        mesh, model = web.meshes[0], web._model_rgb[0]
+        assert np.asarray(mesh.batched_colors).tolist() == [list(model), [255, 128, 0],
+                                                            list(model)]
+        pixels = np.zeros((2, 2, 4), np.uint8)
+        pixels[..., 2] = pixels[..., 3] = 255
+        pixels[0, :, 0] = 255                      # two magenta and two blue: mean (128, 0, 255)
+        gym.set_rigid_body_texture(envs[2], 0, 0, gymapi.MESH_VISUAL,
+                                   gym.create_texture_from_buffer(sim, 2, 2, pixels))
+        gym.draw_viewer(viewer, sim, True)
+        web.draw()
+        assert np.asarray(mesh.batched_colors)[2].tolist() == [128, 0, 255]
+    finally:
+        gym.destroy_viewer(viewer)
+
+
 @needs_browser
 def test_isaacgym_viewer_camera_reads_the_open_page(browser, monkeypatch):
     """get_viewer_camera_transform with a page open reads the page's camera (viser's, in
@@ -495,6 +532,77 @@ def test_isaacgym_viewer_camera_reads_the_open_page(browser, monkeypatch):
         expected = (target - eye) / np.linalg.norm(target - eye)
         assert (ahead.x, ahead.y, ahead.z) == pytest.approx(tuple(expected), abs=1e-3)
         assert up.z > 0.8
+    finally:
+        gym.destroy_viewer(viewer)
+
+
+@needs_browser
+def test_isaacgym_mouse_clicks_in_the_page_come_back_as_actions(browser, monkeypatch):
+    """A click in the page's scene is a subscribed MOUSE_LEFT_BUTTON action's press and
+    release, get_viewer_mouse_position says where on the canvas it was (0..1 from the top
+    left), and the ray under it leaves the eye toward what was clicked: through the canvas's
+    centre along the view axis. A button the page cannot report warns and never comes; a drag
+    turns the camera and is no click."""
+    import numpy as np
+    from isaacgym import gymapi
+    port = free_port()
+    monkeypatch.setenv("MYRIAD_VIEWER_PORT", str(port))
+    gym = gymapi.acquire_gym()
+    sim = z_up_sim_with_ground(gym)
+    box = gym.create_box(sim, 0.2, 0.2, 0.2)
+    env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 1)
+    gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(0, 0, 1)), "box", 0, 0, 0)
+    viewer = gym.create_viewer(sim, gymapi.CameraProperties())
+    gym.subscribe_viewer_mouse_event(viewer, gymapi.MOUSE_LEFT_BUTTON, "mouse_shoot")
+    with pytest.warns(RuntimeWarning, match="left-button clicks only: MOUSE_SCROLL_UP"):
+        gym.subscribe_viewer_mouse_event(viewer, gymapi.MOUSE_SCROLL_UP, "zoom")
+    gym.prepare_sim(sim)
+    eye, target = np.array([3.0, -2.0, 2.0]), np.array([0.0, 0.0, 1.0])
+    gym.viewer_camera_look_at(viewer, None, gymapi.Vec3(*eye), gymapi.Vec3(*target))
+    position = gym.get_viewer_mouse_position(viewer)
+    assert (position.x, position.y) == (0.5, 0.5)                # before any click
+
+    def actions(wait_s=30):
+        deadline, out = time.monotonic() + wait_s, []
+        while not out and time.monotonic() < deadline:
+            gym.draw_viewer(viewer, sim, True)
+            out = [(e.action, e.value) for e in gym.query_viewer_action_events(viewer)]
+            time.sleep(0.1)
+        return out
+
+    try:
+        open_when_served(browser, port)
+        deadline = time.monotonic() + 30
+        while viewer.web.camera_pose() is None or not np.allclose(
+                viewer.web.camera_pose()[0], eye, atol=1e-3):
+            assert time.monotonic() < deadline, "the page's camera never reached the eye"
+            time.sleep(0.2)
+        canvas = browser.locator("canvas").first.bounding_box()
+        browser.mouse.click(canvas["x"] + 0.5 * canvas["width"],
+                            canvas["y"] + 0.5 * canvas["height"])
+        assert actions() == [("mouse_shoot", 1.0), ("mouse_shoot", 0.0)]
+        origin, direction = viewer.web.click_ray
+        camera = gym.get_viewer_camera_transform(viewer, None)
+        ahead = camera.r.rotate(gymapi.Vec3(0, 0, 1))
+        assert np.linalg.norm(origin - eye) < 0.05
+        assert float(np.dot(direction, [ahead.x, ahead.y, ahead.z])) > 0.999
+        browser.mouse.click(canvas["x"] + 0.25 * canvas["width"],
+                            canvas["y"] + 0.75 * canvas["height"])
+        assert actions() == [("mouse_shoot", 1.0), ("mouse_shoot", 0.0)]
+        position = gym.get_viewer_mouse_position(viewer)
+        assert (position.x, position.y) == pytest.approx((0.25, 0.75), abs=0.01)
+        # below and to the left of the view axis
+        origin, direction = viewer.web.click_ray
+        up, left = camera.r.rotate(gymapi.Vec3(0, 1, 0)), camera.r.rotate(gymapi.Vec3(1, 0, 0))
+        assert float(np.dot(direction, [up.x, up.y, up.z])) < -0.05
+        assert float(np.dot(direction, [left.x, left.y, left.z])) > 0.05
+        # a drag turns the camera and is no click
+        x0, y0 = canvas["x"] + 0.5 * canvas["width"], canvas["y"] + 0.5 * canvas["height"]
+        browser.mouse.move(x0, y0)
+        browser.mouse.down()
+        browser.mouse.move(x0 + 150, y0 + 40, steps=10)
+        browser.mouse.up()
+        assert actions(wait_s=3) == []
     finally:
         gym.destroy_viewer(viewer)
 

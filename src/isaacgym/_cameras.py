@@ -11,6 +11,11 @@ it shows, 0 for the ground and the background. The view matrix maps a row vector
 of the env's frame to OpenGL camera coordinates (looking along -z, y up), the projection
 matrix is OpenGL's perspective one, both transposed for row vectors.
 
+Each env is drawn in its own looks (`Looks`): the colors `set_rigid_body_color` and the
+textures `set_rigid_body_texture` gave its bodies, and its segmentation ids. Textures need them
+in MuJoCo's model: once a texture exists, the sim's scene is compiled again for drawing only,
+with a 2D texture and a material per Isaac Gym texture (the physics' model is not touched).
+
 Rendering is per camera on the host (one MuJoCo scene per env state); it costs what the
 pixels cost and never runs inside a step.
 """
@@ -19,6 +24,7 @@ from __future__ import annotations
 
 import math
 import os
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -47,6 +53,77 @@ def vertical_fov(props) -> float:
     """Degrees, from CameraProperties' horizontal field of view and aspect ratio."""
     h = math.radians(float(props.horizontal_fov))
     return math.degrees(2 * math.atan(math.tan(h / 2) * props.height / props.width))
+
+
+class Looks(NamedTuple):
+    """How each env's geoms are drawn, from the Isaac Gym calls that set it."""
+    rgba: np.ndarray      # [envs, ngeom, 4] float32: color (white under a texture not tinted)
+    texture: np.ndarray   # [envs, ngeom] int32: texture handle on the geom, -1 for none
+    dressed: np.ndarray   # [envs, ngeom] bool: a color or texture set (else the model's look)
+    segment: np.ndarray   # [envs, ngeom + 1] int32: segmentation id (the last: background, 0)
+
+
+def looks(sim) -> Looks:
+    """The envs' looks (kept in `sim.looks` until a color, texture or segmentation id
+    changes). A body's "visual" geoms are those that collide with nothing, or all its geoms
+    when it has no such geom (a primitive asset draws its collision shape); its "collision"
+    geoms are the others. Textures go on first, so that a color set on the same geoms tints
+    them."""
+    if sim.looks is not None:
+        return sim.looks
+    built = sim.myriad
+    m = built.model.mj_model
+    n_envs, n_geoms = len(sim.envs), m.ngeom
+    rgba = np.tile(np.asarray(m.geom_rgba, np.float32), (n_envs, 1, 1))
+    texture = np.full((n_envs, n_geoms), -1, np.int32)
+    dressed = np.zeros((n_envs, n_geoms), bool)
+    segment = np.zeros((n_envs, n_geoms + 1), np.int32)
+    geom_body = np.asarray(built.model.geom_body)      # Myriad's bodies: MuJoCo's id - 1
+    drawn_only = (np.asarray(m.geom_contype) == 0) & (np.asarray(m.geom_conaffinity) == 0)
+    for k in range(len(sim.envs[0].actors)):
+        kinds = []                       # per body of the actor: {"visual": geoms, ...}
+        for b in built.actor_bodies(f"a{k}"):
+            mine = np.flatnonzero(geom_body == b)
+            visual = mine[drawn_only[mine]]
+            kinds.append({"visual": visual if len(visual) else mine,
+                          "collision": mine[~drawn_only[mine]], "all": mine})
+        every = np.concatenate([kind["all"] for kind in kinds])
+        for env in sim.envs:
+            e, actor = env.index, env.actors[k]
+            segment[e, every] = actor.segmentation_id
+            for b, sid in actor.body_segmentation.items():
+                segment[e, kinds[b]["all"]] = sid
+            for (b, kind), handle in sorted(actor.body_textures.items(),
+                                            key=lambda item: item[0][1] == "visual"):
+                geoms = kinds[b][kind]
+                texture[e, geoms] = handle
+                rgba[e, geoms, :3] = 1.0
+                dressed[e, geoms] = True
+            for (b, kind), color in sorted(actor.body_colors.items(),
+                                           key=lambda item: item[0][1] == "visual"):
+                rgba[e, kinds[b][kind], :3] = (color.x, color.y, color.z)
+                dressed[e, kinds[b][kind]] = True
+    sim.looks = Looks(rgba, texture, dressed, segment)
+    return sim.looks
+
+
+def dress(scene, first: int, looks_: Looks, e: int, materials: dict) -> None:
+    """The scene's geoms from `first` on (env e's bodies, as mjv_updateScene or
+    mjv_addGeoms put them there) in env e's colors and textures; the others as MuJoCo drew
+    them."""
+    import mujoco
+    rgba, texture, dressed = looks_.rgba[e], looks_.texture[e], looks_.dressed[e]
+    if not dressed.any():
+        return
+    geom_type = int(mujoco.mjtObj.mjOBJ_GEOM)
+    for i in range(first, scene.ngeom):
+        g = scene.geoms[i]
+        if g.objtype != geom_type or g.objid < 0 or not dressed[g.objid]:
+            continue
+        g.rgba[:] = rgba[g.objid]
+        material = materials.get(int(texture[g.objid]))
+        if material is not None:             # the renderer takes a geom's texture from it
+            g.matid = material
 
 
 class Camera:
@@ -108,7 +185,9 @@ class Cameras:
         self._made: dict[int, int] = {}        # env index -> cameras made in it
         self._renderers: dict[tuple[int, int], object] = {}
         self._data = None
-        self._segment = None                   # geom id -> segmentation id
+        self._model = None                     # the MuJoCo model drawn (`model`)
+        self._textures = None                  # the texture handles it was compiled with
+        self._materials: dict[int, int] = {}   # texture handle -> its material's id in it
 
     def create(self, env, props) -> Camera:
         if not (int(props.width) >= 1 and int(props.height) >= 1
@@ -132,6 +211,41 @@ class Cameras:
         raise ValueError(f"camera handle {handle} is not a camera sensor of env {env.index}")
 
     # ------------------------------------------------------------------ rendering
+    def model(self):
+        """The MuJoCo model drawn: the sim's, or with textures the sim's scene compiled again
+        with a 2D texture and a material per texture handle (`_materials`). A new texture set makes
+        a new model, and new renderers for it."""
+        import mujoco
+        sim = self.sim
+        handles = tuple(sorted(sim.textures))
+        if self._model is not None and handles == self._textures:
+            return self._model
+        for renderer in self._renderers.values():
+            renderer.close()
+        self._renderers, self._data, self._materials = {}, None, {}
+        if not handles:
+            self._model = sim.myriad.model.mj_model
+        else:
+            spec, _ = sim.scene.compose()
+            for h in handles:
+                pixels = sim.textures[h]
+                height, width = pixels.shape[:2]
+                spec.add_texture(name=f"isaacgym_texture{h}",
+                                 type=mujoco.mjtTexture.mjTEXTURE_2D, width=width,
+                                 height=height, nchannel=4).data = pixels.tobytes()
+                roles = [""] * int(mujoco.mjtTextureRole.mjNTEXROLE)
+                roles[int(mujoco.mjtTextureRole.mjTEXROLE_RGB)] = f"isaacgym_texture{h}"
+                spec.add_material(name=f"isaacgym_material{h}", textures=roles)
+            self._model = spec.compile()
+            if self._model.ngeom != sim.myriad.model.mj_model.ngeom:
+                raise RuntimeError("camera sensors: the scene compiled with its textures has "
+                                   f"{self._model.ngeom} geoms, the sim's model "
+                                   f"{sim.myriad.model.mj_model.ngeom}")
+            self._materials = {h: self._model.material(f"isaacgym_material{h}").id
+                               for h in handles}
+        self._textures = handles
+        return self._model
+
     def _renderer(self, mj, width: int, height: int):
         import mujoco
         key = (width, height)
@@ -150,32 +264,19 @@ class Cameras:
                     "install libosmesa6) and set MUJOCO_GL=egl or MUJOCO_GL=osmesa") from err
         return self._renderers[key]
 
-    def _segmentation_ids(self, built) -> np.ndarray:
-        m = built.model
-        ids = np.zeros(m.ngeom + 1, np.int32)            # the last: background (-1)
-        first = self.sim.envs[0].actors
-        for k, actor in enumerate(first):
-            bodies = built.actor_bodies(f"a{k}")
-            for b_local, b in enumerate(bodies):
-                sid = actor.body_segmentation.get(b_local, actor.segmentation_id)
-                ids[:-1][np.asarray(m.geom_body) == b] = sid
-        return ids
-
     def _pose(self, e: int) -> None:
-        """The MjData drawn from (made once, with the geoms' segmentation ids) at env e's
-        simulated state."""
+        """The MjData drawn from at env e's simulated state."""
         import mujoco
-        built = self.sim.myriad
+        built, mj = self.sim.myriad, self.model()
         if self._data is None:
-            self._data = mujoco.MjData(built.model.mj_model)
-            self._segment = self._segmentation_ids(built)
+            self._data = mujoco.MjData(mj)
         q = built.sim.q[e].detach().cpu().numpy().astype(np.float64)
         self._data.qpos[:] = built.model.qpos_to_mujoco(q)
-        mujoco.mj_kinematics(built.model.mj_model, self._data)
+        mujoco.mj_kinematics(mj, self._data)
 
     def render_all(self) -> None:
         built = self.sim.myriad
-        mj = built.model.mj_model
+        mj = self.model()
         extent = max(float(mj.stat.extent), 1e-9)
         bodies = built.rigid_body_states
         by_env: dict[int, list[Camera]] = {}
@@ -184,7 +285,7 @@ class Cameras:
         for e, cameras in by_env.items():
             self._pose(e)
             for c in cameras:
-                self._render(c, mj, extent, bodies)
+                self._render(c, mj, extent, bodies, e)
 
     def render_view(self, position, forward, up, size: tuple[int, int], fovy: float,
                     near: float, far: float, envs: list[int], origins) -> np.ndarray:
@@ -192,7 +293,8 @@ class Cameras:
         the shared ground, seen from `position` along `forward` (world)."""
         import mujoco
 
-        mj = self.sim.myriad.model.mj_model
+        mj = self.model()
+        looks_ = looks(self.sim)
         width, height = size
         renderer = self._renderer(mj, width, height)
         extent = max(float(mj.stat.extent), 1e-9)
@@ -210,11 +312,12 @@ class Cameras:
             for g in range(before, scene.ngeom):
                 if scene.geoms[g].category == int(mujoco.mjtCatBit.mjCAT_DYNAMIC):
                     scene.geoms[g].pos[:] += np.asarray(origin, np.float64)
+            dress(scene, before, looks_, e, self._materials)
         for gl in scene.camera:
             gl.pos[:], gl.forward[:], gl.up[:] = position, forward, up
         return renderer.render().copy()
 
-    def _render(self, camera: Camera, mj, extent: float, bodies) -> None:
+    def _render(self, camera: Camera, mj, extent: float, bodies, e: int) -> None:
         import mujoco
 
         props = camera.props
@@ -224,6 +327,7 @@ class Cameras:
         mj.vis.map.znear = float(props.near_plane) / extent
         mj.vis.map.zfar = float(props.far_plane) / extent
         position, rotation = camera.pose(bodies)
+        looks_ = looks(self.sim)
         images = {}
         for kind in (IMAGE_COLOR, IMAGE_DEPTH, IMAGE_SEGMENTATION):
             if kind == IMAGE_DEPTH:
@@ -231,6 +335,8 @@ class Cameras:
             elif kind == IMAGE_SEGMENTATION:
                 renderer.enable_segmentation_rendering()
             renderer.update_scene(self._data)
+            if kind == IMAGE_COLOR:
+                dress(renderer.scene, 0, looks_, e, self._materials)
             for gl in renderer.scene.camera:
                 gl.pos[:] = position
                 gl.forward[:] = rotation[:, 0]
@@ -249,7 +355,7 @@ class Cameras:
             else:
                 objid, objtype = pixels[..., 0], pixels[..., 1]
                 geom = np.where(objtype == int(mujoco.mjtObj.mjOBJ_GEOM), objid, -1)
-                images[kind] = self._segment[geom].astype(np.int32)
+                images[kind] = looks_.segment[e][geom]
         camera.images = images
         for kind, tensor in camera.tensors.items():
             tensor.copy_(torch.from_numpy(images[kind]))

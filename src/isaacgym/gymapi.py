@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import copy
 import enum
+import functools
 import math
 import os
 import time
@@ -171,6 +172,10 @@ for _enum in (SimType, UpAxis, DofDriveMode, DofType, JointType, IndexDomain, Co
     globals().update(_enum.__members__)
 
 STATE_NONE, STATE_POS, STATE_VEL, STATE_ALL = 0, 1, 2, 3
+# the geoms of a body a color or texture call is for (`_cameras.looks`)
+_MESH_KINDS = {int(MeshType.MESH_VISUAL): ("visual",),
+               int(MeshType.MESH_COLLISION): ("collision",),
+               int(MeshType.MESH_VISUAL_AND_COLLISION): ("visual", "collision")}
 RIGID_BODY_NONE, RIGID_BODY_DISABLE_GRAVITY, RIGID_BODY_DISABLE_SIMULATION = 0, 1, 2
 RIGID_BODY_ENABLE_GYROSCOPIC_FORCES = 4
 AXIS_NONE, AXIS_X, AXIS_Y, AXIS_Z, AXIS_TWIST = 0, 1, 2, 4, 8
@@ -232,6 +237,22 @@ class Vec3:
     def __getstate__(self): return (self.x, self.y, self.z)
     def __setstate__(self, s): self.x, self.y, self.z = s
     def __repr__(self): return f"Vec3({self.x:g}, {self.y:g}, {self.z:g})"
+
+
+class PerformanceTimers:
+    """Seconds of wall time spent in each activity since the timers were last read
+    (`get_performance_timers`); see `_TIMED` for the calls each one counts."""
+    FIELDS = ("frame_idling", "graphics_image_retrieval", "graphics_sensor_rendering",
+              "graphics_viewer_rendering", "physics_data_movement", "physics_sim")
+
+    def __init__(self):
+        for name in self.FIELDS:
+            setattr(self, name, 0.0)
+        self.total_time = 0.0
+
+    def __repr__(self):
+        return "PerformanceTimers(" + ", ".join(
+            f"{name}={getattr(self, name):.6f}" for name in self.FIELDS + ("total_time",)) + ")"
 
 
 class Vec2:
@@ -797,7 +818,9 @@ class _Actor:
         self.name, self.group, self.filter = name, int(group), int(filter)
         self.segmentation_id = segmentation_id
         self.body_segmentation: dict = {}   # body index -> segmentation id (camera images)
-        self.body_colors: dict = {}         # (body index, mesh type) -> set_rigid_body_color's
+        # (body index, "visual" | "collision") -> set_rigid_body_color's Vec3 / texture handle
+        self.body_colors: dict = {}
+        self.body_textures: dict = {}
         self.dof_props = asset.dof_props.copy()
         self.shape_props = copy.deepcopy(asset.shape_props)
         self.body_props = copy.deepcopy(asset.body_props)
@@ -864,12 +887,15 @@ def _floats(values, what: str) -> np.ndarray:
 class Viewer:
     """What `create_viewer` returns: Myriad's page in the browser (`myriad.viewer`), served
     once the sim is prepared (at `create_viewer` if it is already, else at the first viewer
-    call after `prepare_sim`). Subscribed keys are buttons on the page."""
+    call after `prepare_sim`). Subscribed keys are buttons on the page; a subscribed left
+    mouse button listens to clicks in the page's scene."""
 
     def __init__(self, sim, props):
         self.sim, self.props = sim, props
         self.web = None                  # myriad.viewer.web.Viewer, once served
         self.buttons: dict = {}          # action -> key, subscribed (buttons once served)
+        self.clicks: list[str] = []      # actions of MOUSE_LEFT_BUTTON, subscribed
+        self.looks_sent = None           # the sim's looks the page was last given
         self.camera = None               # (target, eye) asked before serving
         self.last_sync = None            # sync_frame_time's clock
         self.lines: dict = {}            # add_lines': env index -> [(points [K, 2, 3], colors)]
@@ -893,9 +919,28 @@ class Viewer:
             self.web.set_lines(self.lines)
             for action, key in self.buttons.items():
                 self.add_button(action, key)
+            if self.clicks:
+                self.web.listen_clicks()
             if self.camera is not None:
                 self.web.look_at(*self.camera)
+        if self.web is not None:
+            self.send_looks()
         return self.web
+
+    def send_looks(self) -> None:
+        """The envs' colors (set_rigid_body_color) to the page, when they changed; a textured
+        geom in its texture's mean color, tinted."""
+        from ._cameras import looks
+        if self.looks_sent is not None and self.sim.looks is self.looks_sent:
+            return
+        was = self.looks_sent
+        now = self.looks_sent = looks(self.sim)
+        if not now.dressed.any() and (was is None or not was.dressed.any()):
+            return                       # the model's colors, as the page drew them
+        rgb = now.rgba[..., :3].astype(np.float64)
+        for handle, pixels in self.sim.textures.items():
+            rgb[now.texture == handle] *= pixels[..., :3].reshape(-1, 3).mean(0) / 255.0
+        self.web.set_geom_colors(rgb, now.dressed)
 
 
 class Sim:
@@ -912,9 +957,17 @@ class Sim:
         self.assets: list[Asset] = []
         self.myriad = None          # myriad.api.Envs, after prepare_sim
         self.algebra = {}           # ("jacobian" | "mass_matrix", actor slot) -> its tensor
+        self.scene = None           # the myriad Scene prepare_sim built (cameras draw from it)
+        self.textures: dict = {}    # texture handle -> RGBA uint8 [height, width, 4]
+        self.texture_count = 0      # handles given (a freed one is not given again)
+        self.looks = None           # _cameras.Looks of the envs, until a color or texture changes
         self.time, self.frames = 0.0, 0
         self.fresh = None           # the state tensors' versions when last refreshed (_refresh)
         self.closed = False
+        self.started = time.perf_counter()      # get_elapsed_time's clock
+        self.timers: dict[int, dict] = {}       # performance timers' handle -> field -> seconds
+        self.timer_count = 0
+        self.timing = False                     # inside a timed call (`_timed`)
 
     def __repr__(self):
         state = "prepared" if self.myriad is not None else "not prepared"
@@ -1155,13 +1208,46 @@ class Gym:
         sim.frames += 1
 
     def fetch_results(self, sim: Sim, wait: bool = True) -> None:
-        """Nothing to do: the state tensors are refreshed by `simulate` already."""
+        """Nothing to fetch: `simulate` refreshed the state tensors already. While performance
+        timers exist, `wait` waits for the GPU, so that their physics_sim holds the time the
+        step took on it (Myriad's GPU step runs asynchronously otherwise)."""
+        if wait and sim.timers and str(sim.device).startswith("cuda"):
+            torch.cuda.synchronize(sim.device)
 
     def get_sim_time(self, sim: Sim) -> float:
+        """Simulated seconds: dt per `simulate`."""
         return sim.time
 
     def get_elapsed_time(self, sim: Sim) -> float:
-        return sim.time
+        """Wall-clock seconds since `create_sim`."""
+        return time.perf_counter() - sim.started
+
+    # ------------------------------------------------------------------ performance timers
+    def create_performance_timers(self, sim: Sim) -> int:
+        """A set of timers that add up the wall time spent in the calls `_TIMED` lists from
+        now on: its handle for `get_performance_timers`."""
+        handle = sim.timer_count
+        sim.timer_count += 1
+        sim.timers[handle] = dict.fromkeys(PerformanceTimers.FIELDS, 0.0)
+        return handle
+
+    def get_performance_timers(self, sim: Sim, timers: int) -> PerformanceTimers:
+        """The seconds each activity took since these timers were created or last read
+        (they start again from zero)."""
+        if int(timers) not in sim.timers:
+            raise ValueError(f"gym.get_performance_timers: {timers} is not a performance timers "
+                             f"handle of this sim (create_performance_timers)")
+        out = PerformanceTimers()
+        for name, seconds in sim.timers[int(timers)].items():
+            setattr(out, name, seconds)
+        out.total_time = sum(sim.timers[int(timers)].values())
+        sim.timers[int(timers)] = dict.fromkeys(PerformanceTimers.FIELDS, 0.0)
+        return out
+
+    def destroy_performance_timers(self, sim: Sim, timers: int) -> None:
+        if sim.timers.pop(int(timers), None) is None:
+            raise ValueError(f"gym.destroy_performance_timers: {timers} is not a performance "
+                             f"timers handle of this sim")
 
     def get_frame_count(self, sim: Sim) -> int:
         return sim.frames
@@ -1289,13 +1375,19 @@ class Gym:
         return isinstance(viewer, Viewer) and viewer.web is not None and viewer.web.closed
 
     def query_viewer_action_events(self, viewer) -> list:
-        """The subscribed keys' actions since the last call: their presses on the page and
-        their buttons' clicks, each as one event of value 1 (the page reports a press, not
-        its release)."""
+        """The subscribed actions since the last call, in the order they happened: a key's
+        press on the page and its button's click, each one event of value 1 (the page reports
+        a press, not its release); a click in the scene, for each action subscribed to
+        MOUSE_LEFT_BUTTON, the press (1) and the release (0)."""
         if not isinstance(viewer, Viewer) or viewer.serve() is None:
             return []
-        return [ActionEvent(value) for kind, value in viewer.web.events()
-                if kind in ("key", "button") and value in viewer.buttons]
+        out = []
+        for kind, value in viewer.web.events():
+            if kind in ("key", "button") and value in viewer.buttons:
+                out.append(ActionEvent(value))
+            elif kind == "click":
+                out += [ActionEvent(a, v) for a in viewer.clicks for v in (1.0, 0.0)]
+        return out
 
     def subscribe_viewer_keyboard_event(self, viewer, key, action: str) -> None:
         """The key on the page (`PAGE_KEYS`; F-keys, the numpad and the modifiers are not
@@ -1307,7 +1399,33 @@ class Gym:
                 viewer.add_button(action, name)
 
     def subscribe_viewer_mouse_event(self, viewer, button, action: str) -> None:
-        pass                    # the page's mouse moves its camera
+        """MOUSE_LEFT_BUTTON: a click in the page's scene (no drag: a drag turns the camera)
+        is `action`'s press and release (`query_viewer_action_events`), at the position
+        `get_viewer_mouse_position` gives. The page reports no other button, no scroll and
+        no motion: subscribing one warns that its action will not come."""
+        if not isinstance(viewer, Viewer):
+            return
+        if int(button) != int(MouseInput.MOUSE_LEFT_BUTTON):
+            name = getattr(button, "name", None) or MouseInput(int(button)).name
+            warnings.warn(f"gym.subscribe_viewer_mouse_event: Myriad's viewer page reports "
+                          f"left-button clicks only: {name} ({action!r}) will not come",
+                          RuntimeWarning, stacklevel=2)
+            return
+        if action not in viewer.clicks:
+            viewer.clicks.append(action)
+            if viewer.web is not None:
+                viewer.web.listen_clicks()
+
+    def get_viewer_mouse_position(self, viewer) -> Vec2:
+        """Where the last click in the page's scene was, normalized to the canvas: x from
+        its left edge, y from its top, each 0..1 (the centre, (0.5, 0.5), before a click).
+        Only clicks are seen: the page does not report the pointer's motion."""
+        if not isinstance(viewer, Viewer):
+            raise TypeError(f"gym.get_viewer_mouse_position: expected a Viewer (from "
+                            f"gym.create_viewer), got {type(viewer).__name__}")
+        web = viewer.serve()
+        x, y = (0.5, 0.5) if web is None or web.click_position is None else web.click_position
+        return Vec2(x, y)
 
     def viewer_camera_look_at(self, viewer, env, pos: Vec3, target: Vec3) -> None:
         """The page's camera at `pos` looking at `target`, in `env`'s frame (the env drawn at
@@ -1354,26 +1472,111 @@ class Gym:
             viewer.web.force_scale.value = float(np.clip(np.log10(max(float(scale), 1e-12)),
                                                          -5.0, -1.0))
 
-    def set_rigid_body_color(self, env, actor_handle, rigid_body_index, mesh_type, color):
-        """Kept for get_rigid_body_color (the page draws bodies in their model's colors)."""
-        actor = self._actor(env, actor_handle)
-        actor.body_colors[(int(rigid_body_index), int(mesh_type))] = Vec3(color.x, color.y,
-                                                                          color.z)
-
-    def get_rigid_body_color(self, env, actor_handle, rigid_body_index, mesh_type) -> Vec3:
-        """The color set_rigid_body_color gave, else the body's first geom's in its model."""
+    def _looked_at(self, call: str, env, actor_handle, rigid_body_index, mesh_type):
+        """(actor, body index, mesh kinds) of a color or texture call, checked."""
         actor = self._actor(env, actor_handle)
         b = int(rigid_body_index)
         if not 0 <= b < actor.asset.num_bodies:
-            raise IndexError(f"gym.get_rigid_body_color: actor {actor.name!r} has "
-                             f"{actor.asset.num_bodies} bodies, not an index {b}")
-        color = actor.body_colors.get((b, int(mesh_type)))
+            raise IndexError(f"gym.{call}: actor {actor.name!r} has {actor.asset.num_bodies} "
+                             f"bodies, not an index {b}")
+        kinds = _MESH_KINDS.get(int(mesh_type))
+        if kinds is None:
+            raise ValueError(f"gym.{call}: mesh type {mesh_type!r}: one of MESH_VISUAL, "
+                             f"MESH_COLLISION, MESH_VISUAL_AND_COLLISION")
+        return actor, b, kinds
+
+    def set_rigid_body_color(self, env, actor_handle, rigid_body_index, mesh_type, color):
+        """The body's color in this env: camera images, `write_viewer_image_to_file` and the
+        viewer's page draw it (MESH_VISUAL: its visual geoms, or all its geoms when it has
+        none apart from its collision shapes, as an Isaac Gym primitive asset; MESH_COLLISION:
+        its collision geoms). A texture on the body is tinted by it."""
+        actor, b, kinds = self._looked_at("set_rigid_body_color", env, actor_handle,
+                                          rigid_body_index, mesh_type)
+        for kind in kinds:
+            actor.body_colors[(b, kind)] = Vec3(color.x, color.y, color.z)
+        env.sim.looks = None
+
+    def get_rigid_body_color(self, env, actor_handle, rigid_body_index, mesh_type) -> Vec3:
+        """The color set_rigid_body_color gave, else the body's first geom's in its model."""
+        actor, b, kinds = self._looked_at("get_rigid_body_color", env, actor_handle,
+                                          rigid_body_index, mesh_type)
+        color = actor.body_colors.get((b, kinds[0]))
         if color is None:
             m = actor.asset.mj
             body = actor.asset.body_ids[b]
             geoms = [g for g in actor.asset.body_geoms if m.geom_bodyid[g] == body]
             color = Vec3(*m.geom_rgba[geoms[0], :3]) if geoms else Vec3(1.0, 1.0, 1.0)
         return Vec3(color.x, color.y, color.z)
+
+    # ------------------------------------------------------------------ textures
+    def create_texture_from_file(self, sim: Sim, filename: str) -> int:
+        """A texture from an image file (PNG, JPEG, ... as imageio reads them) for
+        `set_rigid_body_texture`: its handle."""
+        import imageio.v2 as imageio
+        if not os.path.isfile(filename):
+            raise FileNotFoundError(f"gym.create_texture_from_file: no file {filename!r}")
+        try:
+            image = np.asarray(imageio.imread(filename))
+        except Exception as err:
+            raise ValueError(f"gym.create_texture_from_file: {filename!r} is not an image "
+                             f"imageio can read: {err}") from None
+        if image.ndim == 2:
+            image = np.repeat(image[..., None], 3, axis=-1)
+        if image.ndim != 3 or image.shape[-1] not in (3, 4) or image.dtype != np.uint8:
+            raise ValueError(f"gym.create_texture_from_file: {filename!r}: an image of shape "
+                             f"{image.shape} and type {image.dtype}; textures are 8-bit grey, "
+                             f"RGB or RGBA")
+        if image.shape[-1] == 3:
+            image = np.concatenate([image, np.full(image.shape[:2] + (1,), 255, np.uint8)], -1)
+        return self._texture(sim, image)
+
+    def create_texture_from_buffer(self, sim: Sim, width: int, height: int, pixels) -> int:
+        """A texture of `width` x `height` RGBA pixels (uint8, row after row from the top:
+        height x width x 4 values in any shape) for `set_rigid_body_texture`: its handle."""
+        w, h = int(width), int(height)
+        data = np.asarray(pixels)
+        if w < 1 or h < 1 or data.dtype != np.uint8 or data.size != w * h * 4:
+            raise ValueError(f"gym.create_texture_from_buffer: {w} x {h} RGBA pixels take "
+                             f"{max(w * h * 4, 0)} uint8 values; got {data.size} of "
+                             f"{data.dtype}")
+        return self._texture(sim, data.reshape(h, w, 4).copy())
+
+    def _texture(self, sim: Sim, rgba: np.ndarray) -> int:
+        handle = sim.texture_count
+        sim.texture_count += 1
+        sim.textures[handle] = rgba
+        return handle
+
+    def free_texture(self, sim: Sim, texture: int) -> None:
+        """Forgets the texture: bodies it was on are drawn in their colors again."""
+        if sim.textures.pop(int(texture), None) is None:
+            raise ValueError(f"gym.free_texture: {texture} is not a texture of this sim")
+        for env in sim.envs:
+            for actor in env.actors:
+                actor.body_textures = {k: t for k, t in actor.body_textures.items()
+                                       if t != int(texture)}
+        sim.looks = None
+
+    def set_rigid_body_texture(self, env, actor_handle, rigid_body_index, mesh_type,
+                               texture) -> None:
+        """The texture (`create_texture_from_*`) on the body's geoms in this env (which ones:
+        as set_rigid_body_color), in camera images and `write_viewer_image_to_file` (MuJoCo's
+        renderer, which maps a picture onto a primitive by its own rule); the viewer's page
+        draws the body in its color."""
+        actor, b, kinds = self._looked_at("set_rigid_body_texture", env, actor_handle,
+                                          rigid_body_index, mesh_type)
+        if int(texture) not in env.sim.textures:
+            raise ValueError(f"gym.set_rigid_body_texture: {texture} is not a texture of "
+                             f"this sim (create_texture_from_file / _from_buffer)")
+        for kind in kinds:
+            actor.body_textures[(b, kind)] = int(texture)
+        env.sim.looks = None
+
+    def get_rigid_body_texture(self, env, actor_handle, rigid_body_index, mesh_type) -> int:
+        """The texture set_rigid_body_texture put on the body, else INVALID_HANDLE."""
+        actor, b, kinds = self._looked_at("get_rigid_body_texture", env, actor_handle,
+                                          rigid_body_index, mesh_type)
+        return actor.body_textures.get((b, kinds[0]), INVALID_HANDLE)
 
     def get_rigid_body_segmentation_id(self, env, actor_handle, rigid_body_index) -> int:
         actor = self._actor(env, actor_handle)
@@ -1382,6 +1585,7 @@ class Gym:
     def set_rigid_body_segmentation_id(self, env, actor_handle, rigid_body_index, sid):
         """The id camera sensors' segmentation images show for this body (else its actor's)."""
         self._actor(env, actor_handle).body_segmentation[int(rigid_body_index)] = int(sid)
+        env.sim.looks = None
 
     # ------------------------------------------------------------------ camera sensors
     def create_camera_sensor(self, env: Env, props: CameraProperties) -> int:
@@ -3481,7 +3685,7 @@ def _prepare(sim: Sim) -> None:
                               float(props.damping))
 
     built = scene.build(len(envs), device=sim.device, params=params, fix_model=fix_model)
-    sim.myriad = built
+    sim.myriad, sim.scene, sim.looks = built, scene, None
     _index_maps(sim)
     # each env's own start pose of free actors
     poses = torch.zeros(len(envs), A, 13)
@@ -3791,6 +3995,40 @@ def _apply_body_props(sim: Sim, actors: list) -> None:
                                    "Myriad keeps each body's principal axes")
             s.body_inertia[actor.env.index, b] = torch.as_tensor(np.diag(principal).copy(),
                                                                  dtype=torch.float32)
+
+
+# the calls whose wall time each performance timer adds up (a timed call inside another counts
+# once, for the outer one)
+_TIMED = {"physics_sim": ("simulate", "fetch_results"),
+          "physics_data_movement": tuple(
+              name for name in vars(Gym) if name.startswith("refresh_")
+              or (name.startswith(("set_", "apply_")) and "_tensor" in name)),
+          "graphics_sensor_rendering": ("render_all_camera_sensors",),
+          "graphics_image_retrieval": ("get_camera_image", "start_access_image_tensors"),
+          "graphics_viewer_rendering": ("step_graphics", "draw_viewer"),
+          "frame_idling": ("sync_frame_time",)}
+
+
+def _timed(method, field: str):
+    @functools.wraps(method)
+    def timed(self, *args, **kwargs):
+        sim = next((a for a in args[:2] if isinstance(a, Sim)), None)
+        if sim is None or not sim.timers or sim.timing:
+            return method(self, *args, **kwargs)
+        sim.timing, start = True, time.perf_counter()
+        try:
+            return method(self, *args, **kwargs)
+        finally:
+            sim.timing = False
+            seconds = time.perf_counter() - start
+            for fields in sim.timers.values():
+                fields[field] += seconds
+    return timed
+
+
+for _field, _names in _TIMED.items():
+    for _name in _names:
+        setattr(Gym, _name, _timed(getattr(Gym, _name), _field))
 
 
 def acquire_gym() -> Gym:

@@ -14,7 +14,8 @@ never touches the step itself (no per-step host read comes back with it).
 
 The small interface other front ends drive (the Isaac Gym layer's viewer calls map onto it):
 `draw()`, `look_at(target, eye)`, `add_button(label, event, key)`, `add_key(key, label, event)`,
-`events()` (button clicks and key presses since the last call), `closed`, `close()`; for `myriad
+`listen_clicks()`, `events()` (button clicks, key presses and clicks in the scene since the last
+call), `set_geom_colors(colors)`, `closed`, `close()`; for `myriad
 play`, `paused`, `take("step" | "reset")`, `speed` (each control also on a key: `PLAY_KEYS`); for
 training, `show_progress(text)`.
 """
@@ -113,6 +114,9 @@ class Viewer:
         self._lines: dict = {}           # env -> [(points [K, 2, 3], colors [K, 3])], env frame
         self._lines_version = 0          # set_lines' calls
         self._lines_drawn = None         # the (version, first env) last sent, or None
+        self._colors = None              # set_geom_colors' (rgb, chosen)
+        self._colors_version = 0
+        self._colors_drawn = None        # the (version, first env) last sent
         self.lines = None                # their segments on the page
         self._data = [mujoco.MjData(self.mj) for _ in range(self.count)]
         self._events: queue.SimpleQueue = queue.SimpleQueue()
@@ -124,6 +128,10 @@ class Viewer:
         self._asked: set[str] = set()    # the page's requests not yet taken (`take`)
         self._stream = None              # on a GPU, the stream of the viewer's copies
         self._camera = None              # (target, eye) of the last look_at
+        self._clicks = False             # listen_clicks called
+        # the last click in the scene: (x, y) on the canvas, 0..1 from its top left; the ray
+        # under it (origin, unit direction; world)
+        self.click_position, self.click_ray = None, None
 
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.url = f"http://{host}:{self.server.get_port()}"
@@ -149,7 +157,7 @@ class Viewer:
         d = mujoco.MjData(m)
         mujoco.mj_kinematics(m, d)
         identity = np.tile([1.0, 0.0, 0.0, 0.0], (self.count, 1))
-        self.geoms, self.meshes = [], []
+        self.geoms, self.meshes, self._model_rgb = [], [], []
         for s in drawn:
             opacity = None if s.opacity >= 1 else s.opacity
             if s.body == 0:          # the world's geoms (terrain, walls): drawn once
@@ -158,6 +166,7 @@ class Viewer:
                                       wxyz=mat_to_wxyz(d.geom_xmat[s.geom][None])[0])
                 continue
             self.geoms.append(s.geom)
+            self._model_rgb.append(s.rgb)
             self.meshes.append(scene.add_batched_meshes_simple(
                 f"/bodies/{s.name}", s.vertices, s.faces, batched_wxyzs=identity,
                 batched_positions=np.zeros((self.count, 3)), batched_colors=s.rgb,
@@ -251,6 +260,24 @@ class Viewer:
         command = self.server.gui.add_command(label, hotkey=key, description=f"key: {key}")
         command.on_trigger(lambda _: self._key(event))
 
+    def listen_clicks(self) -> None:
+        """Clicks in the scene (the left button, no modifier key; a drag still turns the
+        camera) become events ("click", (x, y)): where on the canvas, (0, 0) its top left and
+        (1, 1) its bottom right. `click_position` and `click_ray` keep the last one."""
+        if self._clicks:
+            return
+        self._clicks = True
+
+        @self.server.scene.on_click()
+        def _(event) -> None:
+            self._click(event.screen_pos, event.ray_origin, event.ray_direction)
+
+    def _click(self, position, origin, direction) -> None:
+        self.click_position = (float(position[0]), float(position[1]))
+        self.click_ray = (np.asarray(origin, dtype=np.float64),
+                          np.asarray(direction, dtype=np.float64))
+        self._event("click", self.click_position)
+
     def _on_disconnect(self, client) -> None:
         if not self.server.get_clients():
             self._connected.clear()
@@ -258,8 +285,9 @@ class Viewer:
 
     def events(self) -> list[tuple[str, object]]:
         """The page's events since the last call: ("button", event) of a click, ("key", event)
-        of a key's press ("step", "reset", "pause", "slower", "faster" in play), ("first env",
-        k), ("connect" | "disconnect", client id)."""
+        of a key's press ("step", "reset", "pause", "slower", "faster" in play), ("click",
+        (x, y)) of a click in the scene (`listen_clicks`), ("first env", k), ("connect" |
+        "disconnect", client id)."""
         out = []
         while True:
             try:
@@ -366,7 +394,34 @@ class Viewer:
             if self.markers is not None:
                 self._draw_markers()
             self._draw_lines()
+            self._draw_colors()
         self.frames_drawn += 1
+
+    def set_geom_colors(self, rgb, chosen) -> None:
+        """Each env's own geom colors from the next frame: `rgb` [num_envs, ngeom, 3] in
+        0..1 where `chosen` [num_envs, ngeom] is true, the model's color elsewhere."""
+        n = self.envs.num_envs
+        rgb, chosen = np.asarray(rgb, dtype=np.float64), np.asarray(chosen, dtype=bool)
+        if rgb.shape != (n, self.mj.ngeom, 3) or chosen.shape != (n, self.mj.ngeom):
+            raise ValueError(f"viewer: geom colors of shape {rgb.shape} and {chosen.shape}: "
+                             f"({n}, {self.mj.ngeom}, 3) and ({n}, {self.mj.ngeom})")
+        with self._lock:
+            self._colors = (rgb, chosen)
+            self._colors_version += 1
+
+    def _draw_colors(self) -> None:
+        """The shown envs' geom colors (sent again only when they or the envs shown changed)."""
+        with self._lock:
+            colors, drawn = self._colors, (self._colors_version, self.first)
+        if colors is None or self._colors_drawn == drawn:
+            return
+        self._colors_drawn = drawn
+        rows = slice(self.first, self.first + self.count)
+        rgb, chosen = colors[0][rows], colors[1][rows]
+        for i, (mesh, g) in enumerate(zip(self.meshes, self.geoms)):
+            mine = np.where(chosen[:, g, None], np.clip(rgb[:, g] * 255.0, 0, 255),
+                            np.asarray(self._model_rgb[i], dtype=np.float64))
+            mesh.batched_colors = np.round(mine).astype(np.uint8)
 
     def _draw_lines(self) -> None:
         """The lines of `set_lines` that belong to shown envs, at their envs' places (sent
