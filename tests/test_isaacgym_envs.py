@@ -589,6 +589,54 @@ def test_tendon_spring_rest_length_and_offset(tmp_path):
     assert float(state[:, 1].abs().max()) < 1e-2          # at rest there
 
 
+def test_fixed_tendon_joint_coefficients_set_the_tendons_length(tmp_path):
+    """A tendon's joint coefficients set on the asset (or on every actor alike, before
+    prepare_sim) change its length Σ coef·q: with coefficient 2 the lever's spring (rest
+    length 0.2) settles at 0.1 rad, not 0.2, and with -2 at -0.1; its lower limit (-0.4)
+    then holds at -0.2. Coefficients that differ between envs, or come after prepare_sim,
+    are refused with what to do; so are the wrong count and a zero."""
+    def settled(coef_asset, coef_actor=None, rest=0.2):
+        gym, sim, asset, _ = fixed_base_asset(tmp_path, "lever.xml", TENDON_LEVER)
+        props = gym.get_asset_tendon_properties(asset)
+        props[0].stiffness, props[0].damping = 1.0, 0.2
+        props[0].fixed_spring_rest_length, props[0].limit_stiffness = rest, 0.0
+        gym.set_asset_tendon_properties(asset, props)
+        assert gym.set_asset_fixed_tendon_joint_coefficients(asset, 0, [coef_asset])
+        assert gym.get_asset_fixed_tendon_joint_coefficients(asset, 0) == [coef_asset]
+        envs = envs_with(gym, sim, asset, [gymapi.Transform()] * 2)
+        if coef_actor is not None:
+            for env in envs:
+                gym.set_actor_fixed_tendon_joint_coefficients(env, 0, 0, [coef_actor])
+            assert gym.get_actor_fixed_tendon_joint_coefficients(envs[1], 0, 0) == [coef_actor]
+        gym.prepare_sim(sim)
+        state = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim)).view(2, 2)
+        for _ in range(300):
+            gym.simulate(sim)
+            gym.fetch_results(sim, True)
+        gym.refresh_dof_state_tensor(sim)
+        assert float(state[:, 1].abs().max()) < 1e-2                # at rest
+        return state[:, 0], gym, sim, envs
+
+    q, gym, sim, envs = settled(2.0)
+    torch.testing.assert_close(q, torch.full((2,), 0.1), atol=5e-3, rtol=0)
+    with pytest.raises(NotImplementedError, match="after prepare_sim.*before prepare_sim"):
+        gym.set_actor_fixed_tendon_joint_coefficients(envs[0], 0, 0, [1.0])
+    q = settled(2.0, coef_actor=-2.0)[0]
+    torch.testing.assert_close(q, torch.full((2,), -0.1), atol=5e-3, rtol=0)
+    q = settled(2.0, rest=-1.0)[0]                  # the spring pulls past the lower limit
+    torch.testing.assert_close(q, torch.full((2,), -0.2), atol=5e-3, rtol=0)
+    gym, sim, asset, _ = fixed_base_asset(tmp_path, "lever.xml", TENDON_LEVER)
+    envs = envs_with(gym, sim, asset, [gymapi.Transform()] * 2)
+    gym.set_actor_fixed_tendon_joint_coefficients(envs[1], 0, 0, [3.0])
+    with pytest.raises(NotImplementedError, match="env 1 has other fixed tendon joint "
+                                                  "coefficients than in env 0"):
+        gym.prepare_sim(sim)
+    with pytest.raises(ValueError, match="couples 1 joints: give 1 finite, non-zero"):
+        gym.set_asset_fixed_tendon_joint_coefficients(asset, 0, [1.0, 2.0])
+    with pytest.raises(ValueError, match="non-zero"):
+        gym.set_actor_fixed_tendon_joint_coefficients(envs[0], 0, 0, [0.0])
+
+
 def test_create_aggregate_and_tensor_descriptors(tmp_path):
     gym, sim, asset, _ = fixed_base_asset(tmp_path, "lever.xml", TENDON_LEVER)
     env = envs_with(gym, sim, asset, [gymapi.Transform()])[0]

@@ -736,6 +736,7 @@ class Asset:
             fixed_lower_limit=float(m.tendon_range[t, 0]),
             fixed_upper_limit=float(m.tendon_range[t, 1]),
             num_joints=int(m.tendon_num[t])) for t in range(m.ntendon)]
+        self.tendon_coefs: dict[int, list] = {}   # set_asset_fixed_tendon_joint_coefficients
         spatial = [self.tendon_names[t] for t in range(m.ntendon)
                    if any(int(m.wrap_type[w]) != int(mujoco.mjtWrap.mjWRAP_JOINT)
                           for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]))]
@@ -826,6 +827,7 @@ class _Actor:
         self.body_props = copy.deepcopy(asset.body_props)
         self.tendon_props = copy.deepcopy(asset.tendon_props)
         self.tendon_offsets = [0.0] * len(asset.tendon_props)   # set_actor_tendon_offset
+        self.tendon_coefs = copy.deepcopy(asset.tendon_coefs)     # tendon -> joint coefs
         self.scale = 1.0         # set_actor_scale
         self.body_offset = 0     # index of its first body in the env (set by create_actor)
         self.dof_offset = 0
@@ -2524,7 +2526,42 @@ class Gym:
 
     def get_asset_fixed_tendon_joint_coefficients(self, asset: Asset, tendon: int) -> list:
         wraps = self._tendon_wraps(asset, tendon, "get_asset_fixed_tendon_joint_coefficients")
-        return [float(asset.mj.wrap_prm[w]) for w in wraps]
+        own = asset.tendon_coefs.get(int(tendon))
+        return list(own) if own is not None else [float(asset.mj.wrap_prm[w]) for w in wraps]
+
+    def _tendon_coefs(self, asset: Asset, tendon: int, coefficients, call: str) -> list:
+        """`coefficients` for the tendon's joints, checked: one per joint, none zero (each
+        joint takes the tendon's force times 1/coef, PhysX's recipCoefficient)."""
+        wraps = self._tendon_wraps(asset, tendon, call)
+        coefs = [float(c) for c in coefficients]
+        if len(coefs) != len(wraps) or not all(np.isfinite(coefs)) or 0.0 in coefs:
+            raise ValueError(f"gym.{call}: tendon {asset.tendon_names[int(tendon)]!r} couples "
+                             f"{len(wraps)} joints: give {len(wraps)} finite, non-zero "
+                             f"coefficients, not {coefs}")
+        return coefs
+
+    def set_asset_fixed_tendon_joint_coefficients(self, asset: Asset, tendon: int,
+                                                  coefficients) -> bool:
+        """The tendon's joint coefficients (its length is Σ coef·q) for the actors created
+        from the asset after this call."""
+        asset.tendon_coefs[int(tendon)] = self._tendon_coefs(
+            asset, tendon, coefficients, "set_asset_fixed_tendon_joint_coefficients")
+        return True
+
+    def set_actor_fixed_tendon_joint_coefficients(self, env: Env, handle: int, tendon: int,
+                                                  coefficients) -> bool:
+        """The actor's tendon joint coefficients, before `prepare_sim`. Myriad's envs share
+        them: every env's actor must end up with the same ones (prepare_sim says which env
+        differs), and after prepare_sim they cannot change."""
+        actor = self._actor(env, handle)
+        call = "set_actor_fixed_tendon_joint_coefficients"
+        coefs = self._tendon_coefs(actor.asset, tendon, coefficients, call)
+        if env.sim.myriad is not None:
+            raise _unsupported(f"gym.{call} after prepare_sim",
+                               "the coefficients are compiled into the model all envs share: "
+                               "set them before prepare_sim")
+        actor.tendon_coefs[int(tendon)] = coefs
+        return True
 
     def get_asset_fixed_tendon_joint_name(self, asset: Asset, tendon: int, joint: int) -> str:
         wraps = self._tendon_wraps(asset, tendon, "get_asset_fixed_tendon_joint_name")
@@ -2539,8 +2576,12 @@ class Gym:
 
     def get_actor_fixed_tendon_joint_coefficients(self, env: Env, handle: int,
                                                   tendon: int) -> list:
-        return self.get_asset_fixed_tendon_joint_coefficients(self._actor(env, handle).asset,
-                                                              tendon)
+        actor = self._actor(env, handle)
+        own = actor.tendon_coefs.get(int(tendon))
+        if own is not None:
+            self._tendon(actor.asset, tendon, "get_actor_fixed_tendon_joint_coefficients")
+            return list(own)
+        return self.get_asset_fixed_tendon_joint_coefficients(actor.asset, tendon)
 
     def get_actor_fixed_tendon_joint_name(self, env: Env, handle: int, tendon: int,
                                           joint: int) -> str:
@@ -3631,6 +3672,10 @@ def _prepare(sim: Sim) -> None:
                 raise _unsupported(f"gym.prepare_sim: actor {a.name!r} of env {env.index} has "
                                    "other DOF drive modes than in env 0",
                                    "drive modes must be the same in every env")
+            if _tendon_coefs(a) != _tendon_coefs(b):
+                raise _unsupported(f"gym.prepare_sim: actor {a.name!r} of env {env.index} has "
+                                   "other fixed tendon joint coefficients than in env 0",
+                                   "the coefficients must be the same in every env")
     A = len(first.actors)
     pairs = {}
     for env in envs:
@@ -3680,6 +3725,10 @@ def _prepare(sim: Sim) -> None:
         from myriad.assets import physx_tendons
         model.force_sensor_split = True         # PhysX's parts (`_refresh_force_sensors`)
         for k, a in enumerate(first.actors):
+            for t, coefs in a.tendon_coefs.items():     # before physx_tendons' 1/coef
+                i = model.tendon_names.index(f"{names[k]}/{a.asset.tendon_names[t]}")
+                adr = int(model.tendon_adr[i])
+                model.wrap_coef[adr:adr + len(coefs)] = coefs
             for name, props in zip(a.asset.tendon_names, a.asset.tendon_props):
                 physx_tendons(model, [f"{names[k]}/{name}"], float(props.limit_stiffness),
                               float(props.damping))
@@ -4029,6 +4078,13 @@ def _timed(method, field: str):
 for _field, _names in _TIMED.items():
     for _name in _names:
         setattr(Gym, _name, _timed(getattr(Gym, _name), _field))
+
+
+def _tendon_coefs(actor: _Actor) -> list:
+    """The actor's joint coefficients of each of its fixed tendons (its own, else the
+    asset's)."""
+    return [_GYM.get_actor_fixed_tendon_joint_coefficients(actor.env, actor.index, t)
+            for t in range(len(actor.asset.tendon_names))]
 
 
 def acquire_gym() -> Gym:
