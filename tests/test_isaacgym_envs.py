@@ -973,6 +973,47 @@ def test_camera_images_show_each_envs_colors_textures_and_segmentation_ids(tmp_p
         gym.set_rigid_body_color(envs[0], 0, 3, gymapi.MESH_VISUAL, gymapi.Vec3(1, 0, 0))
 
 
+VISUAL_BOX = """<robot name="post"><link name="post">
+  <inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/>
+  </inertial>
+  <visual><geometry><box size="0.3 0.3 0.3"/></geometry></visual>
+  <collision><geometry><sphere radius="0.1"/></geometry></collision></link></robot>"""
+
+
+def test_cameras_draw_visual_geometry_or_on_request_the_collision_shapes(tmp_path):
+    """As Isaac Gym's cameras: a link's visual geometry is drawn (not its collision shape
+    over it), and the collision shapes instead with use_collision_geometry. A link whose
+    visual is a 0.3 m box and whose collision shape a 0.1 m sphere, seen from above: its
+    segmentation covers a square or a disk about a quarter of it; the depth at the square's
+    corner is the box top's or the ground's."""
+    renderer_or_skip()
+    gym, sim, asset, _ = fixed_base_asset(tmp_path, "post.urdf", VISUAL_BOX)
+    plane = gymapi.PlaneParams()
+    plane.normal = gymapi.Vec3(0, 0, 1)
+    gym.add_ground(sim, plane)
+    cams, envs = [], []
+    for collision in (False, True):
+        props = gymapi.CameraProperties()
+        props.width, props.height, props.horizontal_fov = 64, 64, 60.0
+        props.use_collision_geometry = collision
+        env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 2)
+        gym.create_actor(env, asset, gymapi.Transform(gymapi.Vec3(0, 0, 0.15)), "post", 0, 0, 4)
+        cam = gym.create_camera_sensor(env, props)
+        gym.set_camera_location(cam, env, gymapi.Vec3(0, 0, 1.5), gymapi.Vec3(0.001, 0, 0))
+        cams.append(cam)
+        envs.append(env)
+    gym.prepare_sim(sim)
+    gym.render_all_camera_sensors(sim)
+    seen = [gym.get_camera_image(sim, e, c, gymapi.IMAGE_SEGMENTATION) for e, c in zip(envs, cams)]
+    depth = [gym.get_camera_image(sim, e, c, gymapi.IMAGE_DEPTH) for e, c in zip(envs, cams)]
+    box, ball = (int((s == 4).sum()) for s in seen)
+    # 0.3 m at 1.2 m is 14 pixels across here; the disk, 0.1 m at 1.25 m, a quarter the area
+    assert 170 < box < 220 and 0.2 < ball / box < 0.35, (box, ball)
+    corner = np.argwhere(seen[0] == 4).max(axis=0)                # the square's far corner
+    assert depth[0][tuple(corner)] == pytest.approx(-1.2, abs=0.02)        # the box top
+    assert depth[1][tuple(corner)] == pytest.approx(-1.5, abs=0.05)        # the ground
+
+
 def test_performance_timers_add_up_the_time_of_each_activity():
     """Performance timers count the wall time spent in the calls of each activity since they
     were last read: a loop of simulate, refresh and sync_frame_time spends its time in

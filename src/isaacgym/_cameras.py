@@ -11,7 +11,10 @@ it shows, 0 for the ground and the background. The view matrix maps a row vector
 of the env's frame to OpenGL camera coordinates (looking along -z, y up), the projection
 matrix is OpenGL's perspective one, both transposed for row vectors.
 
-Each env is drawn in its own looks (`Looks`): the colors `set_rigid_body_color` and the
+What is drawn, as Isaac Gym draws it: a body's visual geoms (those that collide with nothing),
+or its collision shapes where it has no visual geom (a primitive asset); with the camera's
+`use_collision_geometry`, the collision shapes instead (`drawing_groups`). Each env is drawn in
+its own looks (`Looks`): the colors `set_rigid_body_color` and the
 textures `set_rigid_body_texture` gave its bodies, and its segmentation ids. Textures need them
 in MuJoCo's model: once a texture exists, the sim's scene is compiled again for drawing only,
 with a 2D texture and a material per Isaac Gym texture (the physics' model is not touched).
@@ -22,6 +25,7 @@ pixels cost and never runs inside a step.
 
 from __future__ import annotations
 
+import copy
 import math
 import os
 from typing import NamedTuple
@@ -53,6 +57,44 @@ def vertical_fov(props) -> float:
     """Degrees, from CameraProperties' horizontal field of view and aspect ratio."""
     h = math.radians(float(props.horizontal_fov))
     return math.degrees(2 * math.atan(math.tan(h / 2) * props.height / props.width))
+
+
+# the drawing model's geom groups (`drawing_groups`): drawn always, a body's visual geoms, its
+# collision shapes where it has visual geoms (hidden as MuJoCo's viewer hides group 3), never
+ALWAYS, VISUAL, COLLISION, NEVER = 0, 1, 3, 5
+
+
+def drawing_groups(m) -> None:
+    """Regroup the geoms of `m` (a drawing model, in place): ALWAYS the world's drawn geoms and
+    the collision shapes of bodies with no visual geom, VISUAL the visual geoms (collide with
+    nothing) of the groups MuJoCo draws (0-2), COLLISION the collision shapes of bodies that
+    have such visual geoms, NEVER the rest. The page and `write_viewer_image_to_file` draw
+    ALWAYS and VISUAL (MuJoCo's groups 0-2); a camera with use_collision_geometry draws
+    ALWAYS and COLLISION."""
+    group = np.asarray(m.geom_group).copy()
+    body = np.asarray(m.geom_bodyid)
+    drawn_only = (np.asarray(m.geom_contype) == 0) & (np.asarray(m.geom_conaffinity) == 0)
+    seen = group < 3
+    has_visual = np.zeros(m.nbody, bool)
+    has_visual[body[drawn_only & seen]] = True
+    out = np.full(m.ngeom, NEVER, group.dtype)
+    world = body == 0
+    out[world & seen] = ALWAYS
+    out[~world & drawn_only & seen] = VISUAL
+    colliding = ~world & ~drawn_only
+    out[colliding & has_visual[body]] = COLLISION
+    out[colliding & ~has_visual[body]] = ALWAYS
+    m.geom_group[:] = out
+
+
+def drawing_option(collision: bool = False):
+    """The MjvOption drawing what `drawing_groups` says is seen."""
+    import mujoco
+    option = mujoco.MjvOption()
+    option.geomgroup[:] = 0
+    option.geomgroup[ALWAYS] = 1
+    option.geomgroup[COLLISION if collision else VISUAL] = 1
+    return option
 
 
 class Looks(NamedTuple):
@@ -224,7 +266,7 @@ class Cameras:
             renderer.close()
         self._renderers, self._data, self._materials = {}, None, {}
         if not handles:
-            self._model = sim.myriad.model.mj_model
+            self._model = copy.deepcopy(sim.myriad.model.mj_model)
         else:
             spec, _ = sim.scene.compose()
             for h in handles:
@@ -243,6 +285,7 @@ class Cameras:
                                    f"{sim.myriad.model.mj_model.ngeom}")
             self._materials = {h: self._model.material(f"isaacgym_material{h}").id
                                for h in handles}
+        drawing_groups(self._model)
         self._textures = handles
         return self._model
 
@@ -300,12 +343,12 @@ class Cameras:
         extent = max(float(mj.stat.extent), 1e-9)
         mj.vis.global_.fovy = fovy
         mj.vis.map.znear, mj.vis.map.zfar = near / extent, far / extent
-        scene, option, perturb = renderer.scene, mujoco.MjvOption(), mujoco.MjvPerturb()
+        scene, option, perturb = renderer.scene, drawing_option(), mujoco.MjvPerturb()
         for k, (e, origin) in enumerate(zip(envs, origins)):
             self._pose(e)
             before = 0 if k == 0 else scene.ngeom
             if k == 0:       # the ground and the first env's bodies
-                renderer.update_scene(self._data)
+                renderer.update_scene(self._data, scene_option=option)
             else:            # the next env's bodies only
                 mujoco.mjv_addGeoms(mj, self._data, option, perturb,
                                     int(mujoco.mjtCatBit.mjCAT_DYNAMIC), scene)
@@ -328,13 +371,14 @@ class Cameras:
         mj.vis.map.zfar = float(props.far_plane) / extent
         position, rotation = camera.pose(bodies)
         looks_ = looks(self.sim)
+        option = drawing_option(bool(props.use_collision_geometry))
         images = {}
         for kind in (IMAGE_COLOR, IMAGE_DEPTH, IMAGE_SEGMENTATION):
             if kind == IMAGE_DEPTH:
                 renderer.enable_depth_rendering()
             elif kind == IMAGE_SEGMENTATION:
                 renderer.enable_segmentation_rendering()
-            renderer.update_scene(self._data)
+            renderer.update_scene(self._data, scene_option=option)
             if kind == IMAGE_COLOR:
                 dress(renderer.scene, 0, looks_, e, self._materials)
             for gl in renderer.scene.camera:

@@ -917,7 +917,8 @@ class Viewer:
             from myriad.viewer import serve
             port = int(os.environ.get("MYRIAD_VIEWER_PORT", "8080"))
             origins = [(e.origin.x, e.origin.y, e.origin.z) for e in self.sim.envs]
-            self.web = serve(self.sim.myriad, port=port, origins=origins)
+            self.web = serve(self.sim.myriad, port=port, origins=origins,
+                             drawing=self.sim.cameras.model())
             self.web.set_lines(self.lines)
             for action, key in self.buttons.items():
                 self.add_button(action, key)

@@ -82,11 +82,14 @@ class Viewer:
     tasks whose envs already stand apart, such as a shared terrain); `controls`: the play
     controls (pause, step, reset, speed); `markers`: a function returning the task's markers
     for an env (`VecTask.video_markers`-style dicts: type "box", size, pos, quat xyzw, rgba);
-    `origins`: [num_envs, 3], where each env is drawn instead (Isaac Gym's grid of envs)."""
+    `origins`: [num_envs, 3], where each env is drawn instead (Isaac Gym's grid of envs);
+    `drawing`: a MuJoCo model of the same bodies and geoms to draw from instead of the envs'
+    own (its geom groups and colours say what is drawn and how)."""
 
     def __init__(self, envs, port: int = 8080, host: str = "127.0.0.1", shown: int = 4,
                  first: int = 0, spacing: float | None = None, controls: bool = False,
-                 markers=None, fps: float = 20.0, budget: float | None = None, origins=None):
+                 markers=None, fps: float = 20.0, budget: float | None = None, origins=None,
+                 drawing=None):
         viser = require_viser()
         n = envs.num_envs
         if not 1 <= shown:
@@ -98,7 +101,13 @@ class Viewer:
         if budget is not None and not 0 < budget <= 1:
             raise ValueError(f"viewer: budget={budget}: a share of one core, in (0, 1]")
         self.budget = budget
-        self.envs, self.mj = envs, envs.model.mj_model
+        own = envs.model.mj_model
+        if drawing is not None and (drawing.nbody, drawing.ngeom, drawing.nq) != \
+                (own.nbody, own.ngeom, own.nq):
+            raise ValueError(f"viewer: the drawing model has {drawing.nbody} bodies, "
+                             f"{drawing.ngeom} geoms and nq {drawing.nq}; the envs' "
+                             f"{own.nbody}, {own.ngeom} and {own.nq}")
+        self.envs, self.mj = envs, own if drawing is None else drawing
         self.count = min(shown, n)
         self.first = min(first, n - self.count)
         if spacing is None:          # envs over one shared terrain already stand apart
