@@ -12,6 +12,8 @@ episodes):
     successTolerance and episodeLength; counted from the task's own `successes` buffer;
   - FrankaCubeStack, Trifinger: `success_rate`, the share of episodes that ended in the task's
     success (the flags the task counts its `success_rate` metric from; Franka also `lift_rate`);
+    Trifinger also `fingertip_distance` (m), the mean over the episode's steps of the three
+    fingertips' mean distance to the cube's centre (how close the fingers keep to it);
   - Anymal, AnymalTerrain, G1Velocity, G1Rough: `tracking_error_lin` (m/s, |commanded -
     actual| base-frame planar velocity) and `tracking_error_yaw` (rad/s), averaged over the
     episode's steps (as benchmarks/anymal_tracking.py measures them, but over whole episodes);
@@ -218,6 +220,29 @@ class ShareProbe(Probe):
         return super().describe() | {k: v for k, v in env.items() if "Tolerance" in k}
 
 
+class TrifingerProbe(ShareProbe):
+    """Trifinger's success flags, and per episode the mean over its steps of the fingertips'
+    mean distance to the cube's centre (`fingertip_distance`, m)."""
+
+    def __init__(self, task):
+        super().__init__(task)
+        self.total = torch.zeros(task.num_envs, dtype=torch.float64, device=task.device)
+        self.steps = torch.zeros_like(self.total)
+
+    def after_step(self, done):
+        e = self.task.envs
+        tips = e.rigid_body_states[:, self.task.fingertips, 0:3]
+        cube = e.root_states[:, self.task.cube, None, 0:3]
+        live = (~done).double()     # a finished env's state is already its next episode's
+        self.total += live * torch.norm(tips - cube, dim=-1).mean(-1).double()
+        self.steps += live
+        out = super().after_step(done) | {
+            "fingertip_distance": self.total / self.steps.clamp(min=1.0)}
+        for buf in (self.total, self.steps):
+            buf.masked_fill_(done, 0.0)
+        return out
+
+
 def base_velocity(task) -> torch.Tensor:
     """[N, 3]: each env's base forward and lateral velocity (m/s) and yaw rate (rad/s), in the
     base's own frame: what a velocity command (`task.commands`) asks of it."""
@@ -361,6 +386,8 @@ def probe_for(name: str, task) -> Probe:
         return WalkProbe(task)
     if name in HAND_TASKS:
         return HandProbe(task)
+    if name == "Trifinger":
+        return TrifingerProbe(task)
     if name in SUCCESS_RATE_TASKS:
         return ShareProbe(task)
     if name in TRACKING_TASKS:

@@ -11,10 +11,14 @@ asymmetric critic where the task has one, the task state its run's checkpoint he
 the optimizer, the random generators or the run's timers; the network's layers in float16 where
 that leaves the evaluation within its own 95 % interval. `myriad/policies/manifest.json` says,
 per task, how the policy was made and what it reaches: the training command, the code revision,
-the machine, env-steps and wall time of the run, and the `myriad eval` figure of the shipped file
-itself. Maintainers ship a run's checkpoint with
+the machine, env-steps and wall time of the run, the `myriad eval` figure of the shipped file
+itself, and the same evaluation of a fresh policy of the task (`baseline`: its network as
+training starts), against which `check_of` picks the figure that shows what training added.
+A policy no figure of which tells it from a fresh one within `MAX_CHECK_EPISODES` is not shipped.
+Maintainers ship a run's checkpoint with
 
     python -m myriad.rl.shipped runs/NAME/nn/last.pth [--episodes 100]
+    python -m myriad.rl.shipped --baseline TASK ...      # (re)measure shipped tasks' baselines
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ import contextlib
 import datetime
 import io
 import json
+import math
 import os
 import tempfile
 from importlib import resources
@@ -34,6 +39,16 @@ MANIFEST = "manifest.json"
 # checkpoint keys a shipped policy keeps: the actor-critic with its normalizers, the asymmetric
 # critic and its statistics, the epoch and env-steps it was trained for, the task state
 KEPT = ("model", "assymetric_vf_nets", "central_val_stats", "epoch", "frame")
+# the figures a shipped policy is checked on (`check_of`), better when higher; LOWER's when lower.
+# Not terrain_level: the levels are the training's state, restored only at the run's env count
+HIGHER = ("episode_reward", "consecutive_successes", "success_rate", "lift_rate", "speed")
+LOWER = ("tracking_error_lin", "tracking_error_yaw", "fingertip_distance", "pose_error", "fell")
+# at most the manifest's own episode count: a difference its 100 episodes cannot show at
+# CHECK_SIGMAS is not one training made
+MAX_CHECK_EPISODES = 100
+# the checked bound sits this many standard errors (of the check's episode count) from both the
+# shipped figure and the fresh policy's
+CHECK_SIGMAS = 3.0
 
 
 def folder() -> str:
@@ -85,6 +100,57 @@ def stripped(state: dict, fp16: bool) -> dict:
     return out
 
 
+def check_of(entry: dict) -> tuple[str, float, int] | None:
+    """(measure, bound, episodes): the first figure of the entry's evaluation (its primary
+    first) that tells the shipped policy from a fresh one (`entry["baseline"]`) in at most
+    MAX_CHECK_EPISODES episodes. The bound is halfway between the two means; the episodes are
+    enough that it lies CHECK_SIGMAS standard errors of either's per-episode spread from each
+    mean, so that the shipped policy passes and a fresh one fails. None if no figure does."""
+    shipped_results = entry["eval"]["results"]
+    fresh_results = (entry.get("baseline") or {}).get("results") or {}
+    primary = entry["eval"]["primary"]
+    for measure in [primary] + [m for m in shipped_results if m != primary]:
+        if measure not in HIGHER + LOWER or measure not in fresh_results:
+            continue
+        mine, fresh = shipped_results[measure], fresh_results[measure]
+        gap = (mine["mean"] - fresh["mean"]) * (1 if measure in HIGHER else -1)
+        if not gap > 0:
+            continue
+        spread = max(mine["std"] or 0.0, fresh["std"] or 0.0)
+        episodes = max(4, math.ceil((2 * CHECK_SIGMAS * spread / gap) ** 2))
+        if episodes <= MAX_CHECK_EPISODES:
+            return measure, (mine["mean"] + fresh["mean"]) / 2, episodes
+    return None
+
+
+def fresh_policy(task: str, train_dir: str) -> str:
+    """A checkpoint of `task`'s policy as training starts: its networks' initial weights (one
+    epoch at learning rate 0, seed 0) with the observation statistics of that epoch's rollout."""
+    from ..cli import main as cli
+    with contextlib.redirect_stdout(io.StringIO()):
+        code = cli(["train", f"task={task}", "max_iterations=1",
+                    "train.params.config.learning_rate=0", "seed=0", f"train_dir={train_dir}",
+                    "experiment=fresh"])
+    path = os.path.join(train_dir, "fresh", "nn", "last.pth")
+    if code or not os.path.isfile(path):
+        raise RuntimeError(f"{task}: the fresh policy's one epoch failed (exit {code})")
+    return path
+
+
+def baseline(task: str, episodes: int = 100, num_envs: int | None = None) -> dict:
+    """The evaluation a shipped policy gets, of a fresh policy of `task` (`fresh_policy`)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = fresh_policy(task, tmp)
+        with contextlib.redirect_stdout(io.StringIO()):
+            report = _evaluate(task, path, episodes, os.path.join(tmp, "eval.json"), num_envs)
+    return {"command": f"myriad train task={task} max_iterations=1 "
+                       f"train.params.config.learning_rate=0 seed=0; myriad eval task={task} "
+                       f"checkpoint=<its nn/last.pth> episodes={episodes} "
+                       + (f"num_envs={num_envs} " if num_envs else "") + "seed=0",
+            "results": report["results"], "episodes": report["episodes"],
+            "num_envs": report["num_envs"], "date": datetime.date.today().isoformat()}
+
+
 def _evaluate(task: str, path: str, episodes: int, output: str,
               num_envs: int | None = None) -> dict:
     from .evaluate import evaluate
@@ -127,15 +193,8 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
         fp16 = full["half_width"] is not None and abs(half["mean"] - full["mean"]) <= \
             full["half_width"]
         chosen = os.path.join(tmp, f"{task}{'_fp16' if fp16 else ''}.pth")
-        os.makedirs(folder(), exist_ok=True)
-        target = os.path.join(folder(), f"{task}.pth")
         with open(chosen, "rb") as f:
             data = f.read()
-
-        def write(tmp_path):
-            with open(tmp_path, "wb") as f:
-                f.write(data)
-        atomic_write(target, write)
     report = figures[fp16]
     entry = {
         "file": f"{task}.pth", "bytes": len(data), "dtype": "float16" if fp16 else "float32",
@@ -152,6 +211,20 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
                  "device": report["device"],
                  "float32_mean": full["mean"], "float16_mean": half["mean"]},
         "date": datetime.date.today().isoformat()}
+    print("evaluating a fresh policy of the task ...", flush=True)
+    entry["baseline"] = baseline(task, episodes, num_envs)
+    if check_of(entry) is None:
+        raise ValueError(f"{checkpoint}: no figure of its evaluation tells it from a fresh "
+                         f"{task} policy within {MAX_CHECK_EPISODES} episodes (shipped "
+                         f"{_figures(entry['eval']['results'])}; fresh "
+                         f"{_figures(entry['baseline']['results'])}): not shipped")
+    os.makedirs(folder(), exist_ok=True)
+    target = os.path.join(folder(), f"{task}.pth")
+
+    def write(tmp_path):
+        with open(tmp_path, "wb") as f:
+            f.write(data)
+    atomic_write(target, write)
     entries = manifest()
     entries[task] = entry
     atomic_json(os.path.join(folder(), MANIFEST), dict(sorted(entries.items())))
@@ -163,10 +236,38 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
     return entry
 
 
+def _figures(results: dict) -> str:
+    return ", ".join(f"{k} {v['mean']:.4g}" for k, v in results.items() if k in HIGHER + LOWER)
+
+
+def add_baselines(tasks: list[str], episodes: int | None = None) -> None:
+    """Measure (again) the fresh-policy baselines of shipped tasks, into the manifest: as many
+    episodes on as many envs as the shipped policy's evaluation."""
+    from .agent import atomic_json
+    for task in tasks:
+        entries = manifest()
+        if task not in entries:
+            raise ValueError(f"{task} ships no policy (shipped: {', '.join(sorted(entries))})")
+        entry = entries[task]
+        num_envs = entry["eval"]["num_envs"] if "num_envs=" in entry["eval"]["command"] \
+            else None
+        print(f"{task}: evaluating a fresh policy ...", flush=True)
+        entry["baseline"] = baseline(task, episodes or entry["eval"]["episodes"], num_envs)
+        check = check_of(entry)
+        print(f"{task}: fresh {_figures(entry['baseline']['results'])}; shipped "
+              f"{_figures(entry['eval']['results'])}; checked: "
+              + (f"{check[0]} beyond {check[1]:.4g} over {check[2]} episodes" if check
+                 else "NO FIGURE tells the two apart"), flush=True)
+        atomic_json(os.path.join(folder(), MANIFEST), dict(sorted(entries.items())))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description="Ship a run's policy with Myriad: strip its "
-                                 "checkpoint, evaluate it and write the manifest entry.")
-    ap.add_argument("checkpoint", help="a finished run's nn/last.pth")
+                                 "checkpoint, evaluate it and a fresh policy of its task, and "
+                                 "write the manifest entry.")
+    ap.add_argument("checkpoint", nargs="?", help="a finished run's nn/last.pth")
+    ap.add_argument("--baseline", nargs="+", metavar="TASK",
+                    help="only measure these shipped tasks' fresh-policy baselines")
     ap.add_argument("--command", help="the command that trained it (default: its summary's)")
     ap.add_argument("--episodes", type=int, default=100)
     ap.add_argument("--revision", help="the code revision it was trained with (default: its "
@@ -175,6 +276,11 @@ def main() -> None:
     ap.add_argument("--num-envs", type=int, help="envs of the evaluation (default: eval's; "
                     "the run's own count restores AnymalTerrain's levels)")
     args = ap.parse_args()
+    if args.baseline:
+        add_baselines(args.baseline, args.episodes if args.episodes != 100 else None)
+        return
+    if not args.checkpoint:
+        ap.error("give a checkpoint to ship, or --baseline TASK ...")
     ship(args.checkpoint, args.command, args.episodes, args.revision, args.machine,
          args.num_envs)
 

@@ -6,8 +6,12 @@ from __future__ import annotations
 
 import json
 import os
+import random
 import signal
 import time
+
+import numpy as np
+import torch
 
 from rl_games.algos_torch import torch_ext
 from rl_games.common import env_configurations, vecenv
@@ -56,6 +60,12 @@ def build_agent(task, train_cfg: dict, run: dict, seed: int):
         local = int(os.environ.get("LOCAL_WORLD_SIZE", "1"))
         params["torch_threads"] = 0 if "OMP_NUM_THREADS" in os.environ else \
             max(1, min(4, (os.cpu_count() or 1) // local))
+    # rl_games seeds torch, numpy and random for a truthy seed only (`if self.seed:`), so seed=0
+    # trained unseeded (two runs, two initial networks). Seeded here for every seed; rl_games
+    # then seeds the others again with the same value, so their runs are as before
+    torch.manual_seed(params["seed"])
+    np.random.seed(params["seed"] % 2**32)
+    random.seed(params["seed"])
     runner = Runner()
     # Adversarial Motion Priors (HumanoidAMP) or plain PPO
     agent_class = AMPAgent if "amp" in params["config"] else MyriadAgent
