@@ -501,6 +501,27 @@ def test_isaacgym_colors_reach_the_page_per_env(monkeypatch):
         gym.destroy_viewer(viewer)
 
 
+def one_box_env(gym):
+    """An Isaac Gym sim (z up, a ground) with one env holding a 0.2 m box 1 m up."""
+    from isaacgym import gymapi
+    sim = z_up_sim_with_ground(gym)
+    box = gym.create_box(sim, 0.2, 0.2, 0.2)
+    env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 1)
+    gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(0, 0, 1)), "box", 0, 0, 0)
+    return sim
+
+
+def open_at_eye(browser, viewer, port: int, eye) -> None:
+    """Open the page and wait until its camera stands at `eye` (viewer_camera_look_at's)."""
+    import numpy as np
+    open_when_served(browser, port)
+    deadline = time.monotonic() + 30
+    while viewer.web.camera_pose() is None or not np.allclose(
+            viewer.web.camera_pose()[0], eye, atol=1e-3):
+        assert time.monotonic() < deadline, "the page's camera never reached the eye"
+        time.sleep(0.2)
+
+
 @needs_browser
 def test_isaacgym_viewer_camera_reads_the_open_page(browser, monkeypatch):
     """get_viewer_camera_transform with a page open reads the page's camera (viser's, in
@@ -511,21 +532,13 @@ def test_isaacgym_viewer_camera_reads_the_open_page(browser, monkeypatch):
     port = free_port()
     monkeypatch.setenv("MYRIAD_VIEWER_PORT", str(port))
     gym = gymapi.acquire_gym()
-    sim = z_up_sim_with_ground(gym)
-    box = gym.create_box(sim, 0.2, 0.2, 0.2)
-    env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 1)
-    gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(0, 0, 1)), "box", 0, 0, 0)
+    sim = one_box_env(gym)
     gym.prepare_sim(sim)
     viewer = gym.create_viewer(sim, gymapi.CameraProperties())
     eye, target = np.array([3.0, -2.0, 2.0]), np.array([0.0, 0.0, 1.0])
     gym.viewer_camera_look_at(viewer, None, gymapi.Vec3(*eye), gymapi.Vec3(*target))
     try:
-        open_when_served(browser, port)
-        deadline = time.monotonic() + 30
-        while viewer.web.camera_pose() is None or not np.allclose(
-                viewer.web.camera_pose()[0], eye, atol=1e-3):
-            assert time.monotonic() < deadline, "the page's camera never reached the eye"
-            time.sleep(0.2)
+        open_at_eye(browser, viewer, port, eye)
         camera = gym.get_viewer_camera_transform(viewer, None)
         assert (camera.p.x, camera.p.y, camera.p.z) == pytest.approx(tuple(eye), abs=1e-3)
         ahead, up = camera.r.rotate(gymapi.Vec3(0, 0, 1)), camera.r.rotate(gymapi.Vec3(0, 1, 0))
@@ -548,10 +561,7 @@ def test_isaacgym_mouse_clicks_in_the_page_come_back_as_actions(browser, monkeyp
     port = free_port()
     monkeypatch.setenv("MYRIAD_VIEWER_PORT", str(port))
     gym = gymapi.acquire_gym()
-    sim = z_up_sim_with_ground(gym)
-    box = gym.create_box(sim, 0.2, 0.2, 0.2)
-    env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 1)
-    gym.create_actor(env, box, gymapi.Transform(gymapi.Vec3(0, 0, 1)), "box", 0, 0, 0)
+    sim = one_box_env(gym)
     viewer = gym.create_viewer(sim, gymapi.CameraProperties())
     gym.subscribe_viewer_mouse_event(viewer, gymapi.MOUSE_LEFT_BUTTON, "mouse_shoot")
     with pytest.warns(RuntimeWarning, match="left-button clicks only: MOUSE_SCROLL_UP"):
@@ -571,12 +581,7 @@ def test_isaacgym_mouse_clicks_in_the_page_come_back_as_actions(browser, monkeyp
         return out
 
     try:
-        open_when_served(browser, port)
-        deadline = time.monotonic() + 30
-        while viewer.web.camera_pose() is None or not np.allclose(
-                viewer.web.camera_pose()[0], eye, atol=1e-3):
-            assert time.monotonic() < deadline, "the page's camera never reached the eye"
-            time.sleep(0.2)
+        open_at_eye(browser, viewer, port, eye)
         canvas = browser.locator("canvas").first.bounding_box()
         browser.mouse.click(canvas["x"] + 0.5 * canvas["width"],
                             canvas["y"] + 0.5 * canvas["height"])
