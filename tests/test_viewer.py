@@ -511,13 +511,24 @@ def one_box_env(gym):
     return sim
 
 
-def open_at_eye(browser, viewer, port: int, eye) -> None:
-    """Open the page and wait until its camera stands at `eye` (viewer_camera_look_at's)."""
+def open_at_eye(browser, viewer, port: int, eye, target) -> None:
+    """Open the page and wait until its camera stands at `eye` looking at `target`
+    (viewer_camera_look_at's): the position and the orientation reach the server apart."""
+    import mujoco
     import numpy as np
     open_when_served(browser, port)
+    ahead = (target - eye) / np.linalg.norm(target - eye)
+
+    def there():
+        pose = viewer.web.camera_pose()
+        if pose is None or not np.allclose(pose[0], eye, atol=1e-3):
+            return False
+        seen = np.empty(3)
+        mujoco.mju_rotVecQuat(seen, np.array([0.0, 0.0, 1.0]), pose[1])   # OpenCV: +z ahead
+        return float(seen @ ahead) > 1 - 1e-6
+
     deadline = time.monotonic() + 30
-    while viewer.web.camera_pose() is None or not np.allclose(
-            viewer.web.camera_pose()[0], eye, atol=1e-3):
+    while not there():
         assert time.monotonic() < deadline, "the page's camera never reached the eye"
         time.sleep(0.2)
 
@@ -538,7 +549,7 @@ def test_isaacgym_viewer_camera_reads_the_open_page(browser, monkeypatch):
     eye, target = np.array([3.0, -2.0, 2.0]), np.array([0.0, 0.0, 1.0])
     gym.viewer_camera_look_at(viewer, None, gymapi.Vec3(*eye), gymapi.Vec3(*target))
     try:
-        open_at_eye(browser, viewer, port, eye)
+        open_at_eye(browser, viewer, port, eye, target)
         camera = gym.get_viewer_camera_transform(viewer, None)
         assert (camera.p.x, camera.p.y, camera.p.z) == pytest.approx(tuple(eye), abs=1e-3)
         ahead, up = camera.r.rotate(gymapi.Vec3(0, 0, 1)), camera.r.rotate(gymapi.Vec3(0, 1, 0))
@@ -581,7 +592,7 @@ def test_isaacgym_mouse_clicks_in_the_page_come_back_as_actions(browser, monkeyp
         return out
 
     try:
-        open_at_eye(browser, viewer, port, eye)
+        open_at_eye(browser, viewer, port, eye, target)
         canvas = browser.locator("canvas").first.bounding_box()
         browser.mouse.click(canvas["x"] + 0.5 * canvas["width"],
                             canvas["y"] + 0.5 * canvas["height"])
