@@ -64,6 +64,13 @@ def vertical_fov(props) -> float:
 ALWAYS, VISUAL, COLLISION, NEVER = 0, 1, 3, 5
 
 
+def visual_geoms(m) -> np.ndarray:
+    """[ngeom] bool: the geoms drawn as visual geometry, those that collide with nothing in
+    the groups MuJoCo draws (0-2)."""
+    return (np.asarray(m.geom_contype) == 0) & (np.asarray(m.geom_conaffinity) == 0) & \
+        (np.asarray(m.geom_group) < 3)
+
+
 def drawing_groups(m) -> None:
     """Regroup the geoms of `m` (a drawing model, in place): ALWAYS the world's drawn geoms and
     the collision shapes of bodies with no visual geom, VISUAL the visual geoms (collide with
@@ -71,16 +78,14 @@ def drawing_groups(m) -> None:
     have such visual geoms, NEVER the rest. The page and `write_viewer_image_to_file` draw
     ALWAYS and VISUAL (MuJoCo's groups 0-2); a camera with use_collision_geometry draws
     ALWAYS and COLLISION."""
-    group = np.asarray(m.geom_group).copy()
-    body = np.asarray(m.geom_bodyid)
+    body, visual = np.asarray(m.geom_bodyid), visual_geoms(m)
     drawn_only = (np.asarray(m.geom_contype) == 0) & (np.asarray(m.geom_conaffinity) == 0)
-    seen = group < 3
     has_visual = np.zeros(m.nbody, bool)
-    has_visual[body[drawn_only & seen]] = True
-    out = np.full(m.ngeom, NEVER, group.dtype)
+    has_visual[body[visual]] = True
+    out = np.full(m.ngeom, NEVER, np.asarray(m.geom_group).dtype)
     world = body == 0
-    out[world & seen] = ALWAYS
-    out[~world & drawn_only & seen] = VISUAL
+    out[world & (np.asarray(m.geom_group) < 3)] = ALWAYS
+    out[~world & visual] = VISUAL
     colliding = ~world & ~drawn_only
     out[colliding & has_visual[body]] = COLLISION
     out[colliding & ~has_visual[body]] = ALWAYS
@@ -107,9 +112,9 @@ class Looks(NamedTuple):
 
 def looks(sim) -> Looks:
     """The envs' looks (kept in `sim.looks` until a color, texture or segmentation id
-    changes). A body's "visual" geoms are those that collide with nothing, or all its geoms
-    when it has no such geom (a primitive asset draws its collision shape); its "collision"
-    geoms are the others. Textures go on first, so that a color set on the same geoms tints
+    changes). A body's "visual" geoms are its `visual_geoms`, or all its geoms when it has
+    none (a primitive asset draws its collision shape); its "collision" geoms are those that
+    collide. Textures go on first, so that a color set on the same geoms tints
     them."""
     if sim.looks is not None:
         return sim.looks
@@ -121,14 +126,14 @@ def looks(sim) -> Looks:
     dressed = np.zeros((n_envs, n_geoms), bool)
     segment = np.zeros((n_envs, n_geoms + 1), np.int32)
     geom_body = np.asarray(built.model.geom_body)      # Myriad's bodies: MuJoCo's id - 1
-    drawn_only = (np.asarray(m.geom_contype) == 0) & (np.asarray(m.geom_conaffinity) == 0)
+    visual = visual_geoms(m)
+    colliding = (np.asarray(m.geom_contype) != 0) | (np.asarray(m.geom_conaffinity) != 0)
     for k in range(len(sim.envs[0].actors)):
         kinds = []                       # per body of the actor: {"visual": geoms, ...}
         for b in built.actor_bodies(f"a{k}"):
             mine = np.flatnonzero(geom_body == b)
-            visual = mine[drawn_only[mine]]
-            kinds.append({"visual": visual if len(visual) else mine,
-                          "collision": mine[~drawn_only[mine]], "all": mine})
+            kinds.append({"visual": mine[visual[mine]] if visual[mine].any() else mine,
+                          "collision": mine[colliding[mine]], "all": mine})
         every = np.concatenate([kind["all"] for kind in kinds])
         for env in sim.envs:
             e, actor = env.index, env.actors[k]
@@ -254,9 +259,9 @@ class Cameras:
 
     # ------------------------------------------------------------------ rendering
     def model(self):
-        """The MuJoCo model drawn: the sim's, or with textures the sim's scene compiled again
-        with a 2D texture and a material per texture handle (`_materials`). A new texture set makes
-        a new model, and new renderers for it."""
+        """The MuJoCo model drawn (`drawing_groups`): a copy of the sim's, or with textures
+        the sim's scene compiled again with a 2D texture and a material per texture handle
+        (`_materials`). A new set of textures makes a new model, and new renderers for it."""
         import mujoco
         sim = self.sim
         handles = tuple(sorted(sim.textures))
