@@ -186,6 +186,29 @@ class Probe:
         return {}
 
 
+class EpisodeMeans:
+    """Per env, the mean over its episode's steps of per-step values (a probe's errors and
+    distances). A finished env's state is already its next episode's, so the step that ends
+    an episode does not count."""
+
+    def __init__(self, num_envs: int, device, *names: str):
+        self.steps = torch.zeros(num_envs, dtype=torch.float64, device=device)
+        self.sums = {name: torch.zeros_like(self.steps) for name in names}
+
+    def add(self, done: torch.Tensor, **values: torch.Tensor) -> tuple[dict, torch.Tensor]:
+        """Count one step of `values` ([N] each); returns ({name: [N] means so far}, [N] steps
+        counted, at least 1) and starts the finished envs' (`done`) next episodes."""
+        live = (~done).double()
+        self.steps += live
+        for name, value in values.items():
+            self.sums[name] += live * value.double()
+        steps = self.steps.clamp(min=1.0)
+        means = {name: total / steps for name, total in self.sums.items()}
+        for buf in (self.steps, *self.sums.values()):
+            buf.masked_fill_(done, 0.0)
+        return means, steps
+
+
 class HandProbe(Probe):
     """Consecutive successes from the task's `successes` count as the task records it at the
     end of each step's episodes (`episode_outcomes`, before its resets zero it)."""
@@ -226,21 +249,15 @@ class TrifingerProbe(ShareProbe):
 
     def __init__(self, task):
         super().__init__(task)
-        self.total = torch.zeros(task.num_envs, dtype=torch.float64, device=task.device)
-        self.steps = torch.zeros_like(self.total)
+        self.means = EpisodeMeans(task.num_envs, task.device, "fingertip_distance")
 
     def after_step(self, done):
         e = self.task.envs
         tips = e.rigid_body_states[:, self.task.fingertips, 0:3]
         cube = e.root_states[:, self.task.cube, None, 0:3]
-        live = (~done).double()     # a finished env's state is already its next episode's
-        self.total += live * torch.norm(tips - cube, dim=-1).mean(-1).double()
-        self.steps += live
-        out = super().after_step(done) | {
-            "fingertip_distance": self.total / self.steps.clamp(min=1.0)}
-        for buf in (self.total, self.steps):
-            buf.masked_fill_(done, 0.0)
-        return out
+        means, _ = self.means.add(done, fingertip_distance=torch.norm(tips - cube, dim=-1)
+                                  .mean(-1))
+        return super().after_step(done) | means
 
 
 def base_velocity(task) -> torch.Tensor:
@@ -284,10 +301,8 @@ class TrackingProbe(Probe):
 
     def __init__(self, task):
         super().__init__(task)
-        n, dev = task.num_envs, task.device
-        self.lin = torch.zeros(n, dtype=torch.float64, device=dev)
-        self.yaw = torch.zeros(n, dtype=torch.float64, device=dev)
-        self.steps = torch.zeros(n, dtype=torch.float64, device=dev)
+        self.means = EpisodeMeans(task.num_envs, task.device, "tracking_error_lin",
+                                  "tracking_error_yaw")
         self.terrain = hasattr(task, "levels")
         if self.terrain:
             self.primary = "terrain_level"
@@ -311,17 +326,12 @@ class TrackingProbe(Probe):
     def after_step(self, done):
         actual = base_velocity(self.task)
         cmd = self.task.commands
-        live = (~done).double()     # a finished env's state is already its next episode's
-        self.lin += live * torch.norm(cmd[:, :2] - actual[:, :2], dim=-1).double()
-        self.yaw += live * (cmd[:, 2] - actual[:, 2]).abs().double()
-        self.steps += live
-        steps = self.steps.clamp(min=1.0)
-        out = {"tracking_error_lin": self.lin / steps, "tracking_error_yaw": self.yaw / steps}
+        out, _ = self.means.add(done, tracking_error_lin=torch.norm(cmd[:, :2] - actual[:, :2],
+                                                                    dim=-1),
+                                tracking_error_yaw=(cmd[:, 2] - actual[:, 2]).abs())
         if self.terrain:
             out["terrain_level"] = self.levels.double()
         out |= {name: flag.double() for name, flag in self.task.episode_outcomes.items()}
-        for buf in (self.lin, self.yaw, self.steps):
-            buf.masked_fill_(done, 0.0)
         return out
 
     def extra(self):
@@ -350,8 +360,7 @@ class WalkProbe(Probe):
         self.clip_poses = torch.cat(poses)                        # [frames, dofs]
         self.start = torch.zeros(n, 2, device=dev)
         self.last = torch.zeros(n, 2, device=dev)
-        self.steps = torch.zeros(n, dtype=torch.float64, device=dev)
-        self.pose = torch.zeros(n, dtype=torch.float64, device=dev)
+        self.means = EpisodeMeans(n, dev, "pose_error")
 
     def _xy(self):
         return self.task.envs.root_states[:, 0, :2].clone()
@@ -365,19 +374,14 @@ class WalkProbe(Probe):
         xy, live = self._xy(), ~done
         # a finished env's state is already its next episode's: its last live state stands
         self.last = torch.where(live[:, None], xy, self.last)
-        self.steps += live.double()
         q = self.task.envs.dof_pos
         nearest = torch.cdist(q, self.clip_poses).argmin(dim=1)
-        error = (q - self.clip_poses[nearest]).abs().mean(dim=1).double()
-        self.pose += live.double() * error
-        steps = self.steps.clamp(min=1.0)
+        means, steps = self.means.add(done, pose_error=(q - self.clip_poses[nearest]).abs()
+                                      .mean(dim=1))
         out = {"speed": torch.norm(self.last - self.start, dim=1).double() / (steps * self.task.dt),
-               "fell": self.task.episode_outcomes["fell"].double(),
-               "pose_error": self.pose / steps}
+               "fell": self.task.episode_outcomes["fell"].double()} | means
         self.start = torch.where(done[:, None], xy, self.start)
         self.last = torch.where(done[:, None], xy, self.last)
-        for buf in (self.steps, self.pose):
-            buf.masked_fill_(done, 0.0)
         return out
 
 
