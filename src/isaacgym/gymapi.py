@@ -3673,7 +3673,7 @@ def _prepare(sim: Sim) -> None:
                 raise _unsupported(f"gym.prepare_sim: actor {a.name!r} of env {env.index} has "
                                    "other DOF drive modes than in env 0",
                                    "drive modes must be the same in every env")
-            if _tendon_coefs(a) != _tendon_coefs(b):
+            if _actor_tendon_coefs(a) != _actor_tendon_coefs(b):
                 raise _unsupported(f"gym.prepare_sim: actor {a.name!r} of env {env.index} has "
                                    "other fixed tendon joint coefficients than in env 0",
                                    "the coefficients must be the same in every env")
@@ -4081,7 +4081,7 @@ for _field, _names in _TIMED.items():
         setattr(Gym, _name, _timed(getattr(Gym, _name), _field))
 
 
-def _tendon_coefs(actor: _Actor) -> list:
+def _actor_tendon_coefs(actor: _Actor) -> list:
     """The actor's joint coefficients of each of its fixed tendons (its own, else the
     asset's)."""
     return [_GYM.get_actor_fixed_tendon_joint_coefficients(actor.env, actor.index, t)

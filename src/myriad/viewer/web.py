@@ -15,7 +15,7 @@ never touches the step itself (no per-step host read comes back with it).
 The small interface other front ends drive (the Isaac Gym layer's viewer calls map onto it):
 `draw()`, `look_at(target, eye)`, `add_button(label, event, key)`, `add_key(key, label, event)`,
 `listen_clicks()`, `events()` (button clicks, key presses and clicks in the scene since the last
-call), `set_geom_colors(colors)`, `closed`, `close()`; for `myriad
+call), `set_geom_colors(rgb, chosen)`, `closed`, `close()`; for `myriad
 play`, `paused`, `take("step" | "reset")`, `speed` (each control also on a key: `PLAY_KEYS`); for
 training, `show_progress(text)`.
 """
