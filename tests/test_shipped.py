@@ -67,8 +67,9 @@ def test_every_shipped_policy_does_what_its_manifest_says(task, tmp_path):
 
 def test_the_check_picks_a_figure_a_fresh_policy_fails():
     """check_of: the primary figure when it separates the two within the episode budget, else
-    the next that does; the bound halfway; the episodes grow with the spread; None when no
-    figure separates them (such a policy is not shipped)."""
+    the next that does; the bound as near the shipped figure as SHORTFALL allows (half a
+    reward, twice an error) where the episodes for it fit, else halfway; the episodes grow
+    with the spread; None when no figure separates them (such a policy is not shipped)."""
     def entry(shipped_figures, fresh_figures, primary="success_rate"):
         def results(figures):
             return {k: {"mean": m, "std": sd} for k, (m, sd) in figures.items()}
@@ -80,12 +81,19 @@ def test_the_check_picks_a_figure_a_fresh_policy_fails():
         {"success_rate": (0.0, 0.0), "lift_rate": (0.99, 0.1), "episode_reward": (759, 101)},
         {"success_rate": (0.0, 0.0), "lift_rate": (0.0, 0.0), "episode_reward": (20, 5)}))
     assert (measure, bound) == ("lift_rate", pytest.approx(0.495)) and n == 4
-    # a tracking error: lower is better
+    # a tracking error: lower is better; twice the shipped error is nearer than halfway
     measure, bound, n = shipped.check_of(entry(
         {"tracking_error_lin": (0.1, 0.2)}, {"tracking_error_lin": (0.7, 0.3)},
         primary="tracking_error_lin"))
-    assert measure == "tracking_error_lin" and bound == pytest.approx(0.4)
-    assert n == math.ceil((6 * 0.3 / 0.6) ** 2)
+    assert measure == "tracking_error_lin" and bound == pytest.approx(0.2)
+    assert n == math.ceil((3 * 0.2 / 0.1) ** 2)
+    # ShadowHandOpenAI_FF: half its reward would need 103 episodes, so halfway to the fresh one's
+    measure, bound, n = shipped.check_of(entry(
+        {"consecutive_successes": (0.13, 0.367), "episode_reward": (62.07, 104.577)},
+        {"consecutive_successes": (0.01, 0.1), "episode_reward": (-13.68, 46.85)},
+        primary="consecutive_successes"))
+    assert measure == "episode_reward" and bound == pytest.approx((62.07 - 13.68) / 2)
+    assert n == math.ceil((6 * 104.577 / (62.07 + 13.68)) ** 2)
     # Trifinger as shipped before: reward 932 against a fresh policy's 819, each spread ~800
     assert shipped.check_of(entry(
         {"success_rate": (0.0, 0.0), "episode_reward": (932, 804)},

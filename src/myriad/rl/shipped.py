@@ -49,6 +49,10 @@ MAX_CHECK_EPISODES = 100
 # the checked bound sits this many standard errors (of the check's episode count) from both the
 # shipped figure and the fresh policy's
 CHECK_SIGMAS = 3.0
+# how far below its figure a shipped policy may fall where the test can afford to check it that
+# closely: half a figure that is better higher, twice one (an error) that is better lower. A
+# policy that kept only that much has lost what training gave it, fresh or not
+SHORTFALL = {"higher": 0.5, "lower": 1.0}
 
 
 def folder() -> str:
@@ -103,9 +107,11 @@ def stripped(state: dict, fp16: bool) -> dict:
 def check_of(entry: dict) -> tuple[str, float, int] | None:
     """(measure, bound, episodes): the first figure of the entry's evaluation (its primary
     first) that tells the shipped policy from a fresh one (`entry["baseline"]`) in at most
-    MAX_CHECK_EPISODES episodes. The bound is halfway between the two means; the episodes are
-    enough that it lies CHECK_SIGMAS standard errors of either's per-episode spread from each
-    mean, so that the shipped policy passes and a fresh one fails. None if no figure does."""
+    MAX_CHECK_EPISODES episodes. The bound lies between the two means: as near the shipped
+    figure as SHORTFALL allows where that fits the episode budget, else halfway; the episodes
+    are enough that it is CHECK_SIGMAS standard errors of each one's per-episode spread from
+    its mean, so that the shipped policy passes and a fresh one fails. None if no figure
+    does."""
     shipped_results = entry["eval"]["results"]
     fresh_results = (entry.get("baseline") or {}).get("results") or {}
     primary = entry["eval"]["primary"]
@@ -113,13 +119,19 @@ def check_of(entry: dict) -> tuple[str, float, int] | None:
         if measure not in HIGHER + LOWER or measure not in fresh_results:
             continue
         mine, fresh = shipped_results[measure], fresh_results[measure]
-        gap = (mine["mean"] - fresh["mean"]) * (1 if measure in HIGHER else -1)
+        sign = 1 if measure in HIGHER else -1
+        gap = sign * (mine["mean"] - fresh["mean"])
         if not gap > 0:
             continue
-        spread = max(mine["std"] or 0.0, fresh["std"] or 0.0)
-        episodes = max(4, math.ceil((2 * CHECK_SIGMAS * spread / gap) ** 2))
-        if episodes <= MAX_CHECK_EPISODES:
-            return measure, (mine["mean"] + fresh["mean"]) / 2, episodes
+        near = SHORTFALL["higher" if sign > 0 else "lower"] * abs(mine["mean"])
+        for tolerance in (min(gap / 2, near), gap / 2):     # the bound's distance from mine
+            if not tolerance > 0:
+                continue
+            episodes = max(4, math.ceil(max(
+                (CHECK_SIGMAS * (mine["std"] or 0.0) / tolerance) ** 2,
+                (CHECK_SIGMAS * (fresh["std"] or 0.0) / (gap - tolerance)) ** 2)))
+            if episodes <= MAX_CHECK_EPISODES:
+                return measure, mine["mean"] - sign * tolerance, episodes
     return None
 
 
