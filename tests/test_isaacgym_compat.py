@@ -12,6 +12,7 @@ import pytest
 import torch
 
 from isaacgym import gymapi, gymtorch, gymutil
+from isaacgym._cameras import looks
 from isaacgym.torch_utils import (get_euler_xyz, quat_apply, quat_from_euler_xyz, quat_mul,
                                   quat_rotate_inverse, to_torch)
 
@@ -586,7 +587,18 @@ def test_classic_calls_on_one_body_dof_and_joint(cartpole_file):
     # colors: the model's until set, then the one set; segmentation ids: the actor's until set
     c = gym.get_rigid_body_color(env, 1, 0, gymapi.MESH_VISUAL)
     assert (c.x, c.y, c.z) == pytest.approx(tuple(gym.get_actor_asset(env, 1).mj.geom_rgba[0, :3]))
+    before = looks(sim)
     gym.set_rigid_body_color(env, 1, 0, gymapi.MESH_VISUAL, gymapi.Vec3(0.9, 0.1, 0.2))
+    gym.set_rigid_body_segmentation_id(envs[2], 0, 1, 5)
+    # the looks cameras and the page draw: env 1 and 2 made again, into new arrays (a page
+    # holding the old ones sees the change), the same as all envs made afresh
+    after = looks(sim)
+    assert after is not before and not np.array_equal(after.rgba[1], before.rgba[1])
+    assert np.array_equal(after.rgba[[0, 2]], before.rgba[[0, 2]])
+    assert after.dressed[1].sum() >= 1 and not after.dressed[[0, 2]].any()
+    assert (after.segment[2] == 5).sum() >= 1 and not (after.segment[[0, 1]] == 5).any()
+    sim.looks = None
+    assert all(np.array_equal(a, b) for a, b in zip(after, looks(sim)))
     c = gym.get_rigid_body_color(env, 1, 0, gymapi.MESH_VISUAL)
     assert (c.x, c.y, c.z) == pytest.approx((0.9, 0.1, 0.2))
     assert gym.get_rigid_body_segmentation_id(env, 1, 0) == 0

@@ -111,32 +111,32 @@ class Looks(NamedTuple):
 
 
 def looks(sim) -> Looks:
-    """The envs' looks (kept in `sim.looks` until a color, texture or segmentation id
-    changes). A body's "visual" geoms are its `visual_geoms`, or all its geoms when it has
-    none (a primitive asset draws its collision shape); its "collision" geoms are those that
-    collide. Textures go on first, so that a color set on the same geoms tints
-    them."""
-    if sim.looks is not None:
+    """The envs' looks, kept in `sim.looks`: made for every env when there are none, and
+    afterwards only for the envs in `sim.restyled` (those whose color, texture or segmentation
+    id changed since), into a new `Looks` so that whoever holds the old one sees the change.
+    A body's "visual" geoms are its `visual_geoms`, or all its geoms when it has none (a
+    primitive asset draws its collision shape); its "collision" geoms are those that collide.
+    Textures go on first, so that a color set on the same geoms tints them."""
+    if sim.looks is not None and not sim.restyled:
         return sim.looks
-    built = sim.myriad
-    m = built.model.mj_model
-    n_envs, n_geoms = len(sim.envs), m.ngeom
-    rgba = np.tile(np.asarray(m.geom_rgba, np.float32), (n_envs, 1, 1))
-    texture = np.full((n_envs, n_geoms), -1, np.int32)
-    dressed = np.zeros((n_envs, n_geoms), bool)
-    segment = np.zeros((n_envs, n_geoms + 1), np.int32)
-    geom_body = np.asarray(built.model.geom_body)      # Myriad's bodies: MuJoCo's id - 1
-    visual = visual_geoms(m)
-    colliding = (np.asarray(m.geom_contype) != 0) | (np.asarray(m.geom_conaffinity) != 0)
-    for k in range(len(sim.envs[0].actors)):
-        kinds = []                       # per body of the actor: {"visual": geoms, ...}
-        for b in built.actor_bodies(f"a{k}"):
-            mine = np.flatnonzero(geom_body == b)
-            kinds.append({"visual": mine[visual[mine]] if visual[mine].any() else mine,
-                          "collision": mine[colliding[mine]], "all": mine})
-        every = np.concatenate([kind["all"] for kind in kinds])
-        for env in sim.envs:
-            e, actor = env.index, env.actors[k]
+    m = sim.myriad.model.mj_model
+    if sim.looks is None:
+        n_envs = len(sim.envs)
+        sim.looks = Looks(np.tile(np.asarray(m.geom_rgba, np.float32), (n_envs, 1, 1)),
+                          np.full((n_envs, m.ngeom), -1, np.int32),
+                          np.zeros((n_envs, m.ngeom), bool),
+                          np.zeros((n_envs, m.ngeom + 1), np.int32))
+        envs = sim.envs
+    else:
+        sim.looks = Looks(*(a.copy() for a in sim.looks))
+        envs = [sim.envs[e] for e in sorted(sim.restyled)]
+    sim.restyled = set()
+    rgba, texture, dressed, segment = sim.looks
+    actors = _actor_geoms(sim)
+    for env in envs:
+        e = env.index
+        rgba[e], texture[e], dressed[e], segment[e] = m.geom_rgba, -1, False, 0
+        for (every, kinds), actor in zip(actors, env.actors):
             segment[e, every] = actor.segmentation_id
             for b, sid in actor.body_segmentation.items():
                 segment[e, kinds[b]["all"]] = sid
@@ -150,8 +150,26 @@ def looks(sim) -> Looks:
                                            key=lambda item: item[0][1] == "visual"):
                 rgba[e, kinds[b][kind], :3] = (color.x, color.y, color.z)
                 dressed[e, kinds[b][kind]] = True
-    sim.looks = Looks(rgba, texture, dressed, segment)
     return sim.looks
+
+
+def _actor_geoms(sim) -> list:
+    """Per actor slot: (its geoms, per body {"visual": geoms, "collision": geoms, "all":
+    geoms}) in the built model."""
+    built = sim.myriad
+    m = built.model.mj_model
+    geom_body = np.asarray(built.model.geom_body)      # Myriad's bodies: MuJoCo's id - 1
+    visual = visual_geoms(m)
+    colliding = (np.asarray(m.geom_contype) != 0) | (np.asarray(m.geom_conaffinity) != 0)
+    out = []
+    for k in range(len(sim.envs[0].actors)):
+        kinds = []
+        for b in built.actor_bodies(f"a{k}"):
+            mine = np.flatnonzero(geom_body == b)
+            kinds.append({"visual": mine[visual[mine]] if visual[mine].any() else mine,
+                          "collision": mine[colliding[mine]], "all": mine})
+        out.append((np.concatenate([kind["all"] for kind in kinds]), kinds))
+    return out
 
 
 def dress(scene, first: int, looks_: Looks, e: int, materials: dict) -> None:

@@ -963,7 +963,8 @@ class Sim:
         self.scene = None           # the myriad Scene prepare_sim built (cameras draw from it)
         self.textures: dict = {}    # texture handle -> RGBA uint8 [height, width, 4]
         self.texture_count = 0      # handles given (a freed one is not given again)
-        self.looks = None           # _cameras.Looks of the envs, until a color or texture changes
+        self.looks = None           # _cameras.Looks of the envs (None: to be made for all)
+        self.restyled: set = set()  # envs whose color, texture or segmentation id changed since
         self.time, self.frames = 0.0, 0
         self.fresh = None           # the state tensors' versions when last refreshed (_refresh)
         self.closed = False
@@ -1497,7 +1498,7 @@ class Gym:
                                           rigid_body_index, mesh_type)
         for kind in kinds:
             actor.body_colors[(b, kind)] = Vec3(color.x, color.y, color.z)
-        env.sim.looks = None
+        env.sim.restyled.add(env.index)
 
     def get_rigid_body_color(self, env, actor_handle, rigid_body_index, mesh_type) -> Vec3:
         """The color set_rigid_body_color gave, else the body's first geom's in its model."""
@@ -1573,7 +1574,7 @@ class Gym:
                              f"this sim (create_texture_from_file / _from_buffer)")
         for kind in kinds:
             actor.body_textures[(b, kind)] = int(texture)
-        env.sim.looks = None
+        env.sim.restyled.add(env.index)
 
     def get_rigid_body_texture(self, env, actor_handle, rigid_body_index, mesh_type) -> int:
         """The texture set_rigid_body_texture put on the body, else INVALID_HANDLE."""
@@ -1588,7 +1589,7 @@ class Gym:
     def set_rigid_body_segmentation_id(self, env, actor_handle, rigid_body_index, sid):
         """The id camera sensors' segmentation images show for this body (else its actor's)."""
         self._actor(env, actor_handle).body_segmentation[int(rigid_body_index)] = int(sid)
-        env.sim.looks = None
+        env.sim.restyled.add(env.index)
 
     # ------------------------------------------------------------------ camera sensors
     def create_camera_sensor(self, env: Env, props: CameraProperties) -> int:
