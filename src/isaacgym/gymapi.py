@@ -934,10 +934,10 @@ class Viewer:
         """The envs' colors (set_rigid_body_color) to the page, when they changed; a textured
         geom in its texture's mean color, tinted."""
         from ._cameras import looks
-        if self.looks_sent is not None and self.sim.looks is self.looks_sent:
+        now = looks(self.sim)            # the same object until a look changes
+        if now is self.looks_sent:
             return
-        was = self.looks_sent
-        now = self.looks_sent = looks(self.sim)
+        was, self.looks_sent = self.looks_sent, now
         if not now.dressed.any() and (was is None or not was.dressed.any()):
             return                       # the model's colors, as the page drew them
         rgb = now.rgba[..., :3].astype(np.float64)
@@ -3358,15 +3358,10 @@ def _check_asset_options(o: AssetOptions) -> None:
             _warn_once(f"AssetOptions.{name}={v} is not applied (Myriad has no body velocity "
                        "damping: bodies keep their speed where PhysX would lose "
                        f"{100 * v:.3g} % of it per second)")
-    # body speed caps: not applied. The defaults and larger values are exact for any motion
-    # slower than the default; a smaller cap is accepted with a warning
-    for name in ("max_linear_velocity", "max_angular_velocity"):
+    for name in ("max_linear_velocity", "max_angular_velocity"):     # `_apply_body_props`
         v = float(getattr(o, name))
         if not v > 0:
             refused.append(f"{name}={v} (must be > 0)")
-        elif v < getattr(d, name):
-            _warn_once(f"AssetOptions.{name}={v:.4g} is not applied (Myriad has no body speed "
-                       "cap): a body may move faster than PhysX would let it")
     if not (o.density > 0):
         refused.append(f"density={o.density} (must be > 0)")
     if int(o.default_dof_drive_mode) not in _MODES:
@@ -4030,11 +4025,16 @@ def _apply_shape_props(sim: Sim, actors: list) -> None:
 
 
 def _apply_body_props(sim: Sim, actors: list) -> None:
+    """Rigid body properties, and the asset's body speed caps, into Myriad's per-env
+    parameters."""
     built = sim.myriad
     s, m = built.sim, built.model
     for actor in actors:
+        options = actor.asset.options
         for i, prop in enumerate(actor.body_props):
             b = actor.body_offset + i
+            s.body_max_angular_velocity[actor.env.index, b] = float(options.max_angular_velocity)
+            s.body_max_linear_velocity[actor.env.index, b] = float(options.max_linear_velocity)
             s.body_mass[actor.env.index, b] = float(prop.mass)
             rot = _quat_matrix(m.body_iquat[b])     # Myriad's principal axes (xyzw)
             principal = rot.T @ prop.inertia._t() @ rot
