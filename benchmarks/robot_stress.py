@@ -156,13 +156,17 @@ def main() -> None:
 
 
 def sim_overrides(items: list[str]) -> dict:
-    """SimParams overrides from key=value words: words stay strings, numbers with a point
-    floats, other numbers ints."""
+    """SimParams overrides from key=value words: whole numbers ints, other numbers (inf
+    too) floats, words strings."""
     overrides = {}
     for item in items:
         key, value = item.split("=", 1)
-        overrides[key] = (value if value.isalpha() else float(value) if "." in value
-                          else int(value))
+        for kind in (int, float, str):
+            try:
+                overrides[key] = kind(value)
+                break
+            except ValueError:
+                pass
     return overrides
 
 

@@ -7,6 +7,7 @@ tensors acquired before prepare_sim (FrankaCubeStack), start poses (FrankaCabine
 """
 
 
+import math
 import time
 
 import numpy as np
@@ -180,6 +181,29 @@ def test_a_heightfield_holds_a_box_at_its_height():
     root = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim))
     settle(gym, sim, 120)
     np.testing.assert_allclose(root[:, 2].numpy(), [0.6, 0.35], atol=5e-3)
+
+
+
+def test_asset_speed_caps_hold_a_spinning_box():
+    """AssetOptions.max_angular_velocity (Isaac Gym's default 64 rad/s; Factory sets 2π) caps
+    a body's spin as PhysX does: a box spun at 100 rad/s about its vertical axis, in the air,
+    turns at the cap after one simulate; the asset without a smaller cap keeps Isaac Gym's 64."""
+    gym, sim = z_up_sim()
+    default = gym.create_box(sim, 0.2, 0.2, 0.2)
+    options = gymapi.AssetOptions()
+    options.max_angular_velocity = 2 * math.pi
+    slow = gym.create_box(sim, 0.2, 0.2, 0.2, options)
+    env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 1)
+    gym.create_actor(env, default, gymapi.Transform(gymapi.Vec3(0, 0, 5)), "default", 0, 0, 0)
+    gym.create_actor(env, slow, gymapi.Transform(gymapi.Vec3(1, 0, 5)), "slow", 0, 0, 0)
+    gym.prepare_sim(sim)
+    root = gymtorch.wrap_tensor(gym.acquire_actor_root_state_tensor(sim))
+    gym.refresh_actor_root_state_tensor(sim)
+    spin = root.clone()
+    spin[:, 12] = 100.0
+    gym.set_actor_root_state_tensor(sim, gymtorch.unwrap_tensor(spin))
+    settle(gym, sim, 1)
+    np.testing.assert_allclose(root[:, 12].numpy(), [64.0, 2 * math.pi], rtol=1e-4)
 
 
 # ------------------------------------------------------------------ force sensors

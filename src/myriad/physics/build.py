@@ -167,6 +167,8 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
             dof_damping=m.dof_damping, dof_armature=m.dof_armature,
             dof_frictionloss=m.dof_frictionloss,
             dof_max_velocity=np.full(m.nv, params.max_joint_velocity),
+            body_max_angular_velocity=np.full(m.nbody, params.max_angular_velocity),
+            body_max_linear_velocity=np.full(m.nbody, params.max_linear_velocity),
             actuator_gear=m.actuator_gear, actuator_gain=m.actuator_gain,
             actuator_kp=m.actuator_kp, actuator_kv=m.actuator_kv,
             tendon_stiffness=m.tendon_stiffness, tendon_damping=m.tendon_damping,

@@ -36,6 +36,11 @@ class SimParams:
     max_depenetration_velocity: float = 1.0
     max_correction_velocity: float = 10.0
     max_joint_velocity: float = 100.0     # default per-dof speed cap (PhysX's default), rad/s or m/s
+    # default per-body speed caps, Isaac Gym's (AssetOptions.max_angular_velocity, rad/s, and
+    # max_linear_velocity, m/s): a body above one is pulled back toward it as PhysX pulls its
+    # links (`forces.speed_cap_wrench`; docs/physics.md, "Body speed caps"). math.inf: no cap
+    max_angular_velocity: float = 64.0
+    max_linear_velocity: float = 1000.0
     contacts_per_env: int = 64            # contact slots of each env (fewer if its pairs cannot fill them)
     constraints: bool = True              # False: smooth dynamics only (no contacts, no limits)
     self_collisions: bool = True          # bodies of one articulation collide with each other
@@ -84,5 +89,8 @@ class SimParams:
                      "max_joint_velocity"):
             if not math.isfinite(getattr(self, name)) or getattr(self, name) < 0:
                 bad(name, "must be a finite number >= 0")
+        for name in ("max_angular_velocity", "max_linear_velocity"):
+            if not getattr(self, name) > 0:
+                bad(name, "must be > 0 (math.inf for no cap)")
         if self.rest_offset > self.contact_offset:
             bad("rest_offset", f"must not exceed contact_offset={self.contact_offset}")

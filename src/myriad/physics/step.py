@@ -35,7 +35,7 @@ def forward(rt, dm, d) -> None:
     run_kinematics(rt, dm, d)
     run_dynamics(rt, dm, d)
     rt.launch_lanes(forces.body_wrenches, BLOCK_DIM.bodies,
-                    [dm.m, d.env_params, d.state, d.control, d.dynamics])
+                    [dm.m, d.env_params, dm.opt, d.state, d.control, d.dynamics])
 
 
 # ---------------------------------------------------------------------------------- the stages
@@ -78,7 +78,7 @@ def run_dynamics(rt, dm, d) -> None:
 
 def run_applied_forces(rt, dm, d) -> None:
     rt.launch_lanes(forces.body_wrenches, BLOCK_DIM.bodies,
-                    [dm.m, d.env_params, d.state, d.control, d.dynamics])
+                    [dm.m, d.env_params, dm.opt, d.state, d.control, d.dynamics])
     rt.launch_lanes(forces.generalized_forces, BLOCK_DIM.dofs,
                     [dm.m, d.env_params, dm.opt, d.state, d.control, d.dynamics])
 

@@ -307,6 +307,12 @@ class EnvParams:
                                public=True, writable=True)
     dof_max_velocity = per_env("nv", doc="maximum joint speed (rad/s or m/s)",
                                public=True, writable=True)
+    body_max_angular_velocity = per_env("nbody", doc="speed cap of the body's rotation (rad/s): "
+                                        "faster, it is pulled back (forces.speed_cap_wrench)",
+                                        public=True, writable=True)
+    body_max_linear_velocity = per_env("nbody", doc="speed cap of the body's center of mass "
+                                       "(m/s): faster, it is pulled back", public=True,
+                                       writable=True)
     actuator_gear = per_env("nu", doc="transmission ratio", public=True, writable=True)
     actuator_gain = per_env("nu", doc="motors and general (affine) actuators: force per unit "
                             "input", public=True, writable=True)

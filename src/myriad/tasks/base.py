@@ -38,14 +38,16 @@ from ..physics import SimParams
 from ..torch_utils import env_mask
 
 
-# a task's `sim.physx` keys (the original's, and Myriad's own last two) -> SimParams fields
+# a task's `sim.physx` keys -> SimParams fields: the original's, Myriad's own two, and the
+# body speed cap the original sets as an asset option (AssetOptions.max_angular_velocity)
 PHYSX_KEYS = {"num_position_iterations": "position_iterations",
               "num_velocity_iterations": "velocity_iterations",
               "contact_offset": "contact_offset", "rest_offset": "rest_offset",
               "bounce_threshold_velocity": "bounce_threshold_velocity",
               "max_depenetration_velocity": "max_depenetration_velocity",
               "contacts_per_env": "contacts_per_env",
-              "limit_block_contacts": "limit_block_contacts"}
+              "limit_block_contacts": "limit_block_contacts",
+              "max_angular_velocity": "max_angular_velocity"}
 
 
 def sim_params(sim_cfg: dict) -> SimParams:

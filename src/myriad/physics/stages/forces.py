@@ -370,15 +370,38 @@ def ellipsoid_fluid_wrench(m: ModelArrays, p: EnvParams, s: State, e: int, b: in
     return wp.spatial_vector(total_force, total_torque)
 
 
+@wp.func
+def speed_cap_wrench(p: EnvParams, s: State, e: int, b: int, ref: wp.vec3, h: float):
+    """PhysX's body speed caps (maxAngularVelocity, maxLinearVelocity): the (force at the
+    center of mass, torque) that would bring body b back to its caps within the substep h if
+    it were free, -I·ω·(1 - cap/|ω|)/h and -m·v·(1 - cap/|v|)/h; zero below them. Its joints
+    share the pull with the rest of its tree, so it slows less than a free body would."""
+    cvel = s.cvel[e, b]
+    w = wp.spatial_top(cvel)
+    v = velocity_at(cvel, s.body_com[e, b] - ref)
+    torque = wp.vec3()
+    force = wp.vec3()
+    w_cap = p.body_max_angular_velocity[e, b]
+    v_cap = p.body_max_linear_velocity[e, b]
+    if wp.dot(w, w) > w_cap * w_cap:
+        frame = s.body_iframe[e, b]
+        spin = wp.cw_mul(p.body_inertia[e, b], wp.quat_rotate_inv(frame, w))
+        torque = -(1.0 - w_cap / wp.length(w)) / h * wp.quat_rotate(frame, spin)
+    if wp.dot(v, v) > v_cap * v_cap:
+        force = -(1.0 - v_cap / wp.length(v)) / h * p.body_mass[e, b] * v
+    return wp.spatial_vector(force, torque)
+
+
 @wp.kernel
-def body_wrenches(m: ModelArrays, p: EnvParams,
-                  s: State,      # in: body_x, body_com, cdof; out: nonfinite
+def body_wrenches(m: ModelArrays, p: EnvParams, opt: Options,
+                  s: State,      # in: body_x, body_com, cdof, cvel; out: nonfinite
                   c: Control,    # in: joint_force, body_force
                   # out: qfrc_applied; scratch: wrench (each body's, then its subtree's)
                   d: Dynamics,
                   lanes: int):
     """qfrc_applied = joint_force + Jᵀ·(force at the center of mass, torque) of every body:
-    its body_force plus its env's fluid forces (`fluid_wrench`).
+    its body_force plus its env's fluid forces (`fluid_wrench`) and the pull of its speed caps
+    (`speed_cap_wrench`).
 
     `body_force[e, b]` is (force, torque) in world axes, the force acting at the body's center of
     mass. A dof feels the wrenches of all bodies it carries: Σ over its subtree, projected on the
@@ -404,6 +427,9 @@ def body_wrenches(m: ModelArrays, p: EnvParams,
                 fluid = fluid_wrench(p, s, e, b, ref)
             f = f + wp.spatial_top(fluid)
             torque = torque + wp.spatial_bottom(fluid)
+        pull = speed_cap_wrench(p, s, e, b, ref, opt.h)
+        f = f + wp.spatial_top(pull)
+        torque = torque + wp.spatial_bottom(pull)
         arm = s.body_com[e, b] - ref
         d.wrench[e, b] = wp.spatial_vector(torque + wp.cross(arm, f), f)
     if lanes > 1:
