@@ -55,6 +55,10 @@ def main() -> None:
                          "and the dofs at their speed cap, and each step's energy change "
                          "split into the inputs' work, the smooth dynamics' integration (the "
                          "same state stepped without constraints) and the constraints")
+    ap.add_argument("--trace-steps", metavar="A:B",
+                    help="with --trace, also one line for each step from A to B (exclusive): "
+                         "its energy split and its fastest-spinning body (how a runaway "
+                         "starts, where the five largest rises show it under way)")
     ap.add_argument("--mujoco", action="store_true",
                     help="also step MuJoCo C on every env's inputs (the same compiled model at "
                          "Myriad's substep, as corpus.py does for env 0) and print its limit "
@@ -153,6 +157,15 @@ def main() -> None:
               f"{int((deepest.numpy() < mj_deepest.min()).sum())}/{args.envs}")
     if trace:
         _print_trace(trace, float(e0[args.trace]))
+        if args.trace_steps:
+            first, last = (int(k) for k in args.trace_steps.split(":"))
+            for k in range(max(first, 1), min(last, len(trace))):
+                t = trace[k]
+                print(f"    step {t['step']}: {trace[k - 1]['energy']:.1f} -> {t['energy']:.1f} J "
+                      f"(work {t['work']:+.1f}, smooth {t['smooth']:+.1f} [MuJoCo "
+                      f"{t['mujoco_smooth']:+.1f}], constraints {t['constraints']:+.1f}); fastest "
+                      f"{t['fastest'][0]} at {t['fastest'][1]:.0f} rad/s, {t['fastest'][2]} "
+                      f"bodies above their angular speed cap")
 
 
 def sim_overrides(items: list[str]) -> dict:
@@ -280,7 +293,12 @@ def _snapshot(sim, model, env: int, step: int, energy: float, over, joints, at_c
     past = [(model.joint_names[joints[i]], float(over[env, i]))
             for i in torch.nonzero(over[env] > 0.01).flatten().tolist()]
     capped = torch.nonzero(at_cap[env]).flatten().tolist()
-    return {"step": step, "energy": energy, "contacts": contacts, "past": past, "capped": capped}
+    spin = sim.body_vel[env, :, 3:].norm(dim=-1)
+    b = int(spin.argmax())
+    fastest = (model.body_names[b], float(spin[b]),
+               int((spin > sim.body_max_angular_velocity[env]).sum()))
+    return {"step": step, "energy": energy, "contacts": contacts, "past": past, "capped": capped,
+            "fastest": fastest}
 
 
 def _print_trace(trace: list, e0: float) -> None:
