@@ -3358,7 +3358,7 @@ def _check_asset_options(o: AssetOptions) -> None:
             _warn_once(f"AssetOptions.{name}={v} is not applied (Myriad has no body velocity "
                        "damping: bodies keep their speed where PhysX would lose "
                        f"{100 * v:.3g} % of it per second)")
-    for name in ("max_linear_velocity", "max_angular_velocity"):     # `_apply_body_props`
+    for name in ("max_linear_velocity", "max_angular_velocity"):     # `_apply_speed_caps`
         v = float(getattr(o, name))
         if not v > 0:
             refused.append(f"{name}={v} (must be > 0)")
@@ -3745,6 +3745,7 @@ def _prepare(sim: Sim) -> None:
     _apply_dof_props(sim, all_actors)
     _apply_shape_props(sim, all_actors)
     _apply_body_props(sim, all_actors)
+    _apply_speed_caps(sim)
     _apply_tendon_props(sim, all_actors)
     _apply_attractor_targets(sim, envs)
     _apply_scales(sim)
@@ -4024,17 +4025,22 @@ def _apply_shape_props(sim: Sim, actors: list) -> None:
             s.geom_restitution[actor.env.index, g] = float(prop.restitution)
 
 
+def _apply_speed_caps(sim: Sim) -> None:
+    """Each asset's body speed caps (AssetOptions.max_angular_velocity, max_linear_velocity)
+    on its actors' bodies, one slice per actor slot: every env holds the same assets."""
+    s = sim.myriad.sim
+    for actor in sim.envs[0].actors:
+        bodies = slice(actor.body_offset, actor.body_offset + actor.asset.num_bodies)
+        s.body_max_angular_velocity[:, bodies] = float(actor.asset.options.max_angular_velocity)
+        s.body_max_linear_velocity[:, bodies] = float(actor.asset.options.max_linear_velocity)
+
+
 def _apply_body_props(sim: Sim, actors: list) -> None:
-    """Rigid body properties, and the asset's body speed caps, into Myriad's per-env
-    parameters."""
     built = sim.myriad
     s, m = built.sim, built.model
     for actor in actors:
-        options = actor.asset.options
         for i, prop in enumerate(actor.body_props):
             b = actor.body_offset + i
-            s.body_max_angular_velocity[actor.env.index, b] = float(options.max_angular_velocity)
-            s.body_max_linear_velocity[actor.env.index, b] = float(options.max_linear_velocity)
             s.body_mass[actor.env.index, b] = float(prop.mass)
             rot = _quat_matrix(m.body_iquat[b])     # Myriad's principal axes (xyzw)
             principal = rot.T @ prop.inertia._t() @ rot
