@@ -281,7 +281,8 @@ def main() -> None:
     ap.add_argument("--baseline", nargs="+", metavar="TASK",
                     help="only measure these shipped tasks' fresh-policy baselines")
     ap.add_argument("--command", help="the command that trained it (default: its summary's)")
-    ap.add_argument("--episodes", type=int, default=100)
+    ap.add_argument("--episodes", type=int, help="of each evaluation (default 100; with "
+                    "--baseline, the shipped policy's own evaluation's)")
     ap.add_argument("--revision", help="the code revision it was trained with (default: its "
                     "summary's, else this tree's)")
     ap.add_argument("--machine", help="the machine it was trained on (default: its summary's)")
@@ -289,11 +290,11 @@ def main() -> None:
                     "the run's own count restores AnymalTerrain's levels)")
     args = ap.parse_args()
     if args.baseline:
-        add_baselines(args.baseline, args.episodes if args.episodes != 100 else None)
+        add_baselines(args.baseline, args.episodes)
         return
     if not args.checkpoint:
         ap.error("give a checkpoint to ship, or --baseline TASK ...")
-    ship(args.checkpoint, args.command, args.episodes, args.revision, args.machine,
+    ship(args.checkpoint, args.command, args.episodes or 100, args.revision, args.machine,
          args.num_envs)
 
 
