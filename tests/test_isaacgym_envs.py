@@ -377,6 +377,32 @@ def test_fixed_joints_count_as_isaac_gym_counts_them_and_collapse_into_their_par
     assert (after.p.x, after.p.y, after.p.z) == pytest.approx((0.5, 0.0, 1.4), abs=1e-5)
 
 
+def test_a_urdf_joints_velocity_limit_is_its_dofs_maximum_speed(tmp_path):
+    """Isaac Gym reads `<limit velocity="5">` into the DOF's `velocity` property (legged_gym's
+    dof_vel_limits), and PhysX holds the joint to it. The arm's shoulder, pushed by 10 N·m
+    from rest for 0.2 s (about 25 rad/s unhindered, short of its position limits at 5 and
+    7 rad/s), turns at 5 rad/s in env 0 and at the 7 rad/s set for env 1; an MJCF file has
+    no such limit (PhysX's default, 100)."""
+    gym, sim, arm, _ = fixed_base_asset(tmp_path, "arm.urdf", ARM_URDF,
+                                        disable_gravity=True)
+    assert gym.get_asset_dof_properties(arm)["velocity"].tolist() == [5.0]
+    envs = envs_with(gym, sim, arm, [gymapi.Transform()] * 2)
+    props = gym.get_actor_dof_properties(envs[1], 0)
+    props["velocity"][0] = 7.0
+    gym.set_actor_dof_properties(envs[1], 0, props)
+    gym.prepare_sim(sim)
+    state = gymtorch.wrap_tensor(gym.acquire_dof_state_tensor(sim)).view(2, 2)
+    effort = torch.full((2,), 10.0)
+    for _ in range(20):
+        gym.set_dof_actuation_force_tensor(sim, gymtorch.unwrap_tensor(effort))
+        gym.simulate(sim)
+        gym.fetch_results(sim, True)
+    gym.refresh_dof_state_tensor(sim)
+    torch.testing.assert_close(state[:, 1], torch.tensor([5.0, 7.0]), atol=1e-4, rtol=0)
+    gym2, sim2, lever, _ = fixed_base_asset(tmp_path, "lever.xml", TENDON_LEVER)
+    assert gym2.get_asset_dof_properties(lever)["velocity"].tolist() == [100.0]
+
+
 def test_acquiring_a_tensor_before_prepare_sim_builds_the_sim(tmp_path):
     gym, sim, arm, _ = fixed_base_asset(tmp_path, "arm.urdf", ARM_URDF)
     envs = envs_with(gym, sim, arm, [gymapi.Transform()] * 2)

@@ -1728,6 +1728,7 @@ class Gym:
         _weightless_drawing(spec)
         actuators = _take_actuators(spec)
         asset = _finish_asset(spec, options, path, actuators, _urdf_fixed_joints(path))
+        _urdf_speed_limits(asset, path)
         sim.assets.append(asset)
         return asset
 
@@ -3480,6 +3481,20 @@ def _urdf_fixed_joints(path: str) -> tuple[dict, set]:
     return ({j.find("child").get("link"): j.get("name") for j in fixed},
             {j.find("child").get("link") for j in fixed
              if j.get("dont_collapse", "").strip().lower() in ("true", "1")})
+
+
+def _urdf_speed_limits(asset: Asset, path: str) -> None:
+    """A URDF joint's `<limit velocity=...>` as its DOF's `velocity` property, as Isaac Gym
+    reads it (MuJoCo's importer drops it): the DOF's maximum speed, which the engine holds
+    (`dof_max_velocity`, PhysX's maxJointVelocity). 0 or absent: PhysX's default of 100."""
+    if not path.lower().endswith(".urdf"):
+        return
+    from myriad.assets import urdf_velocity_limits
+
+    limits = urdf_velocity_limits(path)
+    for i, name in enumerate(asset.dof_names):
+        if limits.get(name, 0.0) > 0.0:
+            asset.dof_props[i]["velocity"] = limits[name]
 
 
 def _collapse_fixed_joints(spec: mujoco.MjSpec, source: str, keep: set = frozenset()) -> None:
