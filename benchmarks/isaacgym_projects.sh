@@ -1,12 +1,15 @@
 #!/usr/bin/env bash
 # Isaac Gym projects, unmodified, on Myriad's `isaacgym` package (docs/isaacgym.md):
 # NVIDIA's IsaacGymEnvs through its own train.py (rl_games), and ETH's legged_gym through its
-# own scripts/train.py (rsl_rl 1.0.2, its PPO).
+# own scripts/train.py (rsl_rl 1.0.2, its PPO), and Unitree's unitree_rl_gym (its own copy of
+# legged_gym with the G1, H1, H1-2 and Go2 tasks) the same way.
 #
 #   bash benchmarks/isaacgym_projects.sh setup isaacgymenvs [DIR]   # once: clone, environment
 #   bash benchmarks/isaacgym_projects.sh setup legged_gym [DIR]
+#   bash benchmarks/isaacgym_projects.sh setup unitree_rl_gym [DIR]
 #   bash benchmarks/isaacgym_projects.sh train isaacgymenvs TASK [hydra overrides ...]
 #   bash benchmarks/isaacgym_projects.sh train legged_gym TASK [its flags ...]
+#   bash benchmarks/isaacgym_projects.sh train unitree_rl_gym TASK [its flags ...]   # g1 h1 h1_2 go2
 #
 # DIR (default ../<project> beside this repository, or $IGE_DIR / $LEGGED_GYM_DIR) is cloned at
 # the commit below unless it exists. Its environment, DIR/.venv-myriad, sits on top of the Python
@@ -20,6 +23,10 @@
 #     (rl_games 1.6.5, the first on Python 3.11, renamed self.seq_len).
 #   legged_gym: rsl_rl at its tag v1.0.2 (the API legged_gym is written for; cloned beside it),
 #     matplotlib, scipy (its terrain), numpy < 2. No edit.
+#   unitree_rl_gym: the same as legged_gym (its setup.py pins isaacgym, numpy 1.20 and MuJoCo
+#     3.2.3, so it is installed without its dependencies; its sim-to-sim script runs on the
+#     MuJoCo Myriad brings). No edit. benchmarks/unitree_pretrained.py runs Unitree's
+#     pretrained policies in it.
 # train runs on the CPU (sim and RL device cpu, headless) unless given other flags.
 set -euo pipefail
 
@@ -27,6 +34,8 @@ IGE_COMMIT=aeed298638a1f7b5421b38f5f3cc2d1079b6d9c3          # IsaacGymEnvs 1.5.
 IGE_REPO=https://github.com/isaac-sim/IsaacGymEnvs.git
 LG_COMMIT=8fa29acc6fd1910c3d9659eef6310bdd301cde0a           # legged_gym master, 2024
 LG_REPO=https://github.com/leggedrobotics/legged_gym.git
+UNITREE_COMMIT=276801e46c5d433564f24658bac64f254b7d2d4b     # unitree_rl_gym main, 2025
+UNITREE_REPO=https://github.com/unitreerobotics/unitree_rl_gym.git
 RSL_TAG=v1.0.2
 RSL_REPO=https://github.com/leggedrobotics/rsl_rl.git
 HERE=$(cd "$(dirname "$0")/../.." && pwd)
@@ -35,7 +44,8 @@ folder() {
     case "$1" in
         isaacgymenvs) echo "${IGE_DIR:-$HERE/IsaacGymEnvs}" ;;
         legged_gym) echo "${LEGGED_GYM_DIR:-$HERE/legged_gym}" ;;
-        *) echo "unknown project '$1': isaacgymenvs or legged_gym" >&2; exit 2 ;;
+        unitree_rl_gym) echo "${UNITREE_RL_GYM_DIR:-$HERE/unitree_rl_gym}" ;;
+        *) echo "unknown project '$1': isaacgymenvs, legged_gym or unitree_rl_gym" >&2; exit 2 ;;
     esac
 }
 
@@ -61,8 +71,12 @@ setup() {
                 "$dir/isaacgymenvs/tasks/__init__.py"
             sed -i 's/self\.seq_len\b/self.seq_length/g' \
                 "$dir/isaacgymenvs/learning/amp_continuous.py" "$dir/isaacgymenvs/learning/common_agent.py" ;;
-        legged_gym)
-            [ -d "$dir" ] || { git clone "$LG_REPO" "$dir"; git -C "$dir" checkout -q "$LG_COMMIT"; }
+        legged_gym|unitree_rl_gym)
+            if [ "$project" = legged_gym ]; then
+                [ -d "$dir" ] || { git clone "$LG_REPO" "$dir"; git -C "$dir" checkout -q "$LG_COMMIT"; }
+            else
+                [ -d "$dir" ] || { git clone "$UNITREE_REPO" "$dir"; git -C "$dir" checkout -q "$UNITREE_COMMIT"; }
+            fi
             [ -d "$dir/rsl_rl" ] || git clone -q --branch "$RSL_TAG" "$RSL_REPO" "$dir/rsl_rl"
             environment "$dir"
             "$dir/.venv-myriad/bin/pip" install -q matplotlib scipy "numpy<2"
@@ -87,7 +101,7 @@ train() {
             cd "$dir/isaacgymenvs"
             exec "$dir/.venv-myriad/bin/python" train.py "task=$task" sim_device=cpu \
                 rl_device=cpu pipeline=cpu headless=True "${extra[@]}" "$@" ;;
-        legged_gym)
+        legged_gym|unitree_rl_gym)
             cd "$dir"
             exec "$dir/.venv-myriad/bin/python" legged_gym/scripts/train.py "--task=$task" \
                 --sim_device=cpu --rl_device=cpu --headless "$@" ;;
@@ -95,10 +109,10 @@ train() {
 }
 
 case "${1:-}" in
-    setup) [ $# -ge 2 ] || { echo "usage: $0 setup isaacgymenvs|legged_gym [DIR]" >&2; exit 2; }
+    setup) [ $# -ge 2 ] || { echo "usage: $0 setup isaacgymenvs|legged_gym|unitree_rl_gym [DIR]" >&2; exit 2; }
            shift; setup "$@" ;;
-    train) [ $# -ge 3 ] || { echo "usage: $0 train isaacgymenvs|legged_gym TASK [...]" >&2; exit 2; }
+    train) [ $# -ge 3 ] || { echo "usage: $0 train isaacgymenvs|legged_gym|unitree_rl_gym TASK [...]" >&2; exit 2; }
            shift; train "$@" ;;
-    *) echo "usage: $0 setup isaacgymenvs|legged_gym [DIR] | train isaacgymenvs|legged_gym TASK [...]" >&2
+    *) echo "usage: $0 setup isaacgymenvs|legged_gym|unitree_rl_gym [DIR] | train isaacgymenvs|legged_gym|unitree_rl_gym TASK [...]" >&2
        exit 2 ;;
 esac
