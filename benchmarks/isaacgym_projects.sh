@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Isaac Gym projects, unmodified, on Myriad's `isaacgym` package (docs/isaacgym.md):
-# NVIDIA's IsaacGymEnvs through its own train.py (rl_games), and ETH's legged_gym through its
+# NVIDIA's IsaacGymEnvs through its own train.py (rl_games), ETH's legged_gym through its
 # own scripts/train.py (rsl_rl 1.0.2, its PPO), and Unitree's unitree_rl_gym (its own copy of
 # legged_gym with the G1, H1, H1-2 and Go2 tasks) the same way.
 #
@@ -11,10 +11,11 @@
 #   bash benchmarks/isaacgym_projects.sh train legged_gym TASK [its flags ...]
 #   bash benchmarks/isaacgym_projects.sh train unitree_rl_gym TASK [its flags ...]   # g1 h1 h1_2 go2
 #
-# DIR (default ../<project> beside this repository, or $IGE_DIR / $LEGGED_GYM_DIR) is cloned at
-# the commit below unless it exists. Its environment, DIR/.venv-myriad, sits on top of the Python
-# environment Myriad is installed in (run setup with that environment active) and adds only
-# what the project needs beside Myriad, its pins that Python 3.11 cannot install relaxed:
+# DIR (default ../<project> beside this repository, or $IGE_DIR / $LEGGED_GYM_DIR /
+# $UNITREE_RL_GYM_DIR) is cloned at the commit below unless it exists. Its environment,
+# DIR/.venv-myriad, sits on top of the Python environment Myriad is installed in (run setup
+# with that environment active) and adds only what the project needs beside Myriad, its pins
+# that Python 3.11 cannot install relaxed:
 #   IsaacGymEnvs: gym 0.23.1 (its spaces), numpy < 2 (its np.Inf), scipy (its AMP motion
 #     library); no warp-lang 0.10.1, pysdf, urdfpy (IndustReal and Factory only). Two edits,
 #     outside its tasks and configs: tasks/__init__.py leaves the IndustReal imports out of its

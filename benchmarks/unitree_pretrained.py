@@ -19,6 +19,12 @@ policy step every 20 ms). Here the same weights drive, batched over envs:
   each started as legged_gym resets an env (joints at default × U(0.5, 1.5), base velocities
   U(−0.5, 0.5)).
 
+With `--mjcf [KEY=VALUE ...]`, a third: Myriad's own engine (`myriad.Simulator`) on Unitree's MJCF
+scene with deploy_mujoco's loop, batched, at `myriad.SimParams` given as KEY=VALUE (default
+deploy_mujoco's 2 ms step; e.g. `dt=0.005 substeps=1 velocity_iterations=0 contact_offset=0.01`
+with `--decimation 4` are legged_gym's physics settings): which part of a difference between
+the first two is the engine's, and which the URDF path's and the settings'.
+
 Reported per command: the mean base velocity (forward, lateral m/s; yaw rad/s, in the base's
 frame) over the last half of the window, the mean absolute error to the command there, and the
 falls (envs reset before the window ended, for Myriad by the task's own termination: a pelvis
@@ -33,6 +39,7 @@ import time
 
 import numpy as np
 import torch
+import yaml
 
 COMMANDS = [(0.0, 0.0, 0.0), (0.5, 0.0, 0.0), (1.0, 0.0, 0.0), (0.5, 0.0, 0.5), (0.0, 0.3, 0.0)]
 
@@ -68,7 +75,6 @@ class BatchedPolicy:
 
 
 def on_myriad(args, root: str, policy_path: str, commands: list) -> list:
-    from isaacgym import gymapi  # noqa: F401  (legged_gym expects it imported first)
     from legged_gym.envs import task_registry
     from legged_gym.utils import get_args
 
@@ -95,9 +101,7 @@ def on_myriad(args, root: str, policy_path: str, commands: list) -> list:
         obs, _ = env.reset()
         steps = int(round(args.seconds / env.dt))
         fell = torch.zeros(args.envs, dtype=torch.bool)
-        velocity = torch.zeros(args.envs, 3)
-        counted = torch.zeros(args.envs)
-        error = torch.zeros(args.envs, 3)
+        velocity = torch.zeros(args.envs, 3); error = torch.zeros(args.envs, 3); counted = 0
         target = torch.tensor(command)
         start = time.perf_counter()
         for step in range(steps):
@@ -107,15 +111,11 @@ def on_myriad(args, root: str, policy_path: str, commands: list) -> list:
             policy.reset(done)
             if step >= steps // 2:
                 v = torch.cat((env.base_lin_vel[:, :2], env.base_ang_vel[:, 2:3]), dim=-1).cpu()
-                alive = (~fell).float()[:, None]
-                velocity += v * alive
-                error += (v - target).abs() * alive
-                counted += alive[:, 0]
+                velocity += v; error += (v - target).abs(); counted += 1
         wall = time.perf_counter() - start
-        n = counted.clamp(min=1)[:, None]
-        keep = counted > 0
-        rows.append((command, (velocity / n)[keep].mean(0).tolist(),
-                     (error / n)[keep].mean(0).tolist(), int(fell.sum()), args.envs, wall))
+        keep = ~fell                        # the envs that never fell (as for MuJoCo below)
+        rows.append((command, (velocity / counted)[keep].mean(0).tolist(),
+                     (error / counted)[keep].mean(0).tolist(), int(fell.sum()), args.envs, wall))
         env.gym.destroy_sim(env.sim)
     return rows
 
@@ -184,6 +184,68 @@ def on_mujoco(args, root: str, robot_config: dict, policy_path: str, commands: l
     return rows
 
 
+def on_myriad_mjcf(args, root: str, robot_config: dict, policy_path: str, commands: list,
+                   settings: dict) -> list:
+    import myriad
+
+    model = myriad.load(robot_config["xml_path"].replace("{LEGGED_GYM_ROOT_DIR}", root))
+    params = myriad.SimParams(**{"dt": robot_config["simulation_dt"], "substeps": 1, **settings})
+    decimation = args.decimation or robot_config["control_decimation"]
+    kp = torch.tensor(robot_config["kps"]); kd = torch.tensor(robot_config["kds"])
+    default = torch.tensor(robot_config["default_angles"], dtype=torch.float32)
+    n, n_act = args.envs, robot_config["num_actions"]
+    scale = torch.tensor(robot_config["cmd_scale"], dtype=torch.float32)
+    steps = int(round(args.seconds / params.dt))
+    down = torch.tensor([[0.0, 0.0, -1.0]]).expand(n, 3)
+    generator = torch.Generator().manual_seed(args.seed)
+    rows = []
+    for command in commands:
+        sim = myriad.Simulator(model, num_envs=n, params=params)
+        q, qd = sim.q.clone(), sim.qd.clone()       # started as legged_gym resets an env
+        q[:, 7:] = default * (0.5 + torch.rand(n, n_act, generator=generator))
+        qd[:, :6] = torch.rand(n, 6, generator=generator) - 0.5
+        sim.q, sim.qd = q, qd
+        policy = BatchedPolicy(policy_path, n)
+        action = torch.zeros(n, n_act); target = default.repeat(n, 1)
+        c = torch.tensor(command)
+        fell = torch.zeros(n, dtype=torch.bool)
+        velocity = torch.zeros(n, 3); error = torch.zeros(n, 3); counted = 0
+        start = time.perf_counter()
+        for step in range(steps):
+            sim.ctrl = (target - sim.q[:, 7:]) * kp - sim.qd[:, 6:] * kd
+            sim.step()
+            if (step + 1) % decimation:
+                continue
+            quat = sim.q[:, 3:7]                    # x, y, z, w
+            gravity = _rotate_inverse(quat, down)
+            fell |= (gravity[:, 2] > -np.cos(1.0)) | (sim.q[:, 2] < 0.3)
+            phase = ((step + 1) * params.dt) % 0.8 / 0.8
+            clock = torch.tensor([[np.sin(2 * np.pi * phase), np.cos(2 * np.pi * phase)]])
+            obs = torch.cat((sim.qd[:, 3:6] * robot_config["ang_vel_scale"], gravity,
+                             (c * scale).expand(n, 3),
+                             (sim.q[:, 7:] - default) * robot_config["dof_pos_scale"],
+                             sim.qd[:, 6:] * robot_config["dof_vel_scale"], action,
+                             clock.expand(n, 2)), dim=-1).float()
+            action = policy(obs)
+            target = action * robot_config["action_scale"] + default
+            if step >= steps // 2:
+                linear = _rotate_inverse(quat, sim.qd[:, :3])
+                v = torch.cat((linear[:, :2], sim.qd[:, 5:6]), dim=-1)
+                velocity += v; error += (v - c).abs(); counted += 1
+        wall = time.perf_counter() - start
+        keep = ~fell
+        rows.append((command, (velocity / counted)[keep].mean(0).tolist(),
+                     (error / counted)[keep].mean(0).tolist(), int(fell.sum()), n, wall))
+    return rows
+
+
+def _rotate_inverse(quat: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
+    """v [n, 3] in the frames of unit quaternions quat [n, 4] (x, y, z, w)."""
+    w, u = quat[:, 3:4], quat[:, :3]
+    return v * (2 * w ** 2 - 1) - torch.cross(u, v, dim=-1) * w * 2 \
+        + u * (u * v).sum(-1, keepdim=True) * 2
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--robot", default="g1", choices=["g1", "h1", "h1_2"])
@@ -191,16 +253,34 @@ def main() -> None:
     ap.add_argument("--mujoco-envs", type=int, default=16, help="MuJoCo C's runs per command")
     ap.add_argument("--seconds", type=float, default=10.0)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--skip-task", action="store_true", help="leave out unitree_rl_gym's task")
     ap.add_argument("--skip-mujoco", action="store_true")
+    ap.add_argument("--mjcf", nargs="*", metavar="KEY=VALUE",
+                    help="also Myriad's engine on Unitree's MJCF with deploy_mujoco's loop, at "
+                         "these myriad.SimParams")
+    ap.add_argument("--decimation", type=int,
+                    help="with --mjcf: physics steps per policy step (default the deploy "
+                         "config's, for its 2 ms step)")
     args = ap.parse_args()
-    import yaml
+    settings = {}
+    for item in args.mjcf or []:
+        key, sep, value = item.partition("=")
+        if not sep:
+            ap.error(f"--mjcf {item}: expected KEY=VALUE")
+        settings[key] = yaml.safe_load(value)
     from legged_gym import LEGGED_GYM_ROOT_DIR as root
 
     with open(os.path.join(root, "deploy/deploy_mujoco/configs", f"{args.robot}.yaml")) as f:
         robot_config = yaml.safe_load(f)
     policy_path = robot_config["policy_path"].replace("{LEGGED_GYM_ROOT_DIR}", root)
     torch.manual_seed(args.seed)
-    results = {"Myriad (unitree_rl_gym's task)": on_myriad(args, root, policy_path, COMMANDS)}
+    results = {}
+    if not args.skip_task:
+        results["Myriad (unitree_rl_gym's task)"] = on_myriad(args, root, policy_path, COMMANDS)
+    if args.mjcf is not None:
+        label = " ".join(args.mjcf) or "its 2 ms step"
+        results[f"Myriad's engine, the MJCF, deploy's loop ({label})"] = on_myriad_mjcf(
+            args, root, robot_config, policy_path, COMMANDS, settings)
     if not args.skip_mujoco:
         results["MuJoCo C (deploy_mujoco's loop)"] = on_mujoco(args, root, robot_config,
                                                                policy_path, COMMANDS)
@@ -214,6 +294,10 @@ def main() -> None:
             print(f"| {name} | {command[0]:.1f}, {command[1]:.1f}, {command[2]:.1f} | "
                   + ", ".join(f"{x:+.3f}" for x in v) + " | "
                   + ", ".join(f"{x:.3f}" for x in e) + f" | {falls}/{n} | {wall:.1f} |")
+    for name, rows in results.items():
+        mean = np.mean([e for _, _, e, _, _, _ in rows], axis=0)
+        print(f"{name}: mean |error| over the commands " + ", ".join(f"{x:.3f}" for x in mean)
+              + f"; falls {sum(r[3] for r in rows)}/{sum(r[4] for r in rows)}")
 
 
 if __name__ == "__main__":
