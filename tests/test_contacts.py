@@ -292,6 +292,44 @@ def test_a_convex_mesh_cube_rests_on_a_convex_mesh_slab(device):
     assert (sim.q[0, 7:10] - start).norm().item() < 1e-3
 
 
+def test_a_flat_soles_contacts_stay_put_whichever_vertex_is_deepest(device):
+    """A foot mesh whose sole (30 × 3 cm, 33 vertices) is flat but for a 0.1 mm bulge in its
+    middle, on the floor in four poses a hair apart (level, heel or toe 0.3 mm lower, rolled
+    0.15 mm): the deepest vertex is a different one in each, and the four contacts are the same
+    four points, spanning the sole's length and width. Built from the deepest vertex, the four
+    moved with it from step to step, and the H1's walking policy (feet: such a mesh) swayed
+    three times as much as in MuJoCo (docs/results.md, unitree_rl_gym)."""
+    xs = np.linspace(-0.1, 0.2, 11)
+    sole = [(x, y, -0.07 - 1e-4 * (1 - ((x - 0.05) / 0.15) ** 2) * (1 - (y / 0.015) ** 2))
+            for x in xs for y in (-0.015, 0.0, 0.015)]
+    top = [(x, y, 0.0) for x in (-0.08, 0.18) for y in (-0.03, 0.03)]
+    vertices = " ".join(f"{x:.6f} {y:.6f} {z:.7f}" for x, y, z in sole + top)
+    model = myriad.load_xml(f"""<mujoco><asset><mesh name="foot" vertex="{vertices}"/></asset>
+      <worldbody><geom name="floor" type="plane" size="5 5 0.1"/>
+      <body name="foot" pos="0 0 0.0705"><freejoint/><geom type="mesh" mesh="foot" mass="0.6"/>
+      </body></worldbody></mujoco>""", "foot")
+    params = dataclasses.replace(ISAAC, contact_offset=0.01)
+    sim = myriad.Simulator(model, num_envs=4, device=device, params=params)
+    q = sim.q.clone()                   # free joint: position, quaternion (x, y, z, w)
+    # about the sole's middle: its ends 0.3 mm (pitch), its edges 0.15 mm (roll) apart
+    for env, (axis, angle) in enumerate([(1, 0.0), (1, 2e-3), (1, -2e-3), (0, 1e-2)]):
+        q[env, 3 + axis] = math.sin(angle / 2)
+        q[env, 6] = math.cos(angle / 2)
+    sim.q = q
+    sim.forward()                       # the poses, then the contacts at them
+    sim.collide()
+    points = []
+    for env in range(4):
+        count = int(sim.contact_count[env])
+        assert count == 4
+        xy = sim.contact_pos[env, :count, :2].cpu()
+        assert (xy[:, 0].max() - xy[:, 0].min()).item() == pytest.approx(0.30, abs=1e-3)
+        assert (xy[:, 1].max() - xy[:, 1].min()).item() == pytest.approx(0.03, abs=1e-3)
+        points.append(xy)
+    for env in range(1, 4):       # the same four points (the roll moves them 0.7 mm sideways)
+        assert torch.cdist(points[0], points[env]).amin(1).max().item() < 1.5e-3, points
+
+
 def test_joint_friction_holds_below_and_slips_above_its_frictionloss(device):
     model = myriad.load_xml("""<mujoco><option gravity="0 0 0"/><worldbody>
       <body name="slider"><joint name="x" type="slide" axis="1 0 0" frictionloss="2"/>

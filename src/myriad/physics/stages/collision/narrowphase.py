@@ -595,31 +595,51 @@ def _plane_cylinder(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x
 
 
 @wp.func
-def _plane_mesh(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x2: wp.transform,
-                mesh: int, meshes: Meshes, margin: float, out: ContactSlots):
-    """Hull vertices within the offset, at most four: the deepest, the one farthest from it, and
-    the farthest on either side of the line through those two."""
-    beg = meshes.vertadr[mesh]
-    num = meshes.vertnum[mesh]
-    chosen = wp.vec4i(-1, -1, -1, -1)
-    deepest = float(margin)
-    for i in range(beg, beg + num):
-        d = wp.dot(wp.transform_point(x2, meshes.vert[i]) - c1, n)
-        if d < deepest:
-            deepest = d
-            chosen[0] = i
-    if chosen[0] < 0:
-        return
-    p0 = wp.transform_point(x2, meshes.vert[chosen[0]])
+def _farthest_in_plane(origin: int, c1: wp.vec3, n: wp.vec3, x2: wp.transform, beg: int,
+                       num: int, meshes: Meshes, margin: float):
+    """The hull vertex within the offset farthest from vertex `origin` along the plane (-1 if
+    there is none but it)."""
+    p0 = wp.transform_point(x2, meshes.vert[origin])
     far = float(-1.0)
+    found = int(-1)
     for i in range(beg, beg + num):
         q = wp.transform_point(x2, meshes.vert[i])
-        if wp.dot(q - c1, n) < margin and i != chosen[0]:
+        if wp.dot(q - c1, n) < margin and i != origin:
             d = wp.length_sq(q - p0 - n * wp.dot(q - p0, n))
             if d > far + 1.0e-12:
                 far = d
-                chosen[1] = i
-    if chosen[1] >= 0:
+                found = i
+    return found
+
+
+@wp.func
+def _plane_mesh(e: int, pair: wp.vec2i, key: int, c1: wp.vec3, n: wp.vec3, x2: wp.transform,
+                mesh: int, meshes: Meshes, margin: float, out: ContactSlots):
+    """Hull vertices within the offset, at most four: the two farthest apart along the plane
+    (the one farthest from the deepest, then the one farthest from that) and the farthest on
+    either side of the line through those two. Not the deepest itself: on a flat sole any of
+    its vertices is the deepest by a hair, a different one as the foot rocks, and four points
+    built from it (the deepest, the farthest from it, ...) jumped with it from step to step;
+    the H1's walking policy, whose feet are such a mesh, swayed three times as much as in
+    MuJoCo under legged_gym's settings (docs/results.md, unitree_rl_gym)."""
+    beg = meshes.vertadr[mesh]
+    num = meshes.vertnum[mesh]
+    chosen = wp.vec4i(-1, -1, -1, -1)
+    deepest = int(-1)
+    low = float(margin)
+    for i in range(beg, beg + num):
+        d = wp.dot(wp.transform_point(x2, meshes.vert[i]) - c1, n)
+        if d < low:
+            low = d
+            deepest = i
+    if deepest < 0:
+        return
+    chosen[0] = _farthest_in_plane(deepest, c1, n, x2, beg, num, meshes, margin)
+    if chosen[0] < 0:       # the only vertex within the offset
+        chosen[0] = deepest
+    else:
+        chosen[1] = _farthest_in_plane(chosen[0], c1, n, x2, beg, num, meshes, margin)
+        p0 = wp.transform_point(x2, meshes.vert[chosen[0]])
         p1 = wp.transform_point(x2, meshes.vert[chosen[1]])
         lo = float(-1.0e-12)
         hi = float(1.0e-12)
