@@ -120,6 +120,23 @@ def on_myriad(args, root: str, policy_path: str, commands: list) -> list:
     return rows
 
 
+def deploy_observation(robot_config: dict, angular_velocity, gravity, command, q, qd, action,
+                       seconds: float) -> torch.Tensor:
+    """deploy_mujoco.py's observation [n, num_obs] (float32) from tensors [n, ...]: the base's
+    angular velocity (its frame) and gravity direction, the scaled command, the joints'
+    offsets from the default pose and speeds, the last action, the 0.8 s gait clock."""
+    n = q.shape[0]
+    default = torch.as_tensor(robot_config["default_angles"], dtype=q.dtype)
+    scale = torch.as_tensor(robot_config["cmd_scale"], dtype=q.dtype)
+    phase = seconds % 0.8 / 0.8
+    clock = torch.tensor([[np.sin(2 * np.pi * phase), np.cos(2 * np.pi * phase)]], dtype=q.dtype)
+    return torch.cat((angular_velocity * robot_config["ang_vel_scale"], gravity,
+                      (torch.as_tensor(command, dtype=q.dtype) * scale).expand(n, 3),
+                      (q - default) * robot_config["dof_pos_scale"],
+                      qd * robot_config["dof_vel_scale"], action.to(q.dtype),
+                      clock.expand(n, 2)), dim=-1).float()
+
+
 def on_mujoco(args, root: str, robot_config: dict, policy_path: str, commands: list) -> list:
     import mujoco
 
@@ -129,7 +146,6 @@ def on_mujoco(args, root: str, robot_config: dict, policy_path: str, commands: l
     data = mujoco.MjData(model)
     kp = np.array(robot_config["kps"]); kd = np.array(robot_config["kds"])
     default = np.array(robot_config["default_angles"])
-    scale = robot_config["cmd_scale"]
     decimation = robot_config["control_decimation"]
     n_act = robot_config["num_actions"]
     steps = int(round(args.seconds / model.opt.timestep))
@@ -161,13 +177,13 @@ def on_mujoco(args, root: str, robot_config: dict, policy_path: str, commands: l
                 gravity = np.empty(3)
                 inverse = np.empty(4); mujoco.mju_negQuat(inverse, quat)
                 mujoco.mju_rotVecQuat(gravity, np.array([0.0, 0.0, -1.0]), inverse)
-                phase = ((step + 1) * model.opt.timestep) % 0.8 / 0.8
-                obs = np.concatenate((data.qvel[3:6] * robot_config["ang_vel_scale"], gravity,
-                                      np.array(command) * scale,
-                                      (data.qpos[7:] - default) * robot_config["dof_pos_scale"],
-                                      data.qvel[6:] * robot_config["dof_vel_scale"], action,
-                                      [np.sin(2 * np.pi * phase), np.cos(2 * np.pi * phase)]))
-                action = policy(torch.tensor(obs, dtype=torch.float32)[None])[0].numpy()
+                obs = deploy_observation(
+                    robot_config, *(torch.from_numpy(x)[None] for x in (
+                        data.qvel[3:6], gravity)), command,
+                    *(torch.from_numpy(x)[None] for x in (data.qpos[7:], data.qvel[6:],
+                                                         action)),
+                    (step + 1) * model.opt.timestep)
+                action = policy(obs)[0].numpy()
                 target = action * robot_config["action_scale"] + default
                 if step >= steps // 2:
                     lin = np.empty(3); mujoco.mju_rotVecQuat(lin, data.qvel[:3], inverse)
@@ -187,6 +203,7 @@ def on_mujoco(args, root: str, robot_config: dict, policy_path: str, commands: l
 def on_myriad_mjcf(args, root: str, robot_config: dict, policy_path: str, commands: list,
                    settings: dict) -> list:
     import myriad
+    from myriad.torch_utils import quat_rotate_inverse
 
     model = myriad.load(robot_config["xml_path"].replace("{LEGGED_GYM_ROOT_DIR}", root))
     params = myriad.SimParams(**{"dt": robot_config["simulation_dt"], "substeps": 1, **settings})
@@ -194,7 +211,6 @@ def on_myriad_mjcf(args, root: str, robot_config: dict, policy_path: str, comman
     kp = torch.tensor(robot_config["kps"]); kd = torch.tensor(robot_config["kds"])
     default = torch.tensor(robot_config["default_angles"], dtype=torch.float32)
     n, n_act = args.envs, robot_config["num_actions"]
-    scale = torch.tensor(robot_config["cmd_scale"], dtype=torch.float32)
     steps = int(round(args.seconds / params.dt))
     down = torch.tensor([[0.0, 0.0, -1.0]]).expand(n, 3)
     generator = torch.Generator().manual_seed(args.seed)
@@ -217,19 +233,14 @@ def on_myriad_mjcf(args, root: str, robot_config: dict, policy_path: str, comman
             if (step + 1) % decimation:
                 continue
             quat = sim.q[:, 3:7]                    # x, y, z, w
-            gravity = _rotate_inverse(quat, down)
+            gravity = quat_rotate_inverse(quat, down)
             fell |= (gravity[:, 2] > -np.cos(1.0)) | (sim.q[:, 2] < 0.3)
-            phase = ((step + 1) * params.dt) % 0.8 / 0.8
-            clock = torch.tensor([[np.sin(2 * np.pi * phase), np.cos(2 * np.pi * phase)]])
-            obs = torch.cat((sim.qd[:, 3:6] * robot_config["ang_vel_scale"], gravity,
-                             (c * scale).expand(n, 3),
-                             (sim.q[:, 7:] - default) * robot_config["dof_pos_scale"],
-                             sim.qd[:, 6:] * robot_config["dof_vel_scale"], action,
-                             clock.expand(n, 2)), dim=-1).float()
-            action = policy(obs)
+            action = policy(deploy_observation(robot_config, sim.qd[:, 3:6], gravity, command,
+                                               sim.q[:, 7:], sim.qd[:, 6:], action,
+                                               (step + 1) * params.dt))
             target = action * robot_config["action_scale"] + default
             if step >= steps // 2:
-                linear = _rotate_inverse(quat, sim.qd[:, :3])
+                linear = quat_rotate_inverse(quat, sim.qd[:, :3])
                 v = torch.cat((linear[:, :2], sim.qd[:, 5:6]), dim=-1)
                 velocity += v; error += (v - c).abs(); counted += 1
         wall = time.perf_counter() - start
@@ -237,13 +248,6 @@ def on_myriad_mjcf(args, root: str, robot_config: dict, policy_path: str, comman
         rows.append((command, (velocity / counted)[keep].mean(0).tolist(),
                      (error / counted)[keep].mean(0).tolist(), int(fell.sum()), n, wall))
     return rows
-
-
-def _rotate_inverse(quat: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
-    """v [n, 3] in the frames of unit quaternions quat [n, 4] (x, y, z, w)."""
-    w, u = quat[:, 3:4], quat[:, :3]
-    return v * (2 * w ** 2 - 1) - torch.cross(u, v, dim=-1) * w * 2 \
-        + u * (u * v).sum(-1, keepdim=True) * 2
 
 
 def main() -> None:
