@@ -1727,8 +1727,9 @@ class Gym:
             spec.delete(sensor)             # force sensors come from create_asset_force_sensor
         _weightless_drawing(spec)
         actuators = _take_actuators(spec)
-        asset = _finish_asset(spec, options, path, actuators, _urdf_fixed_joints(path))
-        _urdf_speed_limits(asset, path)
+        fixed, keep, speed_limits = _urdf_joint_facts(path)
+        asset = _finish_asset(spec, options, path, actuators, (fixed, keep))
+        _urdf_speed_limits(asset, speed_limits)
         sim.assets.append(asset)
         return asset
 
@@ -3466,32 +3467,31 @@ def _weightless_drawing(spec: mujoco.MjSpec) -> None:
             body.inertia = [0.4 * _DRAWN_BODY_MASS * 0.01 ** 2] * 3
 
 
-def _urdf_fixed_joints(path: str) -> tuple[dict, set]:
-    """({child link: joint name} of a URDF's fixed joints (MuJoCo's model keeps no name for
-    them), {child links whose fixed joint says dont_collapse="true"}); empty for other files."""
+def _urdf_joint_facts(path: str) -> tuple[dict, set, dict]:
+    """What MuJoCo's URDF importer drops, from one read of the file: ({child link: joint name}
+    of the fixed joints (MuJoCo's model keeps no name for them), {child links whose fixed joint
+    says dont_collapse="true"}, {joint name: its `<limit velocity=...>`}); empty for other
+    files."""
     if not path.lower().endswith(".urdf"):
-        return {}, set()
+        return {}, set(), {}
     import xml.etree.ElementTree as ET
+    from myriad.assets import urdf_velocity_limits
     try:
         robot = ET.parse(path).getroot()
     except (ET.ParseError, OSError):
-        return {}, set()
+        return {}, set(), {}
     fixed = [j for j in robot.iter("joint")
              if j.get("type") == "fixed" and j.find("child") is not None]
     return ({j.find("child").get("link"): j.get("name") for j in fixed},
             {j.find("child").get("link") for j in fixed
-             if j.get("dont_collapse", "").strip().lower() in ("true", "1")})
+             if j.get("dont_collapse", "").strip().lower() in ("true", "1")},
+            urdf_velocity_limits(robot))
 
 
-def _urdf_speed_limits(asset: Asset, path: str) -> None:
-    """A URDF joint's `<limit velocity=...>` as its DOF's `velocity` property, as Isaac Gym
-    reads it (MuJoCo's importer drops it): the DOF's maximum speed, which the engine holds
+def _urdf_speed_limits(asset: Asset, limits: dict) -> None:
+    """A URDF joint's `<limit velocity=...>` (`limits`, by joint name) as its DOF's `velocity`
+    property, as Isaac Gym reads it: the DOF's maximum speed, which the engine holds
     (`dof_max_velocity`, PhysX's maxJointVelocity). 0 or absent: PhysX's default of 100."""
-    if not path.lower().endswith(".urdf"):
-        return
-    from myriad.assets import urdf_velocity_limits
-
-    limits = urdf_velocity_limits(path)
     for i, name in enumerate(asset.dof_names):
         if limits.get(name, 0.0) > 0.0:
             asset.dof_props[i]["velocity"] = limits[name]

@@ -309,14 +309,17 @@ FRANKA_FINGERTIP = (0.0015, 0.0441)  # the original's fingertip points: toward t
                                      # (y, its sign per finger) and along the finger's z (m)
 
 
-def urdf_velocity_limits(path: str) -> dict[str, float]:
-    """Each joint's `<limit velocity=...>` in a URDF (rad/s or m/s), by joint name. MuJoCo's
-    importer drops it; Isaac Gym applies it as the DOF's maximum speed (`Envs.sim.
-    dof_max_velocity`), which a task that follows the original sets from this."""
-    try:
-        root = ElementTree.parse(path).getroot()
-    except ElementTree.ParseError as err:
-        raise ModelError(f"{path}: not readable as XML: {err}") from err
+def urdf_velocity_limits(urdf: str | ElementTree.Element) -> dict[str, float]:
+    """Each joint's `<limit velocity=...>` in a URDF (rad/s or m/s), by joint name; `urdf`: the
+    file's path, or its parsed root element. MuJoCo's importer drops it; Isaac Gym applies it as
+    the DOF's maximum speed (`Envs.sim.dof_max_velocity`), which a task that follows the
+    original sets from this."""
+    root = urdf
+    if isinstance(urdf, str):
+        try:
+            root = ElementTree.parse(urdf).getroot()
+        except ElementTree.ParseError as err:
+            raise ModelError(f"{urdf}: not readable as XML: {err}") from err
     return {joint.get("name"): float(limit.get("velocity"))
             for joint in root.iter("joint")
             if (limit := joint.find("limit")) is not None and limit.get("velocity") is not None}
