@@ -142,9 +142,55 @@ def test_g1_observation_and_terms(device):
         torch.zeros(N, 2, device=task.device), torch.zeros(N, 2, device=task.device),
         torch.zeros(N, 2, 2, device=task.device), no_feet, no_feet.float(),
         task.gravity_dir[:N], task.forward_axis[:N], 0.02, 1.0, 0.08, scales,
-        base[:, 3:7], torch.ones(N, 29, device=task.device), task.learn)
+        base[:, 3:7], torch.ones(N, 29, device=task.device), task.learn,
+        torch.zeros(N, 3, device=task.device), torch.zeros(N, 2, device=task.device))
     np.testing.assert_allclose(reward.cpu().numpy(), 2.0, atol=1e-5)
     assert not fell.any()
+
+
+def test_g1_angular_momentum_is_mujocos(device):
+    """`Envs.angular_momentum`, which the angular-momentum term charges, is MuJoCo's
+    subtree_angmom of the pelvis (the whole robot about its centre of mass) in random states: a
+    tumbling, drifting base and every joint moving; and the term pays −scale·|L|²."""
+    from myriad.tasks.g1 import compute_g1_reward
+    task = make(device, num_envs=3)
+    e, dev, N = task.envs, task.device, 3
+    mj = e.model.mj_model
+    rng = np.random.default_rng(0)
+    expected = []
+    for env in range(N):
+        d = mujoco.MjData(mj)
+        d.qpos[:] = mj.qpos0
+        quat = rng.normal(size=4)
+        d.qpos[3:7] = quat / np.linalg.norm(quat)
+        d.qpos[7:] += rng.uniform(-0.3, 0.3, size=mj.nq - 7)
+        d.qvel[:] = rng.normal(size=mj.nv) * 2.0
+        mujoco.mj_forward(mj, d)
+        mujoco.mj_subtreeVel(mj, d)
+        e.sim.q[env] = torch.as_tensor(e.model.qpos_from_mujoco(d.qpos), dtype=torch.float32)
+        e.sim.qd[env] = torch.as_tensor(d.qvel, dtype=torch.float32)
+        expected.append(d.subtree_angmom[e.actor_bodies("g1")[0] + 1].copy())
+    e.forward()
+    momentum = e.angular_momentum("g1")
+    assert momentum.shape == (N, 3)
+    expected = np.array(expected)
+    assert np.all(np.linalg.norm(expected, axis=1) > 0.5)      # measured 7.8 to 8.4 kg·m²/s
+    np.testing.assert_allclose(momentum.cpu().numpy(), expected, atol=1e-4 * 4, rtol=1e-4)
+    # the term: −scale·|L|², nothing else switched on
+    scales = {k: 0.0 for k in task.reward_scales}
+    scales.update(angularMomentumRewardScale=-0.5)
+    zeros = torch.zeros(N, 29, device=dev)
+    no_feet = torch.zeros(N, 2, dtype=torch.bool, device=dev)
+    reward, _ = compute_g1_reward(
+        e.root_states[:, 0], torch.zeros(N, 3, device=dev), zeros, e.dof_pos, zeros, zeros,
+        zeros, zeros, task.default_dof_pos, task.soft_limits, task.deviation_dofs,
+        e.net_contact_force * 0, task.bodies_ending, no_feet, torch.zeros(N, 2, device=dev),
+        torch.zeros(N, 2, device=dev), torch.zeros(N, 2, 2, device=dev), no_feet,
+        no_feet.float(), task.gravity_dir, task.forward_axis, 0.02, math.pi, 0.08, scales,
+        e.root_states[:, 0, 3:7], torch.ones(N, 29, device=dev), task.learn, momentum,
+        torch.zeros(N, 2, device=dev))
+    np.testing.assert_allclose(reward.cpu().numpy(), -0.5 * np.sum(expected ** 2, axis=1),
+                               rtol=1e-3)
 
 
 def test_g1_upright_and_pose_terms(device):
@@ -172,7 +218,8 @@ def test_g1_upright_and_pose_terms(device):
         task.envs.net_contact_force * 0, task.bodies_ending, no_feet,
         torch.zeros(N, 2, device=dev), torch.zeros(N, 2, device=dev),
         torch.zeros(N, 2, 2, device=dev), no_feet, no_feet.float(), task.gravity_dir,
-        task.forward_axis, 0.02, 1.0, 0.08, scales, torso, std, kernels)
+        task.forward_axis, 0.02, 1.0, 0.08, scales, torso, std, kernels,
+        torch.zeros(N, 3, device=dev), torch.zeros(N, 2, device=dev))
     pose = math.exp(-3 * 0.25 / 29)             # mean of (0.1/0.2)² over 29 joints
     np.testing.assert_allclose(reward.cpu().numpy(),
                                [1.0 + 10.0, math.exp(-math.sin(tilt) ** 2 / 0.2) + 10.0 * pose],
@@ -186,14 +233,15 @@ def test_g1_upright_and_pose_terms(device):
 def test_g1_single_stance_gait_clock_and_tilt(device):
     """The air-time term pays the single-stance phase's duration (capped at 0.4 s) only with a
     moving command; the gait terms pay each foot whose contact is what the clock wants and
-    charge a foot in the air for missing its swing height; a base tilted past maxTilt has
-    fallen and pays the termination term."""
+    charge a foot in the air for missing its swing height; a touching foot pays for turning
+    about the vertical; a base tilted past maxTilt has fallen and pays the termination term."""
     from myriad.tasks.g1 import compute_g1_reward
     task = make(device, num_envs=3)
     dev, N = task.device, 3
     scales = {k: 0.0 for k in task.reward_scales}
     scales.update(feetAirTimeRewardScale=1.0, terminationRewardScale=-10.0,
-                  gaitContactRewardScale=0.5, swingHeightRewardScale=-100.0)
+                  gaitContactRewardScale=0.5, swingHeightRewardScale=-100.0,
+                  feetTwistRewardScale=-1.0)
     base = task.envs.root_states[:, 0].clone()
     base[:, 7:13] = 0
     tilt = 1.2                                      # env 2: tilted about x beyond 1 rad
@@ -213,11 +261,13 @@ def test_g1_single_stance_gait_clock_and_tilt(device):
         task.envs.net_contact_force * 0, task.bodies_ending, contact, air_time, contact_time,
         torch.zeros(N, 2, 2, device=dev), gait_stance, foot_z, task.gravity_dir,
         task.forward_axis, 0.02, 1.0, 0.08, scales, base[:, 3:7],
-        torch.ones(N, 29, device=dev), task.learn)
+        torch.ones(N, 29, device=dev), task.learn, torch.zeros(N, 3, device=dev),
+        torch.tensor([[0.4, 2.0]] * 3, device=dev))     # the left foot, touching, twists
     # env 0: in single stance, the phase's time is min(0.3 in contact, 0.6 in the air) = 0.3;
     # both feet as the clock wants (+1.0); the right foot 0.1 m above its swing height (-1.0)
-    np.testing.assert_allclose(reward.cpu().numpy(), [0.3 + 1.0 - 1.0, 0.0 - 1.0,
-                                                      0.3 - 1.0 - 10.0], atol=1e-5)
+    # each env's touching left foot twists at 0.4 rad/s (-0.4); the right one is in the air
+    np.testing.assert_allclose(reward.cpu().numpy(), [0.3 + 1.0 - 1.0 - 0.4, 0.0 - 1.0 - 0.4,
+                                                      0.3 - 1.0 - 10.0 - 0.4], atol=1e-5)
     assert fell.tolist() == [False, False, True]
 
 

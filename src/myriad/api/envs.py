@@ -318,6 +318,23 @@ class Envs:
         _, cols = self._actor_columns(actor)
         return self.sim.mass_matrix[:, cols][:, :, cols]
 
+    def angular_momentum(self, actor: str) -> torch.Tensor:
+        """[N, 3] the actor's angular momentum about its centre of mass, world axes (kg·m²/s):
+        each body's spin I·ω plus its mass's moment m·(c − c̄) × (v_c − v̄) about the common
+        centre c̄ (MuJoCo's subtreeangmom of the actor's root body)."""
+        bodies, _ = self._actor_columns(actor)
+        s = self.sim
+        mass = s.body_mass[:, bodies, None]                          # [N, B, 1]
+        com, omega = s.body_com[:, bodies], s.body_vel[:, bodies, 3:]
+        v_com = s.body_vel[:, bodies, :3] + torch.cross(omega, com - s.body_pose[:, bodies, :3],
+                                                        dim=-1)
+        total = mass.sum(-2, keepdim=True)
+        c_bar = (mass * com).sum(-2, keepdim=True) / total
+        v_bar = (mass * v_com).sum(-2, keepdim=True) / total
+        frame = s.body_iframe[:, bodies]
+        spin = quat_rotate(frame, s.body_inertia[:, bodies] * quat_rotate_inverse(frame, omega))
+        return (spin + mass * torch.cross(com - c_bar, v_com - v_bar, dim=-1)).sum(-2)
+
     def actor_bodies(self, actor: str) -> list[int]:
         """Indices of the actor's bodies (into bodies, `rigid_body_states`, `sim.body_mass`)."""
         return np.flatnonzero(self._body_actor == self.actor_index(actor)).tolist()

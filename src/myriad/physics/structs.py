@@ -364,7 +364,8 @@ class State:
     body_x = per_env("nbody", dtype=wp.transform, doc="pose of the body frame: position, "
                      "quaternion xyzw", public="body_pose")
     body_com = per_env("nbody", dtype=wp.vec3, doc="center of mass (m)", public=True)
-    body_iframe = per_env("nbody", dtype=wp.quat, doc="orientation of the principal axes")
+    body_iframe = per_env("nbody", dtype=wp.quat, doc="orientation of the principal axes of "
+                          "inertia, world (quaternion xyzw)", public=True)
     body_vel = per_env("nbody", dtype=wp.spatial_vector, doc="linear velocity of the body origin, "
                        "then angular velocity", public=True)
     site_x = per_env("nsite", dtype=wp.transform, doc="pose of each site", public="site_pose")

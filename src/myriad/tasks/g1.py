@@ -33,6 +33,11 @@ run 1's terms (Isaac Lab's G1 flat; the best of three CPU hours, docs/results.md
     −0.1·Σ|q − q0| over hip yaw and roll, waist, arms (stay near the default pose)
     −200 when the episode ends in a fall.
   At scale 0 as committed (set in the YAML to use them):
+    mjlab's whole-body angular momentum, −|L|² (kg²·m⁴/s², about the robot's centre of mass,
+      `Envs.angular_momentum`): the legs' swing must be countered by the arms, not the pelvis;
+    −Σ_feet |ω_foot,z| while the foot touches the ground (twisting; rad/s): a foot on its heel or
+      toe edge, two 5 mm spheres 5–6 cm apart, pivots about the vertical, and the ankle's
+      velocity, which the sliding term charges, does not show it;
     mjlab's (run 3): exp(−|g_xy|²/0.2) of the torso (upright) and exp(−mean_j((q_j −
       q0_j)²/std_j²)) (pose), std_j from `poseStd`'s standing (0.05 rad), walking or running
       table by the command's |v*_xy| + |ω*_z|;
@@ -247,7 +252,8 @@ class G1Velocity(VecTask):
             e.rigid_body_states[:, self.feet, 7:9], stance, e.rigid_body_states[:, self.feet, 2],
             self.gravity_dir, self.forward_axis, self.dt, self.cfg["env"]["maxTilt"],
             self.cfg["env"]["gait"]["swingHeight"], self.reward_scales,
-            e.rigid_body_states[:, self.torso, 3:7], self.pose_std[regime], self.learn)
+            e.rigid_body_states[:, self.torso, 3:7], self.pose_std[regime], self.learn,
+            e.angular_momentum("g1"), e.rigid_body_states[:, self.feet, 12])
         self.reset_buf[:] = terminated.long()
         self.episode_outcomes["fell"] = terminated
         self.last_actions[:] = self.actions
@@ -331,12 +337,15 @@ def compute_g1_reward(base_state, commands, torques, dof_pos, dof_vel, last_dof_
                       last_actions, default_dof_pos, soft_limits, deviation_dofs,
                       contact_forces, bodies_ending, foot_contact, air_time, contact_time,
                       foot_vel_xy, gait_stance, foot_z, gravity_dir, forward_axis, dt, max_tilt,
-                      swing_height, scales, torso_quat, pose_std, kernels):
+                      swing_height, scales, torso_quat, pose_std, kernels, angular_momentum,
+                      foot_yaw_rate):
     """The module docstring's terms (each scale already × dt); returns (reward, fell).
     `gait_stance` [N, 2]: whether the gait clock has each foot on the ground; `foot_z` [N, 2] the
     ankle roll links' heights; `gravity_dir`, `forward_axis` [N, 3]: world -z and +x;
     `torso_quat` [N, 4]; `pose_std` [N, dofs]: each joint's pose tolerance (rad); `kernels`:
-    the widths σ² of the exponential terms (`env.learn`'s ...Sigma2)."""
+    the widths σ² of the exponential terms (`env.learn`'s ...Sigma2); `angular_momentum` [N, 3]
+    the robot's about its centre of mass (kg·m²/s); `foot_yaw_rate` [N, 2] the ankle roll links'
+    angular velocity about the world vertical (rad/s)."""
     quat = base_state[:, 3:7]
     lin_vel = quat_rotate_inverse(quat, base_state[:, 7:10])
     ang_vel = quat_rotate_inverse(quat, base_state[:, 10:13])
@@ -369,6 +378,7 @@ def compute_g1_reward(base_state, commands, torques, dof_pos, dof_vel, last_dof_
               + torch.exp(-pose_error) * scales["poseRewardScale"]
               + lin_vel[:, 2] ** 2 * scales["linearVelocityZRewardScale"]
               + torch.sum(ang_vel[:, :2] ** 2, dim=-1) * scales["angularVelocityXYRewardScale"]
+              + torch.sum(angular_momentum ** 2, dim=-1) * scales["angularMomentumRewardScale"]
               + torch.sum(gravity[:, :2] ** 2, dim=-1) * scales["orientationRewardScale"]
               + torch.sum(torques ** 2, dim=-1) * scales["torqueRewardScale"]
               + torch.sum(((dof_vel - last_dof_vel) / dt) ** 2, dim=-1)
@@ -378,6 +388,8 @@ def compute_g1_reward(base_state, commands, torques, dof_pos, dof_vel, last_dof_
               + single_stance_time * scales["feetAirTimeRewardScale"]
               + torch.sum(torch.norm(foot_vel_xy, dim=-1) * foot_contact, dim=-1)
               * scales["feetSlideRewardScale"]
+              + torch.sum(foot_yaw_rate.abs() * foot_contact, dim=-1)
+              * scales["feetTwistRewardScale"]
               + torch.sum((dof_pos - default_dof_pos)[:, deviation_dofs].abs(), dim=-1)
               * scales["jointDeviationRewardScale"]
               + (foot_contact == gait_stance).sum(-1) * scales["gaitContactRewardScale"]
