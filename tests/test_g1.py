@@ -173,6 +173,9 @@ def test_g1_angular_momentum_is_mujocos(device):
     e.forward()
     momentum = e.angular_momentum("g1")
     assert momentum.shape == (N, 3)
+    shares = e.angular_momentum("g1", per_body=True)
+    assert shares.shape == (N, 30, 3)
+    torch.testing.assert_close(shares.sum(1), momentum)
     expected = np.array(expected)
     assert np.all(np.linalg.norm(expected, axis=1) > 0.5)      # measured 7.8 to 8.4 kg·m²/s
     np.testing.assert_allclose(momentum.cpu().numpy(), expected, atol=1e-4 * 4, rtol=1e-4)

@@ -318,10 +318,11 @@ class Envs:
         _, cols = self._actor_columns(actor)
         return self.sim.mass_matrix[:, cols][:, :, cols]
 
-    def angular_momentum(self, actor: str) -> torch.Tensor:
+    def angular_momentum(self, actor: str, per_body: bool = False) -> torch.Tensor:
         """[N, 3] the actor's angular momentum about its centre of mass, world axes (kg·m²/s):
         each body's spin I·ω plus its mass's moment m·(c − c̄) × (v_c − v̄) about the common
-        centre c̄ (MuJoCo's subtreeangmom of the actor's root body)."""
+        centre c̄ (MuJoCo's subtreeangmom of the actor's root body). `per_body`: [N, actor
+        bodies, 3], each body's share instead (their sum is the first)."""
         bodies, _ = self._actor_columns(actor)
         s = self.sim
         mass = s.body_mass[:, bodies, None]                          # [N, B, 1]
@@ -333,7 +334,8 @@ class Envs:
         v_bar = (mass * v_com).sum(-2, keepdim=True) / total
         frame = s.body_iframe[:, bodies]
         spin = quat_rotate(frame, s.body_inertia[:, bodies] * quat_rotate_inverse(frame, omega))
-        return (spin + mass * torch.cross(com - c_bar, v_com - v_bar, dim=-1)).sum(-2)
+        shares = spin + mass * torch.cross(com - c_bar, v_com - v_bar, dim=-1)
+        return shares if per_body else shares.sum(-2)
 
     def actor_bodies(self, actor: str) -> list[int]:
         """Indices of the actor's bodies (into bodies, `rigid_body_states`, `sim.body_mass`)."""
