@@ -17,7 +17,7 @@ training starts), against which `check_of` picks the figure that shows what trai
 A policy no figure of which tells it from a fresh one within `MAX_CHECK_EPISODES` is not shipped.
 Maintainers ship a run's checkpoint with
 
-    python -m myriad.rl.shipped runs/NAME/nn/last.pth [--episodes 100]
+    python -m myriad.rl.shipped runs/NAME/nn/last.pth [--episodes 100]   # or nn/<Task>.pth
     python -m myriad.rl.shipped --baseline TASK ...      # (re)measure shipped tasks' baselines
 """
 
@@ -190,7 +190,13 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
             summary = json.load(f)
     except (OSError, ValueError) as err:
         raise ValueError(f"{checkpoint}: its run's summary.json is not readable ({err}): ship "
-                         "the nn/last.pth of a finished `myriad train` run") from None
+                         "a checkpoint of a finished `myriad train` run") from None
+    # the checkpoint's own progress: a run's best checkpoint (nn/<Task>.pth) is not its last
+    progress = {"env_steps": state.get("frame"),
+                "wall_s": (state.get("myriad") or {}).get("wall_s"),
+                "mean_reward": state.get("last_mean_rewards"), "epoch": state.get("epoch")}
+    summary |= {k: float(v) if k in ("wall_s", "mean_reward") else int(v)
+                for k, v in progress.items() if v is not None}
     task = checkpoint_task(checkpoint)
     figures = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -216,6 +222,7 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
         "device": summary.get("device"), "num_envs": summary.get("num_envs"),
         "seed": summary.get("seed"), "env_steps": summary.get("env_steps"),
         "wall_s": summary.get("wall_s"), "training_mean_reward": summary.get("mean_reward"),
+        "epoch": summary.get("epoch"),
         "eval": {"command": f"myriad eval task={task} checkpoint=shipped episodes={episodes} "
                             + (f"num_envs={num_envs} " if num_envs else "") + "seed=0",
                  "primary": report["primary"], "results": report["results"],
@@ -277,7 +284,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description="Ship a run's policy with Myriad: strip its "
                                  "checkpoint, evaluate it and a fresh policy of its task, and "
                                  "write the manifest entry.")
-    ap.add_argument("checkpoint", nargs="?", help="a finished run's nn/last.pth")
+    ap.add_argument("checkpoint", nargs="?", help="a finished run's nn/last.pth, or its best "
+                    "(nn/<Task>.pth)")
     ap.add_argument("--baseline", nargs="+", metavar="TASK",
                     help="only measure these shipped tasks' fresh-policy baselines")
     ap.add_argument("--command", help="the command that trained it (default: its summary's)")
