@@ -24,20 +24,21 @@ Observation (101):
   plus uniform noise ± the config's noise × the same scales, each step (commands and actions
   have none).
 Reward, each term × dt (0.02 s), scales and widths in `env.learn` (no clipping). As committed,
-run 1's terms (Isaac Lab's G1 flat; the best of three CPU hours, docs/results.md):
+run 1's terms (Isaac Lab's G1 flat; the best of three CPU hours, docs/results.md) and run 12's
+twist term:
     +1.0·exp(−|v*_xy − v_xy|²/0.25), v_xy in the yaw frame   +1.0·exp(−(ω*_z − ω_z)²/0.25)
     −0.2·v_z²  −0.05·|ω_xy|²  −1.0·|g_xy|² (base tilt)
     −2e-6·Στ²  −1e-7·Σq̈²  −0.005·Σ(a − a_prev)²  −1.0·Σ(distance beyond the soft limits)
     +0.75·min(time in the current single-stance phase, 0.4 s), when |v*_xy| > 0.1
     −0.1·Σ_feet |v_foot,xy| while the foot touches the ground (sliding)
+    −0.3·Σ_feet |ω_foot,z| while the foot touches the ground (twisting; rad/s): a foot on one
+      or two of its 5 mm sole spheres pivots about the vertical, which the ankle's velocity
+      does not show (run 12, which met the yaw bar, added it)
     −0.1·Σ|q − q0| over hip yaw and roll, waist, arms (stay near the default pose)
     −200 when the episode ends in a fall.
   At scale 0 as committed (set in the YAML to use them):
     mjlab's whole-body angular momentum, −|L|² (kg²·m⁴/s², about the robot's centre of mass,
       `Envs.angular_momentum`): the legs' swing must be countered by the arms, not the pelvis;
-    −Σ_feet |ω_foot,z| while the foot touches the ground (twisting; rad/s): a foot on its heel or
-      toe edge, two 5 mm spheres 5–6 cm apart, pivots about the vertical, and the ankle's
-      velocity, which the sliding term charges, does not show it;
     mjlab's (run 3): exp(−|g_xy|²/0.2) of the torso (upright) and exp(−mean_j((q_j −
       q0_j)²/std_j²)) (pose), std_j from `poseStd`'s standing (0.05 rad), walking or running
       table by the command's |v*_xy| + |ω*_z|;
