@@ -26,10 +26,7 @@ from myriad.rl.policy import load_policy
 from myriad.rl.run import compose, task_and_train_configs
 from myriad.torch_utils import quat_rotate
 
-# the G1 task's feet (`myriad.assets.g1_spec`): 5 mm spheres at these points of the ankle roll link
-SOLE = torch.tensor([[-0.05, 0.025, -0.03], [-0.05, -0.025, -0.03],
-                     [0.12, 0.03, -0.03], [0.12, -0.03, -0.03]])
-SPHERE_RADIUS, TOUCHING, LOADED = 0.005, 0.003, 150.0      # m, m, N
+TOUCHING, LOADED = 0.003, 150.0      # m: a sole sphere this close to the ground; N: a stance foot
 
 
 def main():
@@ -62,6 +59,7 @@ def main():
                   k in s for k in ("pelvis", "waist", "torso"))],
               "arms": [i for i, s in enumerate(names) if any(k in s for k in ("shoulder", "elbow",
                                                                               "wrist"))]}
+    sole, radius = sole_spheres(envs.model.mj_model, task.feet[0].item() + 1)
     settle = round(1.0 / task.dt)
     pelvis_yaw, momentum, group_z = [], [], {k: [] for k in groups}
     touching_count, twist, twist_flat, pairs = [], [], [], []
@@ -77,8 +75,8 @@ def main():
         for k, idx in groups.items():
             group_z[k].append(per_body[:, idx, 2].sum(-1))
         pose, vel = sim.body_pose[:, task.feet], sim.body_vel[:, task.feet]
-        arm = quat_rotate(pose[:, :, None, 3:7].expand(-1, -1, 4, -1), SOLE.expand(n, 2, 4, 3))
-        down = pose[:, :, None, 2] + arm[..., 2] - SPHERE_RADIUS < TOUCHING      # [N, 2, 4]
+        arm = quat_rotate(pose[:, :, None, 3:7].expand(-1, -1, 4, -1), sole.expand(n, 2, 4, 3))
+        down = pose[:, :, None, 2] + arm[..., 2] - radius < TOUCHING      # [N, 2, 4]
         touching = down.sum(-1)
         loaded = envs.net_contact_force[:, task.feet, 2] > LOADED
         touching_count.append(touching[loaded])
@@ -109,6 +107,19 @@ def main():
         corr = ((zc * centred_yaw).mean(0) / (zc.std(0) * centred_yaw.std(0) + 1e-9)).mean()
         print(f"  vertical momentum of the {k}: std {z.std(0).mean():.3f} kg·m²/s, "
               f"correlation with the pelvis's yaw rate {corr:+.2f}")
+
+
+def sole_spheres(mj_model, foot: int) -> tuple[torch.Tensor, float]:
+    """([4, 3] positions in the foot's frame, radius) of the sphere geoms of MuJoCo body `foot`:
+    the G1's feet (`myriad.assets.g1_spec`), heel pair first, as the URDF lists them."""
+    import mujoco
+    spheres = [g for g in range(mj_model.ngeom) if mj_model.geom_bodyid[g] == foot
+               and mj_model.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE]
+    if len(spheres) != 4:
+        raise ValueError(f"body {foot}: expected the G1's four sole spheres, found "
+                         f"{len(spheres)} sphere geoms")
+    return (torch.tensor(mj_model.geom_pos[spheres], dtype=torch.float32),
+            float(mj_model.geom_size[spheres[0], 0]))
 
 
 if __name__ == "__main__":
