@@ -32,8 +32,9 @@ def usage(name: str, envs: int, steps: int) -> dict:
     layout = sim.device_model.layout
     ncontact = sim.contact_count.clamp(max=sim.contact_capacity)
     normal = torch.zeros_like(row_type, dtype=torch.bool)
-    normal[:, 0:layout.joint_limits:3] = (torch.arange(layout.joint_limits // 3)[None]
-                                          < ncontact[:, None])
+    width = layout.contact_width
+    normal[:, 0:layout.joint_limits:width] = (torch.arange(layout.contact_slots)[None]
+                                              < ncontact[:, None])
     limits = torch.zeros_like(normal)
     limits[:, layout.joint_limits:layout.tendon_limits] = True
     idle = (lam == 0) & (lam_init == 0)

@@ -400,13 +400,43 @@ def test_explicit_pairs_pass_the_filters_and_replace_the_dynamic_pair():
         assert all(model.geom_type[a] <= model.geom_type[b] for a, b in pairs)   # type-ordered
         found = [tuple(sorted((names[a], names[b]))) for a, b in pairs]
         assert len(found) == len(set(found)), "each pair once"
-        return dict(zip(found, pair_friction(model, pairs).tolist()))
+        return dict(zip(found, pair_friction(model, pairs)[:, 0].tolist()))
 
     # -1: the geoms' average; condim 1: frictionless
     assert friction_by_pair() == pytest.approx({("floor", "ga"): -1.0, ("floor", "gb"): 0.7,
                                                 ("ga", "gb"): 0.0, ("ga", "gd"): 0.3})
     assert friction_by_pair(False) == pytest.approx({("floor", "ga"): -1.0, ("floor", "gb"): 0.7,
                                                      ("ga", "gd"): 0.3})
+
+
+def test_torsional_and_rolling_friction_follow_mujocos_condim_and_mixing():
+    """Per candidate pair (sliding, torsional, rolling): the angular coefficients only where
+    the contact's condim reaches 4 and 6; between two geoms of one priority the larger condim
+    and each coefficient's larger value, else the higher priority's; an explicit pair's own
+    (MuJoCo's pair friction: tangent, tangent, spin, roll, roll)."""
+    model = myriad.load_xml("""<mujoco><worldbody>
+      <geom name="floor" type="plane" size="1 1 0.1" friction="1 0.03 0.002"/>
+      <body pos="0 0 0.1"><freejoint/><geom name="c3" size="0.1" friction="1 0.05 0.01"/></body>
+      <body pos="1 0 0.1"><freejoint/>
+        <geom name="c4" size="0.1" condim="4" friction="1 0.01 0.01"/></body>
+      <body pos="2 0 0.1"><freejoint/>
+        <geom name="c6" size="0.1" condim="6" friction="1 0.01 0.001"/></body>
+      <body pos="3 0 0.1"><freejoint/>
+        <geom name="p" size="0.1" condim="6" priority="1" friction="0.5 0.02 0.001"/></body>
+      <body pos="4 0 0.1"><freejoint/><geom name="q" size="0.1"/></body>
+      </worldbody><contact>
+        <pair geom1="q" geom2="floor" condim="4" friction="0.4 0.4 0.07 0.003 0.003"/>
+      </contact></mujoco>""", "angular_friction")
+    names = model.geom_names
+    pairs = candidate_pairs(model)
+    got = {tuple(sorted((names[a], names[b]))): mu
+           for (a, b), mu in zip(pairs, pair_friction(model, pairs).tolist())}
+    assert got[("c3", "floor")] == pytest.approx([-1.0, 0.0, 0.0])       # condim 3
+    assert got[("c4", "floor")] == pytest.approx([-1.0, 0.03, 0.0])      # larger; no rolling
+    assert got[("c6", "floor")] == pytest.approx([-1.0, 0.03, 0.002])
+    assert got[("floor", "p")] == pytest.approx([-1.0, 0.02, 0.001])     # priority 1 wins
+    assert got[("floor", "q")] == pytest.approx([0.4, 0.07, 0.0])        # the pair, condim 4
+    assert got[("c4", "c6")] == pytest.approx([-1.0, 0.01, 0.01])
 
 
 def _ball_on_table(pair: str) -> myriad.Model:

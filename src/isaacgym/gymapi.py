@@ -3649,8 +3649,9 @@ def _check_shape_props(props, count: int, call: str) -> None:
                                "Myriad honours friction and restitution per shape")
         for name in ("rolling_friction", "torsion_friction"):
             if getattr(p, name) != getattr(d, name):
-                _warn_once(f"{call}: {name} is not applied (Myriad's contacts have sliding "
-                           "friction only, no torsional or rolling friction)")
+                _warn_once(f"{call}: {name} is not applied (what Isaac Gym's PhysX makes of "
+                           "it is not documented; Myriad's torsional and rolling friction are "
+                           "MuJoCo's, from MJCF geoms of condim 4 and 6)")
 
 
 # ---------------------------------------------------------------------------------- prepare

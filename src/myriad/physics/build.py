@@ -95,14 +95,17 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
     candidate_places = min(CANDIDATES_PER_SLOT * contact_capacity, most)
     meshes, hfields, triangle_meshes = shape_data(model, dev)
 
-    # constraint rows: 3 per contact slot, 2 per limited joint, 2 per limited tendon, one
+    # constraint rows: 3 per contact slot (4 or 6 with torsional or rolling friction), 2 per
+    # limited joint, 2 per limited tendon, one
     # spring-damper row per tendon (present with or without `constraints`), and one row per
     # dof for joint friction and the maximum joint speed
     limited = [j for j in range(m.njnt) if m.jnt_limited[j] and params.constraints]
     limited_tendons = [t for t in range(m.ntendon) if m.tendon_limited[t] and params.constraints]
     equality_rownum = int(equality_rows(m)["eq_rownum"].sum()) if params.constraints else 0
-    layout = row_layout(contact_capacity, len(limited), len(limited_tendons), equality_rownum,
-                        m.ntendon, m.nv if params.constraints else 0)
+    friction = pair_rules.pair_friction(model, pairs)
+    layout = row_layout(contact_capacity, pair_rules.contact_width(friction), len(limited),
+                        len(limited_tendons), equality_rownum, m.ntendon,
+                        m.nv if params.constraints else 0)
     dof_span = tree_spans(model)[0]
     tendon_dofs = [np.arange(*m.tendon_dofspan[t]) if m.tendon_spatial[t] >= 0
                    else m.jnt_dofadr[m.wrap_jnt[a:a + k]]
@@ -181,7 +184,7 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
         State: dict(q=m.qpos0, mocap_pos=m.body_pos[mocap], mocap_quat=m.body_quat[mocap]),
     }
     return DeviceModel(
-        m=model_arrays(model, dev, pair_rules.pair_friction(model, pairs)), opt=opt,
+        m=model_arrays(model, dev, friction), opt=opt,
         layout=layout, pairs=wp.array(pairs, dtype=wp.vec2i, device=dev), meshes=meshes,
         hfields=hfields, triangle_meshes=triangle_meshes, sizes=sizes, sensor_sites=sensor_sites,
         sensor_site=wp.array(np.asarray(sensor_sites, np.int32), dtype=wp.int32, device=dev),
@@ -315,7 +318,7 @@ def model_arrays(model, device, pair_friction=None) -> ModelArrays:
                    body_fluid_ellipsoid=np.asarray(
                        [bool((model.geom_fluid[a:a + n, 0] > 0).any())
                         for a, n in zip(model.body_geomadr, model.body_geomnum)], np.int32),
-                   pair_friction=np.zeros(0, np.float32) if pair_friction is None
+                   pair_friction=np.zeros((0, 3), np.float32) if pair_friction is None
                    else pair_friction)
     out = ModelArrays()
     for name, var in ModelArrays.vars.items():
@@ -333,11 +336,13 @@ def model_arrays(model, device, pair_friction=None) -> ModelArrays:
 
 
 # ------------------------------------------------------------------ constraint rows
-def row_layout(contact_slots: int, limited_joints: int, limited_tendons: int,
-               equality_rows: int, tendons: int, dof_rows: int) -> RowLayout:
+def row_layout(contact_slots: int, contact_width: int, limited_joints: int,
+               limited_tendons: int, equality_rows: int, tendons: int,
+               dof_rows: int) -> RowLayout:
     layout = RowLayout()
     layout.contact_slots = contact_slots
-    layout.joint_limits = 3 * contact_slots
+    layout.contact_width = contact_width
+    layout.joint_limits = contact_width * contact_slots
     layout.tendon_limits = layout.joint_limits + 2 * limited_joints
     layout.equalities = layout.tendon_limits + 2 * limited_tendons
     layout.springs = layout.equalities + equality_rows

@@ -671,13 +671,19 @@ def _qpos_xyzw(m, qpos: np.ndarray) -> np.ndarray:
 def _explicit_pairs(m) -> dict:
     """The Model's pair_* fields from MuJoCo's <contact><pair> elements.
 
-    A pair's own friction replaces its geoms' (pair_friction[:, 0], the sliding friction); a
-    condim 1 pair is frictionless. As for geoms, condim 4 and 6 keep only the sliding friction
-    (Myriad has no torsional or rolling friction), and the pair's margin and gap are not used:
-    every pair has the simulator's contact_offset (`SimParams`), PhysX's one offset. Its solref,
-    solimp and solreffriction do not apply either: contacts are hard rows."""
-    geoms = np.stack([m.pair_geom1, m.pair_geom2], axis=1) if m.npair else np.zeros((0, 2))
-    friction = np.where(m.pair_dim == 1, 0.0, m.pair_friction[:, 0]) if m.npair else np.zeros(0)
+    A pair's own friction replaces its geoms': its first tangent coefficient as the sliding
+    friction (0 for a condim 1 pair), its torsional one where its condim is 4 or 6, its first
+    rolling one where it is 6 (`pair_friction`, [npair, 3]). The pair's margin and gap are not
+    used: every pair has the simulator's contact_offset (`SimParams`), PhysX's one offset. Its
+    solref, solimp and solreffriction do not apply either: contacts are hard rows."""
+    if not m.npair:
+        return dict(pair_geoms=np.zeros((0, 2), np.int32),
+                    pair_friction=np.zeros((0, 3), np.float32))
+    geoms = np.stack([m.pair_geom1, m.pair_geom2], axis=1)
+    dim = m.pair_dim
+    friction = np.stack([np.where(dim == 1, 0.0, m.pair_friction[:, 0]),
+                         np.where(dim >= 4, m.pair_friction[:, 2], 0.0),
+                         np.where(dim >= 6, m.pair_friction[:, 3], 0.0)], axis=1)
     return dict(pair_geoms=_i32(geoms), pair_friction=_f32(friction))
 
 

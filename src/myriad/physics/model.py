@@ -97,7 +97,8 @@ class Model:
     geom_pos: np.ndarray             # [ngeom, 3]
     geom_quat: np.ndarray            # [ngeom, 4] xyzw
     geom_size: np.ndarray            # [ngeom, 3] MuJoCo's size semantics
-    geom_friction: np.ndarray        # [ngeom, 3] sliding, torsional, rolling
+    geom_friction: np.ndarray        # [ngeom, 3] sliding, torsional (m), rolling (m); the
+                                     # angular two apply at condim 4 and 6 (`pairs.pair_friction`)
     geom_contype: np.ndarray         # [ngeom]
     geom_conaffinity: np.ndarray     # [ngeom]
     geom_condim: np.ndarray          # [ngeom]
@@ -210,8 +211,10 @@ class Model:
     # explicit contact pairs (MJCF <contact><pair>), in MuJoCo's order: always candidates,
     # whatever contype/conaffinity, parent-child and <exclude> say (`collision.candidate_pairs`)
     pair_geoms: np.ndarray           # [npair, 2] geom ids
-    pair_friction: np.ndarray        # [npair] sliding friction of the pair's contacts, used instead
-                                     # of its geoms' average; 0 for condim 1 (frictionless)
+    pair_friction: np.ndarray        # [npair, 3] sliding, torsional, rolling friction of the
+                                     # pair's contacts, used instead of its geoms'; sliding 0 for
+                                     # condim 1 (frictionless), torsional 0 below condim 4,
+                                     # rolling 0 below condim 6
 
     # equality constraints (MuJoCo's <equality>), hard rows of the solve (docs/physics.md).
     # Site semantics are turned into body semantics at import: a frame on each of two bodies.

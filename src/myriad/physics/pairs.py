@@ -105,27 +105,64 @@ def _order(geom_type) -> int:
 
 
 def _explicit(model) -> dict:
-    """{(g1, g2) with g1 < g2: sliding friction} of the model's explicit pairs. A pair named
-    twice (the Shadow Hand's shared.xml names one finger pair twice) is one candidate, with
-    the friction of its first <pair>: MuJoCo would collide it twice, doubling its contacts."""
+    """{(g1, g2) with g1 < g2: (sliding, torsional, rolling) friction} of the model's explicit
+    pairs. A pair named twice (the Shadow Hand's shared.xml names one finger pair twice) is one
+    candidate, with the friction of its first <pair>: MuJoCo would collide it twice, doubling
+    its contacts."""
     explicit = {}
-    for (g1, g2), mu in zip(model.pair_geoms.tolist(), model.pair_friction.tolist()):
+    friction = np.asarray(model.pair_friction, np.float32).reshape(-1, 3)
+    for (g1, g2), mu in zip(model.pair_geoms.tolist(), friction.tolist()):
         explicit.setdefault((min(g1, g2), max(g1, g2)), mu)
     return explicit
 
 
 def pair_friction(model, pairs: np.ndarray) -> np.ndarray:
-    """[npair] float32: the friction coefficient of candidate pair k's contacts where an
-    explicit <pair> sets it, 0 where both geoms have condim 1 (MuJoCo's contact takes the larger
-    condim of its two geoms: frictionless only if both are), -1 where the average of its two
-    geoms' friction applies (`constraints.contact_rows` reads it by the contact's pair index,
-    key // 32). An explicit pair's friction is the model's, the same in every env: randomizing
-    geom_friction does not change it."""
+    """[npair, 3] float32, per candidate pair k (`constraints.contact_rows` reads it by the
+    contact's pair index, key // 32):
+
+    - [k, 0], sliding: an explicit <pair>'s own; 0 where both geoms have condim 1 (MuJoCo's
+      contact takes the larger condim of its two geoms: frictionless only if both are); -1
+      where the average of the two geoms' `geom_friction` applies, randomizable per env;
+    - [k, 1], torsional (m: the torque about the normal is at most this times the normal
+      force), where the contact's condim is 4 or 6, else 0;
+    - [k, 2], rolling (m, about the two tangents), where its condim is 6, else 0.
+
+    The angular coefficients come from MuJoCo models only (Isaac Gym's torsion and rolling
+    friction are not applied: `docs/physics.md`), and follow MuJoCo's rule for the contact of
+    two geoms: the higher `priority`'s condim and friction, or with equal priorities the
+    larger condim and each coefficient's larger value. An explicit pair's friction is the
+    model's, the same in every env: randomizing geom_friction does not change it."""
     explicit = _explicit(model)
-    frictionless = np.asarray(model.geom_condim) == 1
-    return np.asarray([explicit.get((min(g1, g2), max(g1, g2)),
-                                    0.0 if frictionless[g1] and frictionless[g2] else -1.0)
-                       for g1, g2 in pairs.tolist()], np.float32).reshape(-1)
+    condim = np.asarray(model.geom_condim)
+    friction = np.asarray(model.geom_friction, np.float32).reshape(-1, 3)
+    mj = getattr(model, "mj_model", None)
+    priority = (np.asarray(mj.geom_priority) if mj is not None and mj.ngeom == len(condim)
+                else np.zeros(len(condim), np.int32))
+    out = np.zeros((len(pairs), 3), np.float32)
+    for k, (g1, g2) in enumerate(pairs.tolist()):
+        mu = explicit.get((min(g1, g2), max(g1, g2)))
+        if mu is None:
+            if priority[g1] != priority[g2]:
+                g = g1 if priority[g1] > priority[g2] else g2
+                dim, spin, roll = condim[g], friction[g, 1], friction[g, 2]
+            else:
+                dim = max(condim[g1], condim[g2])
+                spin, roll = np.maximum(friction[g1, 1:3], friction[g2, 1:3])
+            mu = (0.0 if condim[g1] == 1 and condim[g2] == 1 else -1.0,
+                  spin if dim >= 4 else 0.0, roll if dim >= 6 else 0.0)
+        out[k] = mu
+    return out
+
+
+def contact_width(friction: np.ndarray) -> int:
+    """Rows per contact slot for candidate pairs of `pair_friction`: normal and two sliding
+    rows, then a torsional row if a pair has torsional friction, then two rolling rows if one
+    has rolling friction (a model of condim 3 contacts keeps three)."""
+    if len(friction) and (friction[:, 2] > 0).any():
+        return 6
+    if len(friction) and (friction[:, 1] > 0).any():
+        return 4
+    return 3
 
 
 # overlaps shallower than this (m) are parts meant to touch; the solver separates them gently

@@ -153,9 +153,10 @@ class ModelArrays:
     geom_fluid: wp.array(dtype=fluid_coefs)  # the ellipsoid fluid model's coefficients: on (0/1),
                                              # blunt, slender, angular drag, Kutta, Magnus lift,
                                              # virtual mass [3], virtual inertia [3] (MuJoCo's)
-    # [ncandidate pairs] friction of candidate pair k's contacts (k = contact key // 32) set by
-    # an explicit <pair>; -1: the average of its geoms' geom_friction (`collision.pair_friction`)
-    pair_friction: wp.array(dtype=float)
+    # [ncandidate pairs] friction of candidate pair k's contacts (k = contact key // 32):
+    # sliding, set by an explicit <pair> (-1: the average of its geoms' geom_friction),
+    # torsional and rolling (m; 0: none) (`pairs.pair_friction`)
+    pair_friction: wp.array(dtype=wp.vec3)
 
     site_body: wp.array(dtype=wp.int32)
     site_pos: wp.array(dtype=wp.vec3)
@@ -264,12 +265,14 @@ class Options:
 @wp.struct
 class RowLayout:
     """Where each family of rows starts among an env's rows, fixed when the simulator is built.
-    The families are contiguous, in this order: contacts from row 0 (3 rows per contact slot:
-    normal, two friction), joint limits (2 per limited joint: lower, upper), hard tendon limits
+    The families are contiguous, in this order: contacts from row 0 (`contact_width` rows per
+    contact slot: normal, two sliding friction, then torsional and two rolling friction where
+    the model has them), joint limits (2 per limited joint: lower, upper), hard tendon limits
     (2 per limited tendon), equality constraints (`ModelArrays.eq_rownum` each), tendon
     spring-dampers (1 per tendon), dofs (1 per dof: dry friction and speed cap; none without
     constraints)."""
-    contact_slots: int   # contacts an env holds (its rows: [0, 3 · contact_slots))
+    contact_slots: int   # contacts an env holds (its rows: [0, contact_width · contact_slots))
+    contact_width: int   # rows per contact slot: 3, 4 (torsional friction) or 6 (and rolling)
     joint_limits: int    # first joint-limit row
     tendon_limits: int   # first tendon-limit row
     equalities: int      # first equality row

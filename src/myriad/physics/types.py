@@ -114,6 +114,9 @@ class RowType(IntEnum):
     SOFT = 3       # implicit spring-damper along J (fixed tendons): force, not constraint
     DOF = 4        # a dof's dry friction (|impulse| <= frictionloss·h) and speed cap
     EQUALITY = 5   # bilateral: J v = target, impulse of either sign (equality constraints)
+    SPIN = 6       # a contact's torsional friction: |impulse| <= mu_spin · normal impulse
+    ROLL = 7       # first of its two rolling friction rows: a 2D disk of radius mu_roll · normal
+    ROLL2 = 8      # second rolling row (handled with the first)
 
 
 class EqualityType(IntEnum):
@@ -160,6 +163,8 @@ FRICTION2 = wp.constant(int(RowType.FRICTION2))
 SOFT = wp.constant(int(RowType.SOFT))
 DOF = wp.constant(int(RowType.DOF))
 EQUALITY = wp.constant(int(RowType.EQUALITY))
+SPIN = wp.constant(int(RowType.SPIN))
+ROLL = wp.constant(int(RowType.ROLL))
 
 CONNECT = wp.constant(int(EqualityType.CONNECT))
 WELD = wp.constant(int(EqualityType.WELD))

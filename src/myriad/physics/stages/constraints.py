@@ -1,14 +1,16 @@
-"""Stage 4, constraint rows in joint space: contacts (normal + two friction rows), joint and
-tendon limits, tendon spring-dampers, and per-dof friction and speed caps.
+"""Stage 4, constraint rows in joint space: contacts (normal + two friction rows, and torsional
+and rolling friction rows where the model asks for them), joint and tendon limits, tendon
+spring-dampers, and per-dof friction and speed caps.
 
 One function per family of rows (`build_rows`), a world's lanes (`lanes`) taking a family's items
 in turn: rows are independent (only the match of each contact to the last substep's is found
 by one lane, in order). Each row r has a Jacobian J_r (a 1 x nv row: the rate of the
 constraint's coordinate per generalized velocity), the response M⁻¹J_rᵀ through the same LᵀDL factor as the
 unconstrained solve (so implicit damping and drives are part of it), and 1/(J M⁻¹ Jᵀ). Rows sit
-at fixed slots: contact slot k owns rows 3k (normal), 3k+1 and 3k+2 (friction), then each
-limited joint owns two rows (lower, upper), then each limited tendon. Unused slots are marked
-inactive and skipped.
+at fixed slots: contact slot k owns rows wk (normal), wk+1 and wk+2 (friction), w =
+`RowLayout.contact_width` (3; 4 with a torsional row wk+3; 6 with two rolling rows after it),
+then each limited joint owns two rows (lower, upper), then each limited tendon. Unused slots
+are marked inactive and skipped.
 
 Rows are tree-sparse: each row records in `Rows.span` the dofs it can touch, as two [lo, hi)
 ranges (the dof trees of its one or two bodies, or of its dofs; the second range empty when
@@ -33,7 +35,7 @@ from ..lanes import sync, world_lane
 from ..spatial import tangents, velocity_at
 from ..structs import Contacts, Dynamics, EnvParams, ModelArrays, Options, RowLayout, Rows, State
 from ..types import (CONNECT, DOF, EQ_JOINT, EQUALITY, FRICTION, FRICTION2, HFIELD, INACTIVE,
-                    NORMAL, PLANE, SOFT, TRIMESH, WELD)
+                    NORMAL, PLANE, SOFT, SPIN, TRIMESH, WELD)
 
 
 # a contact whose J M⁻¹ Jᵀ is below this fraction of its bodies' free 1/m1 + 1/m2 is dropped
@@ -187,8 +189,8 @@ def build_rows(m: ModelArrays, opt: Options, layout: RowLayout, p: EnvParams,
     e, lane, active = world_lane(block, thread, lanes, s.nonfinite.shape[0])
     at = wp.vec3i(lane, lanes, int(active))
     h = opt.h
-    contact_rows(m, e, at, h, opt.rest_offset, opt.bounce_threshold, p, s, d.factor, contacts,
-                 rows)
+    contact_rows(m, e, at, layout.contact_width, h, opt.rest_offset, opt.bounce_threshold, p, s,
+                 d.factor, contacts, rows)
     joint_limit_rows(m, e, at, layout.joint_limits, h, opt.limit_jnt, p, s, d.factor, rows)
     tendon_limit_rows(m, e, at, layout.tendon_limits, h, opt.limit_tendon, p, s, d.factor, rows)
     if layout.springs > layout.equalities:
@@ -198,11 +200,13 @@ def build_rows(m: ModelArrays, opt: Options, layout: RowLayout, p: EnvParams,
 
 
 @wp.func
-def contact_rows(m: ModelArrays, e: int, at: wp.vec3i, h: float, rest_offset: float,
-                 bounce_threshold: float, p: EnvParams, s: State,
+def contact_rows(m: ModelArrays, e: int, at: wp.vec3i, width: int, h: float,
+                 rest_offset: float, bounce_threshold: float, p: EnvParams, s: State,
                  factor: wp.array2d(dtype=float), c: Contacts, rows: Rows):
-    """Contact slot k: rows 3k (normal), 3k+1, 3k+2 (friction). Slots past the contact count
-    are skipped by the solver: only the used ones are built. `at`: (lane, lanes, active)."""
+    """Contact slot k: rows wk (normal), wk+1, wk+2 (sliding friction), and with a width w of 4
+    or 6 wk+3 (torsional friction: relative spin about the normal) and wk+4, wk+5 (rolling
+    friction: relative rotation about the tangents). Slots past the contact count are skipped
+    by the solver: only the used ones are built. `at`: (lane, lanes, active)."""
     ncontact = int(0)
     if at[2] != 0:      # (a thread past the last world reads nothing of it)
         ncontact = wp.min(c.count[e], c.force.shape[1])
@@ -234,18 +238,37 @@ def contact_rows(m: ModelArrays, e: int, at: wp.vec3i, h: float, rest_offset: fl
         t1, t2 = tangents(n)
         sp = _body_spans(m, b1, b2)
         # an explicit <pair>'s own friction, else the two geoms' average (PhysX's combine)
-        mu = m.pair_friction[c.key[e, k] // 32]
+        pair_mu = m.pair_friction[c.key[e, k] // 32]
+        mu = pair_mu[0]
         if mu < 0.0:
             mu = 0.5 * (p.geom_friction[e, pair[0]] + p.geom_friction[e, pair[1]])
         restitution = 0.5 * (p.geom_restitution[e, pair[0]] + p.geom_restitution[e, pair[1]])
-        # the three rows together: normal (3k), then the two friction rows; J is the velocity
-        # of body 2's point relative to body 1's, along each direction
-        r0 = 3 * k
-        for d in range(3):
+        # the rows together: normal (wk), then the two friction rows; J is the velocity of
+        # body 2's point relative to body 1's, along each direction
+        r0 = width * k
+        for d in range(width):
             rows.span[e, r0 + d] = sp
             dense.row_fill(rows.jac, e, r0 + d, 0.0, _width(sp))
         _add_contact_jacobian(m, e, b2, pos, n, t1, t2, 1.0, s.body_x, s.cdof, rows.jac, r0, sp)
         _add_contact_jacobian(m, e, b1, pos, n, t1, t2, -1.0, s.body_x, s.cdof, rows.jac, r0, sp)
+        if width > 3:
+            # torsional and rolling rows: body 2's angular velocity relative to body 1's, about
+            # n (and t1, t2); bounded by their coefficient times the normal impulse (`solver`)
+            axes = wp.matrix_from_rows(n, t1, t2)
+            _add_angular_jacobian(m, e, b2, 1.0, axes, width - 3, s.cdof, rows.jac, r0 + 3, sp)
+            _add_angular_jacobian(m, e, b1, -1.0, axes, width - 3, s.cdof, rows.jac, r0 + 3, sp)
+            for d in range(3, width):
+                coefficient = wp.where(d == 3, pair_mu[1], pair_mu[2])
+                rows.type[e, r0 + d] = wp.where(coefficient > 0.0, SPIN + d - 3, INACTIVE)
+                rows.inv_mass[e, r0 + d] = 0.0
+                rows.mu[e, r0 + d] = coefficient
+                rows.err[e, r0 + d] = 0.0
+                rows.bounce[e, r0 + d] = 0.0
+                rows.lam_init[e, r0 + d] = 0.0
+            rows.dir[e, r0 + 3] = n
+            if width > 4:
+                rows.dir[e, r0 + 4] = t1
+                rows.dir[e, r0 + 5] = t2
         rows.dir[e, r0] = n
         rows.dir[e, r0 + 1] = t1
         rows.dir[e, r0 + 2] = t2
@@ -285,7 +308,7 @@ def contact_rows(m: ModelArrays, e: int, at: wp.vec3i, h: float, rest_offset: fl
         x2 = _pose(s.body_x, e, b2)
         held = int(0)
         if same >= 0:
-            if rows.lam[e, 3 * same] > 0.0 and c.slid[e, same] == 0:
+            if rows.lam[e, width * same] > 0.0 and c.slid[e, same] == 0:
                 held = 1
         a1 = wp.vec3()
         a2 = wp.vec3()
@@ -304,9 +327,9 @@ def contact_rows(m: ModelArrays, e: int, at: wp.vec3i, h: float, rest_offset: fl
         # robot's base mesh at its joint limit pushed a UR5 1.4 rad past the limit
         ground = m.geom_type[pair[0]]
         if same >= 0 and (ground == PLANE or ground == HFIELD or ground == TRIMESH):
-            warm_n = rows.lam[e, 3 * same]
+            warm_n = rows.lam[e, width * same]
             if warm_n != 0.0:
-                build_contact_rows(m, e, r0, sp, factor, rows)
+                build_contact_rows(m, e, r0, width, sp, factor, rows)
                 if rows.type[e, r0] != INACTIVE:
                     rows.lam_init[e, r0] = warm_n
         drift = wp.transform_point(x2, a2) - wp.transform_point(x1, a1)
@@ -394,10 +417,11 @@ def _pose(body_x: wp.array2d(dtype=wp.transform), e: int, b: int):
 
 
 @wp.func
-def _add_angular_jacobian(m: ModelArrays, e: int, body: int, sign: float,
-                          cdof: wp.array2d(dtype=wp.spatial_vector), jac: wp.array3d(dtype=float),
-                          r: int, sp: wp.vec4i):
-    """J[r + d] += sign · (angular velocity of `body`, per dof)[d] for the world axes d."""
+def _add_angular_jacobian(m: ModelArrays, e: int, body: int, sign: float, axes: wp.mat33,
+                          count: int, cdof: wp.array2d(dtype=wp.spatial_vector),
+                          jac: wp.array3d(dtype=float), r: int, sp: wp.vec4i):
+    """J[r + d] += sign · axes[d]ᵀ·(angular velocity of `body`, per dof) for the first `count`
+    rows d of `axes` (a weld's world axes; a contact's normal and tangents)."""
     if body < 0:
         return
     last = m.body_last_dof[body]
@@ -408,8 +432,8 @@ def _add_angular_jacobian(m: ModelArrays, e: int, body: int, sign: float,
         j = m.mass_col[a]
         w = sign * wp.spatial_top(cdof[e, j])
         c = _col(sp, j)
-        for d in range(3):
-            jac[e, r + d, c] = jac[e, r + d, c] + w[d]
+        for d in range(count):
+            jac[e, r + d, c] = jac[e, r + d, c] + wp.dot(axes[d], w)
 
 
 @wp.func
@@ -503,8 +527,9 @@ def equality_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, p: EnvParams,
                 turn = _rotation_vector(q1 * wp.quat_inverse(q2))
                 for a in range(3):
                     rows.err[e, r + 3 + a] = turn[a]
-                _add_angular_jacobian(m, e, o1, 1.0, s.cdof, rows.jac, r + 3, sp)
-                _add_angular_jacobian(m, e, o2, -1.0, s.cdof, rows.jac, r + 3, sp)
+                world = wp.identity(n=3, dtype=float)
+                _add_angular_jacobian(m, e, o1, 1.0, world, 3, s.cdof, rows.jac, r + 3, sp)
+                _add_angular_jacobian(m, e, o2, -1.0, world, 3, s.cdof, rows.jac, r + 3, sp)
         else:
             ref = m.eq_ref[i]
             sp = wp.vec4i(0, 0, 0, 0)
@@ -664,16 +689,21 @@ def _moves(m: ModelArrays, b: int):
 
 
 @wp.func
-def build_contact_rows(m: ModelArrays, e: int, r0: int, sp: wp.vec4i,
+def build_contact_rows(m: ModelArrays, e: int, r0: int, width: int, sp: wp.vec4i,
                        factor: wp.array2d(dtype=float), rows: Rows):
-    """Responses M⁻¹Jᵀ and 1/(J M⁻¹ Jᵀ) of a contact's three rows r0 (normal), r0+1, r0+2
-    (friction) from their J; friction goes with its normal row."""
-    for d in range(3):
+    """Responses M⁻¹Jᵀ and 1/(J M⁻¹ Jᵀ) of a contact's `width` rows from r0 (normal, friction,
+    torsional and rolling friction) from their J; friction goes with its normal row."""
+    for d in range(width):
         dense.row_copy(rows.minv_jt, rows.jac, e, r0 + d, _width(sp))
     _solve_rows(m, e, factor, rows.minv_jt, r0, 3, sp)
+    if width > 3:       # (a solve takes up to three rows)
+        _solve_rows(m, e, factor, rows.minv_jt, r0 + 3, width - 3, sp)
     _set_inv_mass(rows, e, r0, sp, NORMAL)
     _set_inv_mass(rows, e, r0 + 1, sp, FRICTION)
     _set_inv_mass(rows, e, r0 + 2, sp, FRICTION2)
+    for d in range(3, width):
+        if rows.type[e, r0 + d] != INACTIVE:       # a torsional or rolling coefficient
+            _set_inv_mass(rows, e, r0 + d, sp, rows.type[e, r0 + d])
     if rows.type[e, r0] == NORMAL and rows.inv_mass[e, r0] * UNREACHABLE * rows.k[e, r0] > 1.0:
         # J M⁻¹ Jᵀ below UNREACHABLE·(1/m1 + 1/m2): the joints can barely move the bodies
         # along the normal (two links of one arm, the normal through their joint axes), and
@@ -682,8 +712,8 @@ def build_contact_rows(m: ModelArrays, e: int, r0: int, sp: wp.vec4i,
         # the joints cannot move).
         rows.type[e, r0] = INACTIVE
     if rows.type[e, r0] == INACTIVE:
-        rows.type[e, r0 + 1] = INACTIVE
-        rows.type[e, r0 + 2] = INACTIVE
+        for d in range(1, width):
+            rows.type[e, r0 + d] = INACTIVE
 
 
 @wp.func

@@ -20,15 +20,17 @@ basis happens to be oriented; PhysX's per-axis clamp lets diagonal friction reac
 Friction acts in every sweep; in position sweeps its target also undoes the drift of the
 contact's two bodies since the contact began to stick (the friction anchors of `constraints`),
 so static friction holds a contact where it landed instead of letting each substep's unconverged
-sweeps creep. Restitution: a contact approaching faster than the bounce threshold targets a
-separation speed of e times its approach speed.
+sweeps creep. A contact of condim 4 or 6 also has a torsional row (|λ| <= μ_spin·λ_n) and two
+rolling rows (a disk of radius μ_roll·λ_n), swept after its sliding rows (`_angular_rows`).
+Restitution: a contact approaching faster than the bounce threshold targets a separation speed
+of e times its approach speed.
 """
 
 import warp as wp
 
 from .. import dense
 from .constraints import _col, build_contact_rows, build_dof_row
-from ..types import DOF, EQUALITY, FRICTION, INACTIVE, NORMAL, SOFT
+from ..types import DOF, EQUALITY, FRICTION, INACTIVE, NORMAL, ROLL, SOFT, SPIN
 from ..lanes import stop, sync, warp_lanes, warp_sum, world_lane
 from ..structs import Contacts, Dynamics, ModelArrays, Options, RowLayout, Rows, State
 
@@ -163,6 +165,7 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
     M⁻¹Jᵀ·Δλ split over their dofs, Gauss-Seidel's order between rows kept (every lane takes
     the same decisions from the same sums); the joint-limit block, the dof rows and the
     equalities are one lane's work for now."""
+    width = layout.contact_width
     k = int(0)
     while k < ncontact:      # contact patches: the run of contacts of one geom pair
         end = k + 1
@@ -174,15 +177,18 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
         for _ in range(passes):
             change = float(0.0)
             for j in range(k, end):
-                change = wp.max(change, _normal_row(m, e, ln, 3 * j, biased, tgs, hs, h,
-                                                    max_depenetration, factor, rows, v, dq))
+                change = wp.max(change, _normal_row(m, e, ln, width * j, width, biased, tgs,
+                                                    hs, h, max_depenetration, factor, rows, v,
+                                                    dq))
             if change < PATCH_SETTLED:
                 break
         k = end
     for r in range(tendon_limits[0], tendon_limits[1]):
-        _normal_row(m, e, ln, r, biased, tgs, hs, h, max_correction, factor, rows, v, dq)
+        _normal_row(m, e, ln, r, 1, biased, tgs, hs, h, max_correction, factor, rows, v, dq)
     for k in range(ncontact):
-        _friction_rows(e, ln, 3 * k + 1, biased, tgs, hs, rows, c, v, dq)
+        _friction_rows(e, ln, width * k + 1, width, biased, tgs, hs, rows, c, v, dq)
+        if width > 3:
+            _angular_rows(e, ln, width * k, width, biased, tgs, hs, rows, v, dq)
     # the joint limits last of the one-sided rows: a joint's mechanical stop has the last word
     # over contacts (a UR5's overlapping link meshes pushed its wrist 0.26 rad past its limit
     # when the limits came before the friction rows); then the dof rows, and the two again in
@@ -283,12 +289,13 @@ def _normal_target(err: float, biased: int, hs: float, h: float, max_depenetrati
 
 
 @wp.func
-def _normal_row(m: ModelArrays, e: int, ln: wp.vec2i, r: int, biased: int, tgs: int, hs: float,
-                h: float, max_depenetration: float, factor: wp.array2d(dtype=float),
+def _normal_row(m: ModelArrays, e: int, ln: wp.vec2i, r: int, width: int, biased: int, tgs: int,
+                hs: float, h: float, max_depenetration: float, factor: wp.array2d(dtype=float),
                 rows: Rows, v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
-    """A non-negative impulse along row r (a contact normal or a tendon limit) that removes the
-    approach, and in biased (position) sweeps the penetration; returns the change of J·v it
-    made. (Joint limits are solved together: `_joint_limit_block`.)"""
+    """A non-negative impulse along row r (a contact normal, first of its `width` rows, or a
+    tendon limit) that removes the approach, and in biased (position) sweeps the penetration;
+    returns the change of J·v it made. (Joint limits are solved together:
+    `_joint_limit_block`.)"""
     if rows.type[e, r] != NORMAL:
         return 0.0
     # read before the sums' wait, after which lane 0 may build the row and every lane writes
@@ -307,7 +314,7 @@ def _normal_row(m: ModelArrays, e: int, ln: wp.vec2i, r: int, biased: int, tgs: 
         if target - jv <= 0.0:
             return 0.0
         if ln[0] == 0:
-            build_contact_rows(m, e, r, sp, factor, rows)
+            build_contact_rows(m, e, r, width, sp, factor, rows)
         _wait(ln)
         if rows.type[e, r] != NORMAL:
             return 0.0
@@ -525,7 +532,7 @@ def _block_contacts(m: ModelArrays, e: int, layout: RowLayout, c: Contacts, ncon
     count = int(0)
     if pushing != 0:
         for j in range(ncontact):
-            r = 3 * j
+            r = layout.contact_width * j
             if (count < capacity and rows.type[e, r] == NORMAL and rows.lam[e, r] > 0.0
                     and not _self_contact(m, c, e, j)):
                 sp = rows.span[e, r]
@@ -628,7 +635,7 @@ def _entry_row(layout: RowLayout, rows: Rows, e: int, i: int):
     k = _cap_entry(rows, n, i)
     if k >= 0:
         return layout.dofs + rows.block_cap[e, k] / 2
-    return 3 * rows.block_contact[e, i - n]
+    return layout.contact_width * rows.block_contact[e, i - n]
 
 
 @wp.func(inline=True)
@@ -814,7 +821,8 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
                 elif _cap_entry(rows, n, i) >= 0:
                     build_dof_row(m, e, r, r - layout.dofs, 1.0, DOF, factor, rows)
                 else:
-                    build_contact_rows(m, e, r, rows.span[e, r], factor, rows)
+                    build_contact_rows(m, e, r, layout.contact_width, rows.span[e, r], factor,
+                                       rows)
             if not _entry_live(layout, rows, e, n, i, r):
                 rows.block_in[e, i] = 0
                 count -= 1
@@ -931,8 +939,9 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
 
 
 @wp.func
-def _friction_rows(e: int, ln: wp.vec2i, r: int, biased: int, tgs: int, hs: float, rows: Rows,
-                   c: Contacts, v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
+def _friction_rows(e: int, ln: wp.vec2i, r: int, width: int, biased: int, tgs: int, hs: float,
+                   rows: Rows, c: Contacts, v: wp.array2d(dtype=float),
+                   dq: wp.array2d(dtype=float)):
     """A contact's two friction rows r, r + 1 together, their impulse projected onto the disk
     of radius mu · the normal row's impulse (row r - 1). Marks the contact slid when the
     projection cut the impulse (its anchors start afresh next substep)."""
@@ -957,7 +966,7 @@ def _friction_rows(e: int, ln: wp.vec2i, r: int, biased: int, tgs: int, hs: floa
     l1 = old1 + (target_t[0] - jv_t[0]) * rows.inv_mass[e, r]
     l2 = old2 + (target_t[1] - jv_t[1]) * rows.inv_mass[e, r + 1]
     norm = wp.sqrt(l1 * l1 + l2 * l2)
-    c.slid[e, r / 3] = int(norm > limit)
+    c.slid[e, r / width] = int(norm > limit)
     if norm > limit:
         scale = float(0.0)
         if norm > 0.0:
@@ -967,6 +976,51 @@ def _friction_rows(e: int, ln: wp.vec2i, r: int, biased: int, tgs: int, hs: floa
     rows.lam[e, r] = l1
     rows.lam[e, r + 1] = l2
     _apply2(e, ln, r, l1 - old1, l2 - old2, rows.minv_jt, v, sp)
+
+
+@wp.func
+def _angular_rows(e: int, ln: wp.vec2i, r0: int, width: int, biased: int, tgs: int, hs: float,
+                  rows: Rows, v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float)):
+    """The torsional row r0 + 3 of the contact whose normal row is r0, its impulse within
+    ±mu_spin · the normal impulse, and with `width` 6 its two rolling rows together, projected
+    onto the disk of radius mu_roll · the normal impulse (MuJoCo's condim 4 and 6; each bound
+    apart from the sliding disk's, where MuJoCo's elliptic cone joins them). They stop the two
+    bodies' relative rotation about those axes; in TGS position sweeps also the rotation of
+    this substep's earlier sub-steps (J·dq), as the sliding rows undo their drift."""
+    normal = rows.lam[e, r0]
+    r = r0 + 3
+    if rows.type[e, r] == SPIN:
+        old = rows.lam[e, r]
+        limit = rows.mu[e, r] * normal
+        if limit > 0.0 or old != 0.0:
+            sp = rows.span[e, r]
+            spin_target = float(0.0)
+            if biased != 0 and tgs != 0:
+                spin_target = -_dot(rows, rows.jac, e, r, dq, sp, ln) / hs
+            jv = _dot(rows, rows.jac, e, r, v, sp, ln)
+            new = wp.clamp(old + (spin_target - jv) * rows.inv_mass[e, r], -limit, limit)
+            rows.lam[e, r] = new
+            _apply(v, e, new - old, rows.minv_jt, r, sp, ln)
+    r = r0 + 4
+    if width > 4 and rows.type[e, r] == ROLL:
+        old1 = rows.lam[e, r]
+        old2 = rows.lam[e, r + 1]
+        bound = rows.mu[e, r] * normal
+        if bound > 0.0 or old1 != 0.0 or old2 != 0.0:
+            sp2 = rows.span[e, r]
+            target = wp.vec2(0.0, 0.0)
+            if biased != 0 and tgs != 0:
+                target = -1.0 * _row_dot2(rows, rows.jac, e, r, dq, sp2, ln) / hs
+            jv2 = _row_dot2(rows, rows.jac, e, r, v, sp2, ln)
+            l1 = old1 + (target[0] - jv2[0]) * rows.inv_mass[e, r]
+            l2 = old2 + (target[1] - jv2[1]) * rows.inv_mass[e, r + 1]
+            norm = wp.sqrt(l1 * l1 + l2 * l2)
+            if norm > bound:        # (> 0)
+                l1 = l1 * bound / norm
+                l2 = l2 * bound / norm
+            rows.lam[e, r] = l1
+            rows.lam[e, r + 1] = l2
+            _apply2(e, ln, r, l1 - old1, l2 - old2, rows.minv_jt, v, sp2)
 
 
 @wp.func
@@ -1061,7 +1115,8 @@ def solve(m: ModelArrays, opt: Options, layout: RowLayout,
         s.qd[e, i] = s.qd[e, i] + h * s.qacc[e, i]
         s.dq[e, i] = 0.0
     ncontact = wp.min(c.count[e], layout.contact_slots)
-    used = 3 * ncontact     # rows in use: the contacts' [0, used), and all from the limits on
+    # rows in use: the contacts' [0, used), and all from the limits on
+    used = layout.contact_width * ncontact
     for i in range(used + layout.end - layout.joint_limits):
         r = _row_in_use(i, used, layout)
         warm = float(0.0)
@@ -1116,8 +1171,9 @@ def constraint_forces(m: ModelArrays, opt: Options, layout: RowLayout, rows: Row
     for k in range(lane, stop(layout.contact_slots, 0, active), lanes):
         f = wp.vec3()
         if k < ncontact:
+            r0 = layout.contact_width * k
             for d in range(3):
-                f = f + rows.dir[e, 3 * k + d] * rows.lam[e, 3 * k + d]
+                f = f + rows.dir[e, r0 + d] * rows.lam[e, r0 + d]
             f = f / h
         c.force[e, k] = f
     if lanes > 1:
@@ -1143,7 +1199,7 @@ def constraint_forces(m: ModelArrays, opt: Options, layout: RowLayout, rows: Row
                 c.net_force[e, b2] = c.net_force[e, b2] + c.force[e, k]
             if b1 >= 0:
                 c.net_force[e, b1] = c.net_force[e, b1] - c.force[e, k]
-    used = 3 * ncontact
+    used = layout.contact_width * ncontact
     in_use = used + layout.end - layout.joint_limits
     if lanes == 1:
         # one lane: each row adds its force over its span (the native 8-wide loop)
