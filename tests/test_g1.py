@@ -289,6 +289,23 @@ def test_g1_fall_ends_the_episode_and_commands_resample(device):
     assert torch.all(task.commands[:, 0] >= 0) and torch.all(task.commands[:, 0] <= 1)
 
 
+def test_g1_sole_torsional_friction_is_condim_4_on_the_eight_sole_spheres(device):
+    """`env.soleTorsionalFriction` (m) gives the sole spheres, and only them, MuJoCo's condim 4
+    with that torsional coefficient: the contacts then have four rows (the default keeps
+    three); a negative value is refused naming the key."""
+    task = make(device, num_envs=1, **{"env.soleTorsionalFriction": 0.03})
+    model = task.build_scene().compose()[0].compile()
+    spun = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[g])
+            for g in range(model.ngeom) if model.geom_condim[g] == 4]
+    assert sorted(set(spun)) == ["g1/left_ankle_roll_link", "g1/right_ankle_roll_link"]
+    assert len(spun) == 8
+    assert np.allclose(model.geom_friction[model.geom_condim == 4, 1], 0.03)
+    assert task.envs.sim.device_model.layout.contact_width == 4
+    assert make(device, num_envs=1).envs.sim.device_model.layout.contact_width == 3
+    with pytest.raises(ValueError, match="env.soleTorsionalFriction: -0.01 m must be >= 0"):
+        make(device, num_envs=1, **{"env.soleTorsionalFriction": -0.01})
+
+
 def test_g1_config_errors_name_the_joint():
     from myriad.tasks.g1 import by_pattern
     assert by_pattern(["left_knee_joint", "waist_yaw_joint"],

@@ -49,6 +49,9 @@ An episode ends in a fall when the pelvis or torso touches the ground (|F| > 1 N
 tilts more than `env.maxTilt` rad; otherwise after episodeLength_s = 20 s. Every `pushInterval_s`
 (one clock for all envs) every base is pushed: v_xy set to U(−pushVelocity, pushVelocity).
 Each robot's friction is one of `frictionBuckets` values in `frictionRange` (env i: i mod B).
+The sole spheres have no torsional friction (condim 3, as the peers' G1 feet); a positive
+`soleTorsionalFriction` (m) gives them MuJoCo's condim 4 with it (docs/results.md: it stops the
+stance feet pivoting, not the yaw error).
 """
 
 from __future__ import annotations
@@ -56,6 +59,7 @@ from __future__ import annotations
 import math
 import re
 
+import mujoco
 import torch
 
 from ..api import Scene
@@ -213,6 +217,14 @@ class G1Velocity(VecTask):
         """One env: the floor and the G1 with its drives (MuJoCo can compile it too)."""
         env = self.cfg["env"]
         spec = g1_spec()
+        torsion = float(env.get("soleTorsionalFriction", 0.0))
+        if torsion < 0:
+            raise ValueError(f"env.soleTorsionalFriction: {torsion} m must be >= 0")
+        if torsion > 0:
+            for geom in spec.geoms:      # the feet: the only spheres on the ankle roll links
+                if geom.type == mujoco.mjtGeom.mjGEOM_SPHERE and "ankle_roll" in geom.parent.name:
+                    geom.condim = 4
+                    geom.friction = [geom.friction[0], torsion, geom.friction[2]]
         names = [j.name for j in spec.joints if j.type != 0]     # 0: the free joint
         gains = by_pattern(names, env["control"]["gains"], "env.control.gains")
         scene = self.add_floor(Scene(), env)
