@@ -96,9 +96,8 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
     meshes, hfields, triangle_meshes = shape_data(model, dev)
 
     # constraint rows: 3 per contact slot (4 or 6 with torsional or rolling friction), 2 per
-    # limited joint, 2 per limited tendon, one
-    # spring-damper row per tendon (present with or without `constraints`), and one row per
-    # dof for joint friction and the maximum joint speed
+    # limited joint, 2 per limited tendon, one spring-damper row per tendon (present with or
+    # without `constraints`), and one row per dof for joint friction and the maximum joint speed
     limited = [j for j in range(m.njnt) if m.jnt_limited[j] and params.constraints]
     limited_tendons = [t for t in range(m.ntendon) if m.tendon_limited[t] and params.constraints]
     equality_rownum = int(equality_rows(m)["eq_rownum"].sum()) if params.constraints else 0
