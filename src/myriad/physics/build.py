@@ -126,6 +126,8 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
     opt.max_depenetration = params.max_depenetration_velocity
     opt.max_correction = params.max_correction_velocity
     opt.limit_jnt = wp.array(np.asarray(limited, np.int32), dtype=wp.int32, device=dev)
+    opt.limit_dof = wp.array(np.asarray(m.jnt_dofadr, np.int32)[np.asarray(limited, np.int64)],
+                             dtype=wp.int32, device=dev)
     opt.limit_tendon = wp.array(np.asarray(limited_tendons, np.int32), dtype=wp.int32, device=dev)
 
     # sensors (`stages.sensors`): one 6D wrench per site that carries a force or torque sensor,

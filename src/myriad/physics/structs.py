@@ -259,6 +259,7 @@ class Options:
     max_depenetration: float      # cap on the speed that resolves a penetration (m/s)
     max_correction: float         # cap on the speed that undoes a limit's or an equality's error
     limit_jnt: wp.array(dtype=wp.int32)     # the limited joints, in the order of their rows
+    limit_dof: wp.array(dtype=wp.int32)     # ... and each one's dof
     limit_tendon: wp.array(dtype=wp.int32)  # the limited tendons, in the order of their rows
 
 

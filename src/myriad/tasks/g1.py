@@ -133,6 +133,7 @@ class G1Velocity(VecTask):
         self.last_dof_vel = torch.zeros(N, self.num_actions, device=dev)
         self.feet_air_time = torch.zeros(N, 2, device=dev)
         self.feet_contact_time = torch.zeros(N, 2, device=dev)
+        self.no_angular_momentum = torch.zeros(N, 3, device=dev)   # (read only)
         self.gravity_dir = torch.tensor([0.0, 0.0, -1.0], device=dev).expand(N, 3)
         self.forward_axis = torch.tensor([1.0, 0.0, 0.0], device=dev).expand(N, 3)
         self.up_axis = torch.tensor([0.0, 0.0, 1.0], device=dev).expand(N, 3)
@@ -277,7 +278,7 @@ class G1Velocity(VecTask):
         """[N, 3] the robot's about its centre of mass, or zeros while its term's scale is 0
         (as committed: not worth the per-body pass each step)."""
         if self.reward_scales["angularMomentumRewardScale"] == 0.0:
-            return torch.zeros(self.num_envs, 3, device=self.device)
+            return self.no_angular_momentum
         return self.envs.angular_momentum("g1")
 
     def push_robots(self, due: torch.Tensor):

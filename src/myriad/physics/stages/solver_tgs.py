@@ -135,6 +135,58 @@ def _apply(v: wp.array2d(dtype=float), e: int, dl: float, a: wp.array3d(dtype=fl
         dense.row_apply_lane(v, e, dl, a, r, sp, ln[0], ln[1])
 
 
+@wp.func_native("""
+    if (start >= n) return n;
+    const int* t = wp::address(type, e, r0);
+    const float* cap = wp::address(k, e, r0);
+    const float* bound = wp::address(mu, e, r0);
+    const float* ve = wp::address(v, e, 0);
+    for (int d = start; d < n; ++d)
+        if (t[d] == dof_type && ((with_bound != 0 && bound[d] > 0.0f) || wp::abs(ve[d]) > cap[d]))
+            return d;
+    return n;
+""")
+def _next_dof_row(type: wp.array2d(dtype=wp.int32), mu: wp.array2d(dtype=float),
+                  k: wp.array2d(dtype=float), v: wp.array2d(dtype=float), e: int, r0: int,
+                  start: int, n: int, with_bound: int, dof_type: int) -> int:
+    """The first dof d in [start, n) whose row r0 + d is a dof row (`dof_type`) with its speed
+    past the cap (|v| > k) or, `with_bound`, with dry friction (mu > 0); n if none. Most dof
+    rows do nothing in a sweep, and a humanoid's sweeps scan them several times: a plain loop
+    over Warp's 2D indices cost 3 % of its step."""
+    ...
+
+
+@wp.func_native("""
+    if (start >= n) return n;
+    const int* t = wp::address(type, e, base);
+    const float* er = wp::address(err, e, base);
+    const float* ve = wp::address(v, e, 0);
+    const float* de = wp::address(dq, e, 0);
+    const int* dofs = wp::address(limit_dof, 0);
+    for (int i = start; i < n; ++i) {
+        if (t[i] != inactive) continue;
+        const int dof = dofs[i / 2];
+        float travel = hs * ve[dof];
+        if (tgs != 0) travel = travel + de[dof];      // (a statement of its own: no contraction)
+        const float sign = 1.0f - 2.0f * (float)(i % 2);
+        const float signed_travel = sign * travel;
+        if (er[i] + signed_travel < 0.0f) return i;
+    }
+    return n;
+""")
+def _next_reachable_limit(type: wp.array2d(dtype=wp.int32), err: wp.array2d(dtype=float),
+                          v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float),
+                          limit_dof: wp.array(dtype=wp.int32), e: int, base: int, start: int,
+                          n: int, hs: float, tgs: int, inactive: int) -> int:
+    """The first joint-limit row i in [start, n) (row base + i) that is not in use
+    (`inactive`) and that its joint would pass within a position sweep's step: err + sign·travel
+    < 0, travel = hs·v (+ dq in TGS) of its dof, sign +1 for a lower limit (even i), -1 for an
+    upper one (`_limit_sign`); n if none. The arithmetic of the Warp code it replaced, one
+    operation a statement: the same bits. (Every position sweep scans every limit: 5 % of a
+    humanoid's step as a Warp loop.)"""
+    ...
+
+
 @wp.func(inline=True)
 def _wait(ln: wp.vec2i):
     """Before and after work one lane does for the world (reading or writing every lane's
@@ -145,7 +197,7 @@ def _wait(ln: wp.vec2i):
 
 @wp.func(inline=True)
 def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: int,
-           tendon_limits: wp.vec2i, c: Contacts, limit_jnt: wp.array(dtype=wp.int32),
+           tendon_limits: wp.vec2i, c: Contacts, limit_dof: wp.array(dtype=wp.int32),
            first: int, biased: int, tgs: int, hs: float,
            h: float, max_depenetration: float, max_correction: float,
            factor: wp.array2d(dtype=float), rows: Rows,
@@ -196,7 +248,7 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
     # runs the dof rows only if a dof is past its cap)
     for part in range(LIMIT_CAP_ROUNDS):
         _wait(ln)
-        _limit_rows(m, e, ln, layout, c, ncontact, limit_jnt, first * int(part == 0), biased,
+        _limit_rows(m, e, ln, layout, c, ncontact, limit_dof, first * int(part == 0), biased,
                     tgs, hs, h, max_depenetration, max_correction, factor, rows, v, dq)
         _wait(ln)
         if first != 0 and part == 0:
@@ -212,18 +264,15 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
             # the limit block instead, they kept a G1 with hands within its limits in 38 of 40
             # envs rather than 33, but a TALOS's mimic-coupled gripper joints then passed
             # theirs in 14 rather than 2: the equalities after them undo the limits)
-            row_type = rows.type[e]
-            row_bound = rows.mu[e]
-            row_cap = rows.k[e]
-            speed = v[e]
-            for dof in range(layout.end - layout.dofs):
-                r = layout.dofs + dof
-                if row_type[r] == DOF and (row_bound[r] > 0.0
-                                           or wp.abs(speed[dof]) > row_cap[r]):
-                    _dof_row(m, e, r, dof, factor, rows, v)
+            n = layout.end - layout.dofs
+            dof = _next_dof_row(rows.type, rows.mu, rows.k, v, e, layout.dofs, 0, n, 1, DOF)
+            while dof < n:
+                _dof_row(m, e, layout.dofs + dof, dof, factor, rows, v)
+                dof = _next_dof_row(rows.type, rows.mu, rows.k, v, e, layout.dofs, dof + 1, n, 1,
+                                    DOF)
         _wait(ln)
         if part + 1 == LIMIT_CAP_ROUNDS or \
-                _limits_broken(m, layout, limit_jnt, rows, e, v) == 0:
+                _limits_broken(m, layout, limit_dof, rows, e, v) == 0:
             break
     if ln[0] == 0:
         # equalities last: the sweep ends with them holding, whatever the rows before did
@@ -235,7 +284,7 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
 
 
 @wp.func
-def _limits_broken(m: ModelArrays, layout: RowLayout, limit_jnt: wp.array(dtype=wp.int32),
+def _limits_broken(m: ModelArrays, layout: RowLayout, limit_dof: wp.array(dtype=wp.int32),
                    rows: Rows, e: int, v: wp.array2d(dtype=float)):
     """1 if a joint-limit candidate of this sweep's block now moves slower than its target by
     more than the block's rounding, else 0."""
@@ -244,7 +293,7 @@ def _limits_broken(m: ModelArrays, layout: RowLayout, limit_jnt: wp.array(dtype=
         i = rows.block_cand[e, t]
         if rows.type[e, layout.joint_limits + i] == NORMAL:
             target = rows.block_target[e, i]
-            if _limit_sign(i) * v[e, _limit_dof(m, limit_jnt, i)] < \
+            if _limit_sign(i) * v[e, _limit_dof(limit_dof, i)] < \
                     target - 1.0e-3 * (1.0 + wp.abs(target)):
                 return int(1)
     return int(0)
@@ -253,11 +302,8 @@ def _limits_broken(m: ModelArrays, layout: RowLayout, limit_jnt: wp.array(dtype=
 @wp.func
 def _past_cap(layout: RowLayout, rows: Rows, e: int, v: wp.array2d(dtype=float)):
     """1 if a dof of env e is past its speed cap, else 0."""
-    for dof in range(layout.end - layout.dofs):
-        r = layout.dofs + dof
-        if rows.type[e, r] == DOF and wp.abs(v[e, dof]) > rows.k[e, r]:
-            return int(1)
-    return int(0)
+    n = layout.end - layout.dofs
+    return int(_next_dof_row(rows.type, rows.mu, rows.k, v, e, layout.dofs, 0, n, 0, DOF) < n)
 
 
 @wp.func
@@ -389,7 +435,7 @@ def _candidate_count(rows: Rows, e: int, n: int):
 @wp.func(inline=True)
 def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, c: Contacts,
                 ncontact: int,
-                limit_jnt: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int,
+                limit_dof: wp.array(dtype=wp.int32), first: int, biased: int, tgs: int,
                 hs: float, h: float, max_depenetration: float, max_correction: float,
                 factor: wp.array2d(dtype=float), rows: Rows, v: wp.array2d(dtype=float),
                 dq: wp.array2d(dtype=float)):
@@ -414,8 +460,8 @@ def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, c: Cont
                     k += 1
         else:
             k = _candidate_count(rows, e, n)
-        k = _reachable_limits(m, e, layout, limit_jnt, k, biased, tgs, hs, rows, v, dq)
-        _block_contacts(m, e, layout, c, ncontact, limit_jnt, k, rows)
+        k = _reachable_limits(m, e, layout, limit_dof, k, biased, tgs, hs, rows, v, dq)
+        _block_contacts(m, e, layout, c, ncontact, limit_dof, k, rows)
     ncand = int(0)
     nentry = int(0)
     ncap = int(0)
@@ -427,7 +473,7 @@ def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, c: Cont
             # this sweep's step (a G1's hand hitting the ground spun its wrist to its 100 rad/s
             # cap, 0.18 rad past its limit in one step): solve once more with its row
             if ln[0] == 0 and nentry > ncand and attempt == 1:
-                _reachable_limits(m, e, layout, limit_jnt, ncand, biased, tgs, hs, rows, v, dq)
+                _reachable_limits(m, e, layout, limit_dof, ncand, biased, tgs, hs, rows, v, dq)
             _wait(ln)
             again = int(_candidate_count(rows, e, n) != ncand)
             # and a dof past its speed cap (the block's impulses may have sent it there): once
@@ -450,7 +496,7 @@ def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, c: Cont
                 _apply(v, e, -old, rows.minv_jt, r, rows.span[e, r], ln)
         _wait(ln)
         if ln[0] == 0:
-            _joint_limit_block(m, e, layout, limit_jnt, ncand, ncontact_in, nentry, caps,
+            _joint_limit_block(m, e, layout, limit_dof, ncand, ncontact_in, nentry, caps,
                                biased, tgs, hs, h, max_depenetration, max_correction, factor,
                                rows, v, dq)
         _wait(ln)
@@ -465,7 +511,7 @@ def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, c: Cont
 
 @wp.func(inline=True)
 def _reachable_limits(m: ModelArrays, e: int, layout: RowLayout,
-                      limit_jnt: wp.array(dtype=wp.int32), k: int, biased: int, tgs: int,
+                      limit_dof: wp.array(dtype=wp.int32), k: int, biased: int, tgs: int,
                       hs: float, rows: Rows, v: wp.array2d(dtype=float),
                       dq: wp.array2d(dtype=float)):
     """Add to the block's `k` candidates the limit rows out of reach at the substep's start
@@ -474,27 +520,26 @@ def _reachable_limits(m: ModelArrays, e: int, layout: RowLayout,
     speed. Ends the list with -1; returns the candidates' count."""
     n = layout.tendon_limits - layout.joint_limits
     base = layout.joint_limits
-    for i in range(wp.where(biased != 0, n, 0)):
+    i = int(n)
+    if biased != 0:
+        i = _next_reachable_limit(rows.type, rows.err, v, dq, limit_dof, e, base, 0, n, hs, tgs,
+                                  INACTIVE)
+    while i < n:
         r = base + i
-        if rows.type[e, r] == INACTIVE:
-            dof = _limit_dof(m, limit_jnt, i)
-            sign = _limit_sign(i)
-            travel = hs * v[e, dof]
-            if tgs != 0:
-                travel = travel + dq[e, dof]
-            if rows.err[e, r] + sign * travel < 0.0:
-                listed = int(0)
-                for j in range(k):
-                    if rows.block_cand[e, j] == i:
-                        listed = 1   # a candidate that could not be built
-                if listed == 0:
-                    rows.type[e, r] = NORMAL
-                    rows.mu[e, r] = 0.0
-                    rows.bounce[e, r] = 0.0
-                    rows.inv_mass[e, r] = 0.0
-                    rows.lam[e, r] = 0.0
-                    rows.block_cand[e, k] = i
-                    k += 1
+        listed = int(0)
+        for j in range(k):
+            if rows.block_cand[e, j] == i:
+                listed = 1   # a candidate that could not be built
+        if listed == 0:
+            rows.type[e, r] = NORMAL
+            rows.mu[e, r] = 0.0
+            rows.bounce[e, r] = 0.0
+            rows.inv_mass[e, r] = 0.0
+            rows.lam[e, r] = 0.0
+            rows.block_cand[e, k] = i
+            k += 1
+        i = _next_reachable_limit(rows.type, rows.err, v, dq, limit_dof, e, base, i + 1, n, hs,
+                                  tgs, INACTIVE)
     if k < n:
         rows.block_cand[e, k] = -1
     return k
@@ -507,7 +552,7 @@ def _in_span(sp: wp.vec4i, dof: int):
 
 @wp.func(inline=True)
 def _block_contacts(m: ModelArrays, e: int, layout: RowLayout, c: Contacts, ncontact: int,
-                    limit_jnt: wp.array(dtype=wp.int32), ncand: int, rows: Rows):
+                    limit_dof: wp.array(dtype=wp.int32), ncand: int, rows: Rows):
     """List in rows.block_contact the contacts the limit block solves in this sweep: those that
     pushed so far in it, whose rows reach the dof of a limit that pushes (its impulse so far
     > 0), between a body and the world or another tree; the first `nblock_contact` of them
@@ -538,7 +583,7 @@ def _block_contacts(m: ModelArrays, e: int, layout: RowLayout, c: Contacts, ncon
                 sp = rows.span[e, r]
                 for k in range(ncand):
                     i = rows.block_cand[e, k]
-                    if rows.lam[e, base + i] > 0.0 and _in_span(sp, _limit_dof(m, limit_jnt, i)):
+                    if rows.lam[e, base + i] > 0.0 and _in_span(sp, _limit_dof(limit_dof, i)):
                         rows.block_contact[e, count] = j
                         count += 1
                         break
@@ -697,13 +742,13 @@ def _rows_coupling(e: int, ra: int, rb: int, rows: Rows):
 
 
 @wp.func(inline=True)
-def _coupling(m: ModelArrays, limit_jnt: wp.array(dtype=wp.int32), e: int, n: int, ia: int,
+def _coupling(m: ModelArrays, limit_dof: wp.array(dtype=wp.int32), e: int, n: int, ia: int,
               ra: int, ib: int, rb: int, rows: Rows):
     """J_a·M⁻¹J_bᵀ of block entry ia (row ra) and entry ib (a built row rb)."""
     x = float(0.0)
     k = _cap_entry(rows, n, ia)
     if ia < n:
-        x = _limit_coupling(e, _limit_dof(m, limit_jnt, ia), _limit_sign(ia), rb, rows)
+        x = _limit_coupling(e, _limit_dof(limit_dof, ia), _limit_sign(ia), rb, rows)
     elif k >= 0:
         cap = rows.block_cap[e, k]
         x = _limit_coupling(e, cap / 2, _limit_sign(cap), rb, rows)
@@ -729,8 +774,9 @@ def _pivot_floor(soft: int, inv_mass: float):
 
 
 @wp.func
-def _limit_dof(m: ModelArrays, limit_jnt: wp.array(dtype=wp.int32), i: int):
-    return m.jnt_dofadr[limit_jnt[i / 2]]
+def _limit_dof(limit_dof: wp.array(dtype=wp.int32), i: int):
+    """The dof of joint-limit row i."""
+    return limit_dof[i / 2]
 
 
 @wp.func
@@ -741,7 +787,7 @@ def _limit_sign(i: int):
 
 @wp.func(inline=True)
 def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
-                       limit_jnt: wp.array(dtype=wp.int32), ncand: int, ncontact_in: int,
+                       limit_dof: wp.array(dtype=wp.int32), ncand: int, ncontact_in: int,
                        nentry: int, caps: int, biased: int, tgs: int, hs: float, h: float,
                        max_depenetration: float, max_correction: float,
                        factor: wp.array2d(dtype=float), rows: Rows,
@@ -782,7 +828,7 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
         if rows.type[e, r] != NORMAL:      # could not be built in an earlier sweep
             continue
         if i < n:
-            dof = _limit_dof(m, limit_jnt, i)
+            dof = _limit_dof(limit_dof, i)
             sign = _limit_sign(i)
             err = rows.err[e, r]
             if tgs != 0:
@@ -816,7 +862,7 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
             r = _entry_row(layout, rows, e, i)
             if rows.inv_mass[e, r] == 0.0:
                 if i < n:
-                    build_dof_row(m, e, r, _limit_dof(m, limit_jnt, i), _limit_sign(i), NORMAL,
+                    build_dof_row(m, e, r, _limit_dof(limit_dof, i), _limit_sign(i), NORMAL,
                                   factor, rows)
                 elif _cap_entry(rows, n, i) >= 0:
                     build_dof_row(m, e, r, r - layout.dofs, 1.0, DOF, factor, rows)
@@ -836,7 +882,7 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
             ra = _entry_row(layout, rows, e, ia)
             for b in range(a + 1):
                 ib = rows.block_row[e, b]
-                x = _coupling(m, limit_jnt, e, n, ia, ra, ib, _entry_row(layout, rows, e, ib),
+                x = _coupling(m, limit_dof, e, n, ia, ra, ib, _entry_row(layout, rows, e, ib),
                               rows)
                 if b == a and soft != 0:
                     x = x + _softness(rows, n, ia) / rows.inv_mass[e, ra]
@@ -901,7 +947,7 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
             for a in range(count):
                 ib = rows.block_row[e, a]
                 w = w + rows.block_lam[e, ib] * _coupling(
-                    m, limit_jnt, e, n, i, r, ib, _entry_row(layout, rows, e, ib), rows)
+                    m, limit_dof, e, n, i, r, ib, _entry_row(layout, rows, e, ib), rows)
             short = rows.block_target[e, i] - w
             if short > most + 1.0e-6 * (1.0 + wp.abs(rows.block_target[e, i])):
                 most = short
@@ -961,21 +1007,30 @@ def _friction_rows(e: int, ln: wp.vec2i, r: int, width: int, biased: int, tgs: i
         if tgs != 0:
             drift = drift + _row_dot2(rows, rows.jac, e, r, dq, sp, ln)
         target_t = -1.0 * drift / hs
-    # both rows from the same velocity, then projection onto the friction disk
-    jv_t = _row_dot2(rows, rows.jac, e, r, v, sp, ln)
-    l1 = old1 + (target_t[0] - jv_t[0]) * rows.inv_mass[e, r]
-    l2 = old2 + (target_t[1] - jv_t[1]) * rows.inv_mass[e, r + 1]
+    c.slid[e, r / width] = _disk_rows(e, ln, r, old1, old2, target_t, limit, sp, rows, v)
+
+
+@wp.func(inline=True)
+def _disk_rows(e: int, ln: wp.vec2i, r: int, old1: float, old2: float, target: wp.vec2,
+               bound: float, sp: wp.vec4i, rows: Rows, v: wp.array2d(dtype=float)):
+    """Rows r, r + 1 (impulses old1, old2 so far) toward J·v = target, both from the same
+    velocity, their impulse then projected onto the disk of radius `bound`; 1 if the
+    projection cut it (the contact slides or rolls), else 0."""
+    jv = _row_dot2(rows, rows.jac, e, r, v, sp, ln)
+    l1 = old1 + (target[0] - jv[0]) * rows.inv_mass[e, r]
+    l2 = old2 + (target[1] - jv[1]) * rows.inv_mass[e, r + 1]
     norm = wp.sqrt(l1 * l1 + l2 * l2)
-    c.slid[e, r / width] = int(norm > limit)
-    if norm > limit:
+    cut = int(norm > bound)
+    if cut != 0:
         scale = float(0.0)
         if norm > 0.0:
-            scale = limit / norm
+            scale = bound / norm
         l1 = l1 * scale
         l2 = l2 * scale
     rows.lam[e, r] = l1
     rows.lam[e, r + 1] = l2
     _apply2(e, ln, r, l1 - old1, l2 - old2, rows.minv_jt, v, sp)
+    return cut
 
 
 @wp.func
@@ -1011,16 +1066,7 @@ def _angular_rows(e: int, ln: wp.vec2i, r0: int, width: int, biased: int, tgs: i
             target = wp.vec2(0.0, 0.0)
             if biased != 0 and tgs != 0:
                 target = -1.0 * _row_dot2(rows, rows.jac, e, r, dq, sp2, ln) / hs
-            jv2 = _row_dot2(rows, rows.jac, e, r, v, sp2, ln)
-            l1 = old1 + (target[0] - jv2[0]) * rows.inv_mass[e, r]
-            l2 = old2 + (target[1] - jv2[1]) * rows.inv_mass[e, r + 1]
-            norm = wp.sqrt(l1 * l1 + l2 * l2)
-            if norm > bound:        # (> 0)
-                l1 = l1 * bound / norm
-                l2 = l2 * bound / norm
-            rows.lam[e, r] = l1
-            rows.lam[e, r + 1] = l2
-            _apply2(e, ln, r, l1 - old1, l2 - old2, rows.minv_jt, v, sp2)
+            _disk_rows(e, ln, r, old1, old2, target, bound, sp2, rows, v)
 
 
 @wp.func
@@ -1102,7 +1148,7 @@ def solve(m: ModelArrays, opt: Options, layout: RowLayout,
     if not active:
         return      # (one world per block: a thread past the worlds is a whole block past)
     ln = wp.vec2i(lane, lanes)
-    limit_jnt = opt.limit_jnt
+    limit_dof = opt.limit_dof
     h = opt.h
     position_iterations = opt.position_iterations
     velocity_iterations = opt.velocity_iterations
@@ -1134,7 +1180,7 @@ def solve(m: ModelArrays, opt: Options, layout: RowLayout,
     if tgs != 0:
         hs = h / float(position_iterations)
     for it in range(position_iterations):
-        _sweep(m, e, ln, layout, ncontact, tendon_limits, c, limit_jnt, int(it == 0), 1, tgs,
+        _sweep(m, e, ln, layout, ncontact, tendon_limits, c, limit_dof, int(it == 0), 1, tgs,
                hs, h, max_depenetration, max_correction, d.factor, rows, s.qd, s.dq)
         if tgs != 0:
             for i in range(lane, nv, lanes):
@@ -1143,7 +1189,7 @@ def solve(m: ModelArrays, opt: Options, layout: RowLayout,
         for i in range(lane, nv, lanes):
             s.dq[e, i] = h * s.qd[e, i]
     for it in range(velocity_iterations):
-        _sweep(m, e, ln, layout, ncontact, tendon_limits, c, limit_jnt, 0, 0, tgs, hs, h,
+        _sweep(m, e, ln, layout, ncontact, tendon_limits, c, limit_dof, 0, 0, tgs, hs, h,
                max_depenetration, max_correction, d.factor, rows, s.qd, s.dq)
     # the speed caps hold exactly: a dof's row is swept before the contacts that follow it can
     # push the dof past its cap again, and one velocity sweep leaves that overshoot in place.
