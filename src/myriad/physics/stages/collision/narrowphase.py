@@ -976,13 +976,18 @@ def _pair(m: ModelArrays, e: int, k: int, pairs: wp.array(dtype=wp.vec2i), p: En
             c2, h2 = bounding_box(t2, p.geom_size[e, g2], m.geom_dataid[g2], meshes)
             if boxes_apart(s.geom_x[e, g1], c1, h1, s.geom_x[e, g2], c2, h2, margin):
                 return
-    _collide_pair(e, k, pair, t1, t2, s.geom_x[e, g1], s.geom_x[e, g2], p.geom_size[e, g1],
-                  p.geom_size[e, g2], m.geom_dataid, meshes, hfields, margin, out)
+    if _primitives(t1, t2):
+        _collide_primitives(e, k, pair, t1, t2, s.geom_x[e, g1], s.geom_x[e, g2],
+                            p.geom_size[e, g1], p.geom_size[e, g2], margin, out)
+    else:
+        _collide_pair(e, k, pair, t1, t2, s.geom_x[e, g1], s.geom_x[e, g2], p.geom_size[e, g1],
+                      p.geom_size[e, g2], m.geom_dataid, meshes, hfields, margin, out)
 
 
 def most_contacts(t1: int, t2: int) -> int:
-    """The most contacts `_collide_pair` emits for one pair of geom types (t1 <= t2 in the pairs'
-    order: a static triangle mesh first), read off its branches below; keep the two in step.
+    """The most contacts the pair tests (`_collide_primitives`, `_collide_pair`) emit for one
+    pair of geom types (t1 <= t2 in the pairs' order: a static triangle mesh first), read off
+    their branches below; keep them in step.
     A model's contact slots never need more than the sum of this over its candidate pairs
     (`contact_bound`)."""
     if t1 == GeomType.PLANE:
@@ -1012,14 +1017,26 @@ def contact_bound(geom_type, pairs) -> int:
 
 
 @wp.func
-def _collide_pair(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.transform,
-                  x2: wp.transform, s1: wp.vec3, s2: wp.vec3,
-                  geom_dataid: wp.array(dtype=wp.int32), meshes: Meshes, hfields: HFields,
-                  margin: float, out: ContactSlots):
-    """Contacts of geoms pair[0], pair[1] (types t1 <= t2, poses x1, x2, sizes s1, s2) of env e,
-    appended to its contact slots; p (the pair's index) makes their keys."""
-    g1 = pair[0]
-    g2 = pair[1]
+def _primitives(t1: int, t2: int):
+    """Whether a pair of geom types (t1 <= t2) has a closed-form test of its own (planes,
+    spheres, capsules, boxes, a plane and a cylinder): `_collide_primitives`, which a CPU build
+    calls without copying the mesh and height-field arrays, as `_collide_pair` does."""
+    if t1 == PLANE:
+        return t2 == SPHERE or t2 == CAPSULE or t2 == BOX or t2 == CYLINDER
+    if t1 == SPHERE:
+        return t2 == SPHERE or t2 == CAPSULE or t2 == BOX
+    if t1 == CAPSULE:
+        return t2 == CAPSULE or t2 == BOX
+    return t1 == BOX and t2 == BOX
+
+
+@wp.func
+def _collide_primitives(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.transform,
+                        x2: wp.transform, s1: wp.vec3, s2: wp.vec3, margin: float,
+                        out: ContactSlots):
+    """Contacts of geoms pair[0], pair[1] (types t1 <= t2 that `_primitives` takes, poses x1, x2,
+    sizes s1, s2) of env e, appended to its contact slots; p (the pair's index) makes their
+    keys."""
     c1 = wp.transform_get_translation(x1)
     c2 = wp.transform_get_translation(x2)
     if t1 == PLANE:
@@ -1044,12 +1061,50 @@ def _collide_pair(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.trans
                 if dist < margin and found < 4:
                     found += 1
                     _emit(e, pair, p * 32 + k, point - n * (0.5 * dist), n, dist, margin, out)
-        elif t2 == ELLIPSOID:
+        else:   # CYLINDER
+            _plane_cylinder(e, pair, p * 32, c1, n, x2, s2, margin, out)
+    elif t1 == SPHERE:
+        if t2 == SPHERE or t2 == CAPSULE:
+            other = c2
+            if t2 == CAPSULE:
+                other = _closest_on_segment(_segment(x2, s2[1], -1.0), _segment(x2, s2[1], 1.0), c1)
+            n, dist, pos = _spheres(c1, s1[0], other, s2[0])
+            _emit(e, pair, p * 32, pos, n, dist, margin, out)
+        else:   # BOX
+            n, dist, pos = _sphere_box(c1, s1[0], x2, s2)
+            _emit(e, pair, p * 32, pos, n, dist, margin, out)
+    elif t1 == CAPSULE and t2 == CAPSULE:
+        a1 = _segment(x1, s1[1], -1.0)
+        b1 = _segment(x1, s1[1], 1.0)
+        a2 = _segment(x2, s2[1], -1.0)
+        b2 = _segment(x2, s2[1], 1.0)
+        st = _closest_between_segments(a1, b1, a2, b2)
+        n, dist, pos = _spheres(a1 + (b1 - a1) * st[0], s1[0], a2 + (b2 - a2) * st[1], s2[0])
+        _emit(e, pair, p * 32, pos, n, dist, margin, out)
+    elif t1 == CAPSULE:     # and a BOX
+        _capsule_box(e, pair, p * 32, x1, s1, x2, s2, margin, out)
+    else:                   # BOX, BOX
+        _box_box(e, pair, p * 32, x1, s1, x2, s2, margin, out)
+
+
+@wp.func
+def _collide_pair(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.transform,
+                  x2: wp.transform, s1: wp.vec3, s2: wp.vec3,
+                  geom_dataid: wp.array(dtype=wp.int32), meshes: Meshes, hfields: HFields,
+                  margin: float, out: ContactSlots):
+    """Contacts of geoms pair[0], pair[1] (types t1 <= t2 that `_primitives` does not take:
+    ellipsoids, meshes, height fields, triangle meshes, the general convex pairs; poses x1, x2,
+    sizes s1, s2) of env e, appended to its contact slots; p (the pair's index) makes their
+    keys."""
+    g1 = pair[0]
+    g2 = pair[1]
+    c1 = wp.transform_get_translation(x1)
+    if t1 == PLANE:
+        n = wp.quat_rotate(wp.transform_get_rotation(x1), wp.vec3(0.0, 0.0, 1.0))
+        if t2 == ELLIPSOID:
             point = support(t2, s2, -1, meshes, x2, -n, 0.0)
             dist = wp.dot(point - c1, n)
             _emit(e, pair, p * 32, point - n * (0.5 * dist), n, dist, margin, out)
-        elif t2 == CYLINDER:
-            _plane_cylinder(e, pair, p * 32, c1, n, x2, s2, margin, out)
         elif t2 == MESH:
             _plane_mesh(e, pair, p * 32, c1, n, x2, geom_dataid[g2], meshes, margin, out)
     elif t1 == HFIELD:
@@ -1081,31 +1136,6 @@ def _collide_pair(e: int, p: int, pair: wp.vec2i, t1: int, t2: int, x1: wp.trans
     elif t1 == TRIMESH:
         _trimesh(e, pair, p * 32, x1, geom_dataid[g1], t2, x2, s2, geom_dataid[g2], meshes,
                  margin, out)
-    elif t1 == SPHERE and t2 != SPHERE and t2 != CAPSULE and t2 != BOX:
-        _convex(e, pair, p * 32, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
-                margin, out)
-    elif t1 == SPHERE:
-        if t2 == SPHERE or t2 == CAPSULE:
-            other = c2
-            if t2 == CAPSULE:
-                other = _closest_on_segment(_segment(x2, s2[1], -1.0), _segment(x2, s2[1], 1.0), c1)
-            n, dist, pos = _spheres(c1, s1[0], other, s2[0])
-            _emit(e, pair, p * 32, pos, n, dist, margin, out)
-        elif t2 == BOX:
-            n, dist, pos = _sphere_box(c1, s1[0], x2, s2)
-            _emit(e, pair, p * 32, pos, n, dist, margin, out)
-    elif t1 == CAPSULE and t2 == CAPSULE:
-        a1 = _segment(x1, s1[1], -1.0)
-        b1 = _segment(x1, s1[1], 1.0)
-        a2 = _segment(x2, s2[1], -1.0)
-        b2 = _segment(x2, s2[1], 1.0)
-        st = _closest_between_segments(a1, b1, a2, b2)
-        n, dist, pos = _spheres(a1 + (b1 - a1) * st[0], s1[0], a2 + (b2 - a2) * st[1], s2[0])
-        _emit(e, pair, p * 32, pos, n, dist, margin, out)
-    elif t1 == CAPSULE and t2 == BOX:
-        _capsule_box(e, pair, p * 32, x1, s1, x2, s2, margin, out)
-    elif t1 == BOX and t2 == BOX:
-        _box_box(e, pair, p * 32, x1, s1, x2, s2, margin, out)
     else:
         _convex(e, pair, p * 32, t1, s1, geom_dataid[g1], x1, t2, s2, geom_dataid[g2], x2, meshes,
                 margin, out)
