@@ -2,7 +2,7 @@
 
 Every row-sized loop of the engine goes through these few functions: J·v and v += M⁻¹Jᵀ·λ
 over a row's span (`row_dot`, `row_apply`) and building rows (`row_fill`, `row_copy`,
-`rows_dot`). They are native code
+`rows_dot_at`). They are native code
 (`wp.func_native`, compiled by Warp for the CPU and for CUDA alike) because a Warp array index
 wraps negative indices and multiplies by the stride on every access, and a `range` loop with
 runtime bounds keeps a generic iterator: in these loops that overhead, not the arithmetic, was
@@ -122,21 +122,6 @@ def add_scaled(acc: float, dl: float, x: float) -> float:
 
 
 @wp.func_native("""
-    const float* ap = wp::address(a, e, ra, 0);
-    const float* bp = wp::address(b, e, rb, 0);
-    float s = 0.0f;
-""" + VECTOR_LOOP + """
-    for (int i = 0; i < n; ++i) s += ap[i] * bp[i];
-    return s;
-""")
-def rows_dot(a: wp.array3d(dtype=float), ra: int, b: wp.array3d(dtype=float), rb: int, e: int,
-             n: int) -> float:
-    """a[e, ra, :n] · b[e, rb, :n]: J_a M⁻¹ J_bᵀ of two rows of one span from J_a and the
-    response of b (with ra = rb, a row's J M⁻¹ Jᵀ)."""
-    ...
-
-
-@wp.func_native("""
     const float* ap = wp::address(a, e, ra, oa);
     const float* bp = wp::address(b, e, rb, ob);
     float s = 0.0f;
@@ -146,8 +131,9 @@ def rows_dot(a: wp.array3d(dtype=float), ra: int, b: wp.array3d(dtype=float), rb
 """)
 def rows_dot_at(a: wp.array3d(dtype=float), ra: int, oa: int, b: wp.array3d(dtype=float),
                 rb: int, ob: int, e: int, n: int) -> float:
-    """a[e, ra, oa:oa + n] · b[e, rb, ob:ob + n]: the part of J_a M⁻¹ J_bᵀ over a dof range the
-    two rows' spans share, at its columns in each."""
+    """a[e, ra, oa:oa + n] · b[e, rb, ob:ob + n]: J_a M⁻¹ J_bᵀ from J_a and the response of b
+    over a dof range the two rows' spans share, at its columns in each (with ra = rb and both
+    offsets 0, a row's J M⁻¹ Jᵀ)."""
     ...
 
 

@@ -119,7 +119,7 @@ def _solve_rows(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
 def _set_inv_mass(rows: Rows, e: int, r: int, sp: wp.vec4i, kind: int):
     """1/(J M⁻¹ Jᵀ) of row r, which becomes `kind`; a row that moves nothing (e.g. between two
     static shapes) is dropped."""
-    w = dense.rows_dot(rows.jac, r, rows.minv_jt, r, e, _width(sp))
+    w = dense.rows_dot_at(rows.jac, r, 0, rows.minv_jt, r, 0, e, _width(sp))
     if w > 1.0e-12:
         rows.inv_mass[e, r] = 1.0 / w
         rows.type[e, r] = kind
@@ -584,7 +584,7 @@ def _finish_equality(m: ModelArrays, e: int, r: int, n: int, k: int,
         _solve_rows(m, e, factor, rows.minv_jt, r + a, wp.min(3, n - a), sp)
     for a in range(n):
         for b in range(a + 1):
-            x = dense.rows_dot(rows.jac, r + a, rows.minv_jt, r + b, e, width)
+            x = dense.rows_dot_at(rows.jac, r + a, 0, rows.minv_jt, r + b, 0, e, width)
             if b == a:
                 rows.inv_mass[e, r + a] = 0.0
                 if x > 1.0e-12:
@@ -640,7 +640,7 @@ def tendon_spring_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, p: EnvPa
             _tendon_add(m, s, e, t, 1.0, False, rows.jac, r, sp)
             _tendon_add(m, s, e, t, 1.0, True, rows.minv_jt, r, sp)
             _solve_rows(m, e, factor, rows.minv_jt, r, 1, sp)
-            w_eff = dense.rows_dot(rows.jac, r, rows.minv_jt, r, e, _width(sp))
+            w_eff = dense.rows_dot_at(rows.jac, r, 0, rows.minv_jt, r, 0, e, _width(sp))
             if w_eff > 1.0e-12:
                 rows.type[e, r] = SOFT
                 rows.inv_mass[e, r] = 1.0 / w_eff

@@ -1170,7 +1170,8 @@ def solve(m: ModelArrays, opt: Options, layout: RowLayout,
             warm = rows.lam_init[e, r]
             if rows.type[e, r] == NORMAL:
                 warm = WARM * rows.lam_init[e, r]
-            _apply(s.qd, e, warm, rows.minv_jt, r, rows.span[e, r], ln)
+            if warm != 0.0:      # (most rows start from zero: no call, no span read)
+                _apply(s.qd, e, warm, rows.minv_jt, r, rows.span[e, r], ln)
         rows.lam[e, r] = warm
     for k in range(ncontact):
         c.slid[e, k] = 0
