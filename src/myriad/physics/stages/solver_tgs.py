@@ -260,10 +260,10 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
         _wait(ln)
         if ln[0] == 0:
             # most dof rows do nothing in a sweep (no dry friction, speed under the cap):
-            # tested on this env's 1D views, one index each, before the row is visited. (Before
-            # the limit block instead, they kept a G1 with hands within its limits in 38 of 40
-            # envs rather than 33, but a TALOS's mimic-coupled gripper joints then passed
-            # theirs in 14 rather than 2: the equalities after them undo the limits)
+            # `_next_dof_row` finds those that do. (Before the limit block instead, they kept
+            # a G1 with hands within its limits in 38 of 40 envs rather than 33, but a TALOS's
+            # mimic-coupled gripper joints then passed theirs in 14 rather than 2: the
+            # equalities after them undo the limits)
             n = layout.end - layout.dofs
             dof = _next_dof_row(rows.type, rows.mu, rows.k, v, e, layout.dofs, 0, n, 1, DOF)
             while dof < n:
@@ -272,7 +272,7 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
                                     DOF)
         _wait(ln)
         if part + 1 == LIMIT_CAP_ROUNDS or \
-                _limits_broken(m, layout, limit_dof, rows, e, v) == 0:
+                _limits_broken(layout, limit_dof, rows, e, v) == 0:
             break
     if ln[0] == 0:
         # equalities last: the sweep ends with them holding, whatever the rows before did
@@ -284,7 +284,7 @@ def _sweep(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, ncontact: in
 
 
 @wp.func
-def _limits_broken(m: ModelArrays, layout: RowLayout, limit_dof: wp.array(dtype=wp.int32),
+def _limits_broken(layout: RowLayout, limit_dof: wp.array(dtype=wp.int32),
                    rows: Rows, e: int, v: wp.array2d(dtype=float)):
     """1 if a joint-limit candidate of this sweep's block now moves slower than its target by
     more than the block's rounding, else 0."""
@@ -460,7 +460,7 @@ def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, c: Cont
                     k += 1
         else:
             k = _candidate_count(rows, e, n)
-        k = _reachable_limits(m, e, layout, limit_dof, k, biased, tgs, hs, rows, v, dq)
+        k = _reachable_limits(e, layout, limit_dof, k, biased, tgs, hs, rows, v, dq)
         _block_contacts(m, e, layout, c, ncontact, limit_dof, k, rows)
     ncand = int(0)
     nentry = int(0)
@@ -473,7 +473,7 @@ def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, c: Cont
             # this sweep's step (a G1's hand hitting the ground spun its wrist to its 100 rad/s
             # cap, 0.18 rad past its limit in one step): solve once more with its row
             if ln[0] == 0 and nentry > ncand and attempt == 1:
-                _reachable_limits(m, e, layout, limit_dof, ncand, biased, tgs, hs, rows, v, dq)
+                _reachable_limits(e, layout, limit_dof, ncand, biased, tgs, hs, rows, v, dq)
             _wait(ln)
             again = int(_candidate_count(rows, e, n) != ncand)
             # and a dof past its speed cap (the block's impulses may have sent it there): once
@@ -510,7 +510,7 @@ def _limit_rows(m: ModelArrays, e: int, ln: wp.vec2i, layout: RowLayout, c: Cont
 
 
 @wp.func(inline=True)
-def _reachable_limits(m: ModelArrays, e: int, layout: RowLayout,
+def _reachable_limits(e: int, layout: RowLayout,
                       limit_dof: wp.array(dtype=wp.int32), k: int, biased: int, tgs: int,
                       hs: float, rows: Rows, v: wp.array2d(dtype=float),
                       dq: wp.array2d(dtype=float)):
@@ -742,7 +742,7 @@ def _rows_coupling(e: int, ra: int, rb: int, rows: Rows):
 
 
 @wp.func(inline=True)
-def _coupling(m: ModelArrays, limit_dof: wp.array(dtype=wp.int32), e: int, n: int, ia: int,
+def _coupling(limit_dof: wp.array(dtype=wp.int32), e: int, n: int, ia: int,
               ra: int, ib: int, rb: int, rows: Rows):
     """J_a·M⁻¹J_bᵀ of block entry ia (row ra) and entry ib (a built row rb)."""
     x = float(0.0)
@@ -882,7 +882,7 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
             ra = _entry_row(layout, rows, e, ia)
             for b in range(a + 1):
                 ib = rows.block_row[e, b]
-                x = _coupling(m, limit_dof, e, n, ia, ra, ib, _entry_row(layout, rows, e, ib),
+                x = _coupling(limit_dof, e, n, ia, ra, ib, _entry_row(layout, rows, e, ib),
                               rows)
                 if b == a and soft != 0:
                     x = x + _softness(rows, n, ia) / rows.inv_mass[e, ra]
@@ -947,7 +947,7 @@ def _joint_limit_block(m: ModelArrays, e: int, layout: RowLayout,
             for a in range(count):
                 ib = rows.block_row[e, a]
                 w = w + rows.block_lam[e, ib] * _coupling(
-                    m, limit_dof, e, n, i, r, ib, _entry_row(layout, rows, e, ib), rows)
+                    limit_dof, e, n, i, r, ib, _entry_row(layout, rows, e, ib), rows)
             short = rows.block_target[e, i] - w
             if short > most + 1.0e-6 * (1.0 + wp.abs(rows.block_target[e, i])):
                 most = short
