@@ -1019,8 +1019,9 @@ def contact_bound(geom_type, pairs) -> int:
 @wp.func
 def _primitives(t1: int, t2: int):
     """Whether a pair of geom types (t1 <= t2) has a closed-form test of its own (planes,
-    spheres, capsules, boxes, a plane and a cylinder): `_collide_primitives`, which a CPU build
-    calls without copying the mesh and height-field arrays, as `_collide_pair` does."""
+    spheres, capsules, boxes, a plane and a cylinder): `_collide_primitives`, a smaller function
+    than `_collide_pair` that takes no mesh or height-field arrays (Warp passes structs by
+    value; the pair loop's call cost half as much after the split: `docs/performance.md`)."""
     if t1 == PLANE:
         return t2 == SPHERE or t2 == CAPSULE or t2 == BOX or t2 == CYLINDER
     if t1 == SPHERE:
