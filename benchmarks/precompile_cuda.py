@@ -35,6 +35,9 @@ def main() -> None:
     ap.add_argument("--arch", type=int, nargs="+", default=[90],
                     help="compute capabilities: 90 = H100/H200, 89 = L4/RTX 4090, 80 = A100")
     ap.add_argument("--cache", required=True, help="kernel cache folder (WARP_CACHE_PATH there)")
+    ap.add_argument("--modules", nargs="+", metavar="NAME",
+                    help="only the engine modules whose name ends with one of these (e.g. "
+                         "solver_tgs dynamics): a check that a change compiles for CUDA")
     args = ap.parse_args()
     wp.config.kernel_cache_dir = args.cache
     wp.init()
@@ -43,6 +46,8 @@ def main() -> None:
 
     runtime.configure_modules()       # the build options the simulator uses: same hashes
     for name in runtime.kernel_modules():
+        if args.modules and not any(name.endswith(m) for m in args.modules):
+            continue
         importlib.import_module(name)
         module = wp.get_module(name)
         if not module.kernels:
