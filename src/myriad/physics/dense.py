@@ -34,9 +34,16 @@ VECTOR_LOOP = """
 # An array's last dimension may have a stride: a world-minor array (`build.allocate`, on request
 # of MYRIAD_WORLD_MINOR) keeps its env index fastest in memory, so the elements of one env's row
 # sit N apart. Each loop below is written once, as a generic lambda over how it reads the row:
-# a plain pointer where the elements are consecutive (every array unless asked otherwise: the
-# loops compile, vectorize and round as they always did) or `Strided`.
+# `Strided`, or on a CPU a plain pointer where the elements are consecutive (every array unless
+# asked otherwise: there the loops compile, vectorize and round as they always did). CUDA runs
+# the strided form for either layout (a stride of 1 reads the same elements in the same order):
+# one form of each loop in the module, not two.
 STRIDED = """
+#if defined(__CUDA_ARCH__)
+#define CONTIGUOUS(test) false
+#else
+#define CONTIGUOUS(test) (test)
+#endif
     struct Strided {
         float* p;
         int s;
@@ -72,7 +79,7 @@ def step_of(array: str) -> str:
     float* row = wp::address(a, e, r, 0);
     float* ve = wp::address(v, e, 0);
     const int sa = """ + step_of("a") + """, sv = """ + step_of("v") + """;
-    if (sa == 1 && sv == 1) return dot(row, ve);
+    if (CONTIGUOUS(sa == 1 && sv == 1)) return dot(row, ve);
     return dot(Strided{row, sa}, Strided{ve, sv});
 """)
 def row_dot(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
@@ -96,7 +103,7 @@ def row_dot(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=floa
     float* row = wp::address(a, e, r, 0);
     float* ve = wp::address(v, e, 0);
     const int sa = """ + step_of("a") + """, sv = """ + step_of("v") + """;
-    if (sa == 1 && sv == 1) apply(row, ve);
+    if (CONTIGUOUS(sa == 1 && sv == 1)) apply(row, ve);
     else apply(Strided{row, sa}, Strided{ve, sv});
 """)
 def row_apply(v: wp.array2d(dtype=float), e: int, dl: float, a: wp.array3d(dtype=float), r: int,
@@ -125,7 +132,7 @@ _LANE_RANGES = """
     float* row = wp::address(a, e, r, 0);
     float* ve = wp::address(v, e, 0);
     const int sa = """ + step_of("a") + """, sv = """ + step_of("v") + """;
-    if (sa == 1 && sv == 1) return dot(row, ve);
+    if (CONTIGUOUS(sa == 1 && sv == 1)) return dot(row, ve);
     return dot(Strided{row, sa}, Strided{ve, sv});
 """)
 def row_dot_lane(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
@@ -144,7 +151,7 @@ def row_dot_lane(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype
     float* row = wp::address(a, e, r, 0);
     float* ve = wp::address(v, e, 0);
     const int sa = """ + step_of("a") + """, sv = """ + step_of("v") + """;
-    if (sa == 1 && sv == 1) apply(row, ve);
+    if (CONTIGUOUS(sa == 1 && sv == 1)) apply(row, ve);
     else apply(Strided{row, sa}, Strided{ve, sv});
 """)
 def row_apply_lane(v: wp.array2d(dtype=float), e: int, dl: float, a: wp.array3d(dtype=float),
@@ -174,7 +181,7 @@ def add_scaled(acc: float, dl: float, x: float) -> float:
     float* ap = wp::address(a, e, ra, oa);
     float* bp = wp::address(b, e, rb, ob);
     const int sa = """ + step_of("a") + """, sb = """ + step_of("b") + """;
-    if (sa == 1 && sb == 1) return dot(ap, bp);
+    if (CONTIGUOUS(sa == 1 && sb == 1)) return dot(ap, bp);
     return dot(Strided{ap, sa}, Strided{bp, sb});
 """)
 def rows_dot_at(a: wp.array3d(dtype=float), ra: int, oa: int, b: wp.array3d(dtype=float),
@@ -192,7 +199,7 @@ def rows_dot_at(a: wp.array3d(dtype=float), ra: int, oa: int, b: wp.array3d(dtyp
     };
     float* yp = wp::address(y, e, r, 0);
     const int sy = """ + step_of("y") + """;
-    if (sy == 1) fill(yp);
+    if (CONTIGUOUS(sy == 1)) fill(yp);
     else fill(Strided{yp, sy});
 """)
 def row_fill(y: wp.array3d(dtype=float), e: int, r: int, value: float, n: int):
@@ -208,7 +215,7 @@ def row_fill(y: wp.array3d(dtype=float), e: int, r: int, value: float, n: int):
     float* yp = wp::address(y, e, r, 0);
     float* xp = wp::address(x, e, r, 0);
     const int sy = """ + step_of("y") + """, sx = """ + step_of("x") + """;
-    if (sy == 1 && sx == 1) copy(yp, xp);
+    if (CONTIGUOUS(sy == 1 && sx == 1)) copy(yp, xp);
     else copy(Strided{yp, sy}, Strided{xp, sx});
 """)
 def row_copy(y: wp.array3d(dtype=float), x: wp.array3d(dtype=float), e: int, r: int, n: int):

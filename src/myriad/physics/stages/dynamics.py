@@ -250,7 +250,7 @@ def articulated_factor(m: ModelArrays, p: EnvParams, s: State, e: int, lane: int
     float* X1 = wp::address(x, e, r + (nrows > 1 ? 1 : 0), 0);
     float* X2 = wp::address(x, e, r + (nrows > 2 ? 2 : 0), 0);
     const int sf = """ + dense.step_of("factor") + """, sx = """ + dense.step_of("x") + """;
-    if (sf == 1 && sx == 1) run(F, X0, X1, X2);
+    if (CONTIGUOUS(sf == 1 && sx == 1)) run(F, X0, X1, X2);
     else run(Strided{F, sf}, Strided{X0, sx}, Strided{X1, sx}, Strided{X2, sx});
 """)
 def solve_span(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),

@@ -149,7 +149,7 @@ def _apply(v: wp.array2d(dtype=float), e: int, dl: float, a: wp.array3d(dtype=fl
     float* ve = wp::address(v, e, 0);
     const int st = """ + dense.step_of("type") + """, sb = """ + dense.step_of("mu") + """;
     const int sc = """ + dense.step_of("k") + """, sv = """ + dense.step_of("v") + """;
-    if (st == 1 && sb == 1 && sc == 1 && sv == 1) return scan(t, bound, cap, ve);
+    if (CONTIGUOUS(st == 1 && sb == 1 && sc == 1 && sv == 1)) return scan(t, bound, cap, ve);
     return scan(StridedInt{t, st}, Strided{bound, sb}, Strided{cap, sc}, Strided{ve, sv});
 """)
 def _next_dof_row(type: wp.array2d(dtype=wp.int32), mu: wp.array2d(dtype=float),
@@ -183,7 +183,7 @@ def _next_dof_row(type: wp.array2d(dtype=wp.int32), mu: wp.array2d(dtype=float),
     float* de = wp::address(dq, e, 0);
     const int st = """ + dense.step_of("type") + """, se = """ + dense.step_of("err") + """;
     const int sv = """ + dense.step_of("v") + """, sd = """ + dense.step_of("dq") + """;
-    if (st == 1 && se == 1 && sv == 1 && sd == 1) return scan(t, er, ve, de);
+    if (CONTIGUOUS(st == 1 && se == 1 && sv == 1 && sd == 1)) return scan(t, er, ve, de);
     return scan(StridedInt{t, st}, Strided{er, se}, Strided{ve, sv}, Strided{de, sd});
 """)
 def _next_reachable_limit(type: wp.array2d(dtype=wp.int32), err: wp.array2d(dtype=float),
