@@ -3,8 +3,8 @@
 # machine:
 #   peers   MuJoCo Warp and Myriad on the same models (gpu_peers.py; PEERS_ARGS: more of its
 #           arguments), then the throughput table (throughput.py) in the time left
-#   lanes   the default launch on world-major and world-minor arrays, then the cooperative
-#           kernels' lanes per world swept (lane_sweep.py; LANES_ARGS, LANES_BUDGET_S 150)
+#   lanes   the cooperative kernels' lanes per world swept (lane_sweep.py; LANES_ARGS,
+#           LANES_BUDGET_S 150)
 #   tests   the test suite on CUDA, one pytest process per file
 #   soak    every task under random actions for two episode lengths: nothing may go non-finite
 #   train   short training runs that time the paper's milestones
@@ -17,7 +17,6 @@
 #   python benchmarks/precompile_cuda.py --arch 90 --cache .device/kcache     # here (no GPU)
 #   WARP_CACHE_PATH=.device/kcache bash benchmarks/gpu_suite.sh peers         # there, one stage
 #   bash benchmarks/gpu_suite.sh                  # all five: peers lanes tests soak train
-#   MYRIAD_WORLD_MINOR=all bash benchmarks/gpu_suite.sh peers   # peers on world-minor arrays
 # Each stage prints its budget first and, last, what it skipped to stay inside it. Budgets, in
 # seconds: PEERS_S (the whole peers stage, 480) of which PEERS_BUDGET_S (240) for gpu_peers.py;
 # TEST_TIMEOUT (420, per test file; the files run side by side); SOAK_BUDGET_S (420);

@@ -5,17 +5,13 @@ every lane count gives the same state bit for bit.
     python benchmarks/lane_sweep.py --device cuda:0 [--models humanoid ant] [--worlds 8192]
 
 Each model is set up as in `gpu_peers.py` (same MJCF, timestep, keyframe, control noise, one
-substep, TGS 4/0) and stepped once per configuration: first the default `BlockDim()` with the
-per-env arrays world-major (each env's entries together, the default) and world-minor (the env
-index fastest in memory, `MYRIAD_WORLD_MINOR=all`: adjacent threads holding adjacent worlds read
-adjacent addresses), then every kind of work at the same lane count L (1, 2, 4, 8, 16, 32: the
-lane counts that divide the 32-thread block, so no kernel is compiled again; the solve 1 lane,
-or 0 = the whole block, for L > 1), then the best L per kind (the sum of its stages' times,
-below) together. A kind's count only changes which threads take a world's items, not the
-arithmetic (`physics/lanes.py`), and the layout only where each entry sits; the solve's lane
-count does change it: its sums add each lane's part in lane order (`solver_tgs._dot`), so
-configurations with the same solve lane count must end in the same state (the table's state
-hash: q and qd after the run, the same control sequence each time).
+substep, TGS 4/0) and stepped once per configuration: first every kind of work at the same lane
+count L (1, 2, 4, 8, 16, 32: the lane counts that divide the 32-thread block, so no kernel is
+compiled again; the solve 1 lane, or 0 = the whole block, for L > 1), then the best L per kind (the sum of its stages' times, below) together, then
+the default `BlockDim()`. A kind's count only changes which threads take a world's items, not the
+arithmetic (`physics/lanes.py`), except the solve's: its sums add each lane's part in lane order
+(`solver_tgs._dot`), so configurations with the same solve lane count must end in the same state
+(the table's state hash: q and qd after the run, the same control sequence each time).
 
     bodies  kinematics, dynamics, solve unconstrained (tree levels' bodies)
     rows    constraint rows (a family's items)
@@ -29,7 +25,6 @@ import argparse
 import collections
 import dataclasses
 import hashlib
-import os
 import time
 
 import torch
@@ -45,11 +40,8 @@ KINDS = {"bodies": ("kinematics", "dynamics", "solve_unconstrained"),
 LANES = (1, 2, 4, 8, 16, 32)
 
 
-def measure(model, mjm, n: int, steps: int, dev: str, block: BlockDim,
-            world_minor: bool = False) -> dict:
+def measure(model, mjm, n: int, steps: int, dev: str, block: BlockDim) -> dict:
     pipeline.BLOCK_DIM = block
-    # read when the simulator allocates its arrays (`runtime.launch.world_minor_structs`)
-    os.environ["MYRIAD_WORLD_MINOR"] = "all" if world_minor else "0"
     controls = gpu_peers.Controls(mjm, dev)
     sim = gpu_peers.myriad_sim(model, mjm, n, dev)
     row = gpu_peers.stepped(sim.step, n, dev, None, controls, sim.ctrl, steps)
@@ -79,25 +71,22 @@ def main() -> None:
         mjm, model = gpu_peers.load(name)
         # the sweeps wait on the block inside loops whose length is the world's (its contacts):
         # their lanes are 1 (no wait) or the whole block (0), never several worlds per block
-        # the default on both layouts first (the comparison a short budget must not cut off),
-        # then every kind of work at each lane count
-        configs = [("default", BlockDim(), False), ("default, world-minor", BlockDim(), True)]
-        configs += [(f"all {L}", BlockDim(bodies=L, dofs=L, rows=L, solve=1 if L == 1 else 0),
-                     False) for L in LANES]
+        configs = [(f"all {L}", BlockDim(bodies=L, dofs=L, rows=L, solve=1 if L == 1 else 0))
+                   for L in LANES]
         rows = []
-        for label, block, world_minor in configs:
+        for label, block in configs:
             start = time.perf_counter()
             rows.append((label, block, measure(model, mjm, args.worlds, args.steps, args.device,
-                                               block, world_minor)))
+                                               block)))
             print(f"  {name} {label}: {rows[-1][2]['steps_per_s']:,.0f} steps/s "
                   f"({time.perf_counter() - start:.1f} s)", flush=True)
-        swept = {label: r for label, _, r in rows}
         best = {kind: min(LANES, key=lambda L: sum(
-            swept[f"all {L}"]["stage_ms"][s] for s in stages))
+            rows[LANES.index(L)][2]["stage_ms"][s] for s in stages))
             for kind, stages in KINDS.items()}
         best["solve"] = 1 if best["solve"] == 1 else 0
-        rows.append(("best per kind", BlockDim(**best),
-                     measure(model, mjm, args.worlds, args.steps, args.device, BlockDim(**best))))
+        for label, block in (("best per kind", BlockDim(**best)), ("default", BlockDim())):
+            rows.append((label, block, measure(model, mjm, args.worlds, args.steps, args.device,
+                                               block)))
         print(f"\n{name}, {args.worlds} worlds: physics steps/s (CUDA graph) and ms per stage "
               "(stages synchronized, no graph)\n")
         stages = list(gpu_peers.STAGES)

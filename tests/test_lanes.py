@@ -95,50 +95,6 @@ def test_a_worlds_trajectory_repeats_and_does_not_depend_on_its_index_or_neighbo
     assert torch.equal(last[8], batch[3])
 
 
-
-@pytest.mark.parametrize("name", list(MODELS))
-@pytest.mark.parametrize("block_dim, solve", [(1, 1), (32, 1), (32, 0)])
-def test_a_world_minor_layout_steps_as_the_world_major_one(name, block_dim, solve, monkeypatch):
-    """MYRIAD_WORLD_MINOR=all stores every internal per-env array with its env index fastest
-    (the layout on which a GPU's one-thread-per-world loops read adjacent addresses): the
-    kernels index it through its strides, the native row loops (`dense`, `solver_tgs`'s scans,
-    `dynamics.solve_span`) through `dense.STRIDED`. 10 steps with contacts, in each launch
-    configuration: the ant and the hand give the world-major q bit for bit; the humanoid's rows
-    are wider than the CPU's 8-float vector loops, which sum a contiguous row in 8 lanes and a
-    strided one in another order, so it stays within 1e-5 (under no input, as above)."""
-    monkeypatch.setattr(step, "BLOCK_DIM", dataclasses.replace(step.BLOCK_DIM, solve=solve))
-    model = MODELS[name]()
-    scale = 0.0 if name == "humanoid" else 1.0
-    controls = scale * (torch.rand(10, 5, model.nu,
-                                   generator=torch.Generator().manual_seed(0)) * 2 - 1)
-    monkeypatch.setenv("MYRIAD_WORLD_MINOR", "0")
-    major = run(model, controls, block_dim, monkeypatch)
-    monkeypatch.setenv("MYRIAD_WORLD_MINOR", "all")
-    minor = run(model, controls, block_dim, monkeypatch)
-    assert torch.isfinite(minor).all()
-    if name == "humanoid":
-        assert (minor - major).abs().max() < 1e-5
-    else:
-        assert torch.equal(minor, major)
-
-
-def test_the_world_minor_layout_strides_the_internal_arrays_only(monkeypatch):
-    """Which arrays MYRIAD_WORLD_MINOR lays out world-minor: the named structs' internal fields
-    of more than one entry per env; public fields (the Simulator's torch views) stay
-    contiguous, and a name that is not a per-env struct is refused by name."""
-    model = MODELS["ant"]()
-    monkeypatch.setenv("MYRIAD_WORLD_MINOR", "Rows,Dynamics")
-    sim = myriad.Simulator(model, num_envs=4, cpu_threads=1)
-    jac = sim.data.rows.jac
-    assert jac.shape[0] == 4 and jac.strides[0] == 4 and not jac.is_contiguous
-    assert sim.data.dynamics.factor.strides[0] == 4
-    assert sim.data.state.cdof.is_contiguous                # State not named
-    assert sim.data.dynamics.bias.is_contiguous and sim.bias_force.is_contiguous()   # public
-    monkeypatch.setenv("MYRIAD_WORLD_MINOR", "Rows,Jacobians")
-    with pytest.raises(ValueError, match=r"MYRIAD_WORLD_MINOR='Rows,Jacobians': unknown "
-                                         r"struct\(s\) \['Jacobians'\]"):
-        myriad.Simulator(model, num_envs=4)
-
 def test_a_bad_block_dim_is_named(monkeypatch):
     monkeypatch.setenv("MYRIAD_CPU_BLOCK_DIM", "many")
     with pytest.raises(ValueError, match="MYRIAD_CPU_BLOCK_DIM='many'"):

@@ -22,7 +22,7 @@ import warp as wp
 from . import pairs as pair_rules
 from .model import Model, ModelError, dof_tree_spans
 from .params import SimParams
-from .runtime.launch import block_threads, world_minor_structs
+from .runtime.launch import block_threads
 from .stages.collision import CANDIDATES_PER_SLOT, contact_bound
 from .stages.solver_tgs import BLOCK_CAPS
 from .structs import (STRUCTS, Control, Contacts, Dynamics, EnvParams, HFields, Meshes,
@@ -200,9 +200,7 @@ def device_model(model: Model, params: SimParams, device) -> DeviceModel:
 
 def allocate_data(dm: DeviceModel, num_envs: int, device) -> Data:
     """Every per-env struct for `num_envs` envs, initialized from the model (`dm.initial`)."""
-    minor = world_minor_structs()
-    return Data({struct: allocate(struct, num_envs, dm.sizes, device, dm.initial.get(struct),
-                                  struct.__name__ in minor)
+    return Data({struct: allocate(struct, num_envs, dm.sizes, device, dm.initial.get(struct))
                  for struct in STRUCTS})
 
 
@@ -466,24 +464,16 @@ def shape_data(model, device) -> tuple[Meshes, HFields, list]:
 
 
 # ------------------------------------------------------------------ per-env memory
-def allocate(struct, num_envs: int, sizes: dict, device, values: dict | None = None,
-             world_minor: bool = False):
+def allocate(struct, num_envs: int, sizes: dict, device, values: dict | None = None):
     """An instance of `struct` with every field allocated: zeros, or the per-env copy of
     values[name] (one env's value, broadcast to all). On a CPU the fields share one block of
-    host memory (`_host_memory`). `world_minor`: the internal fields (not public) stored with
-    the env index fastest in memory, each a transposed view of its storage, same shape and
-    indexing (`runtime.launch.world_minor_structs`)."""
+    host memory (`_host_memory`)."""
     out = struct()
     shapes = {name: field_shape(f, num_envs, sizes) for name, f in struct.fields.items()}
-    # the env dimension last in memory, where it changes anything
-    minor = {name for name, f in struct.fields.items()
-             if world_minor and not f.public and num_envs > 1 and len(shapes[name]) > 1}
-    stored = {name: shape[1:] + shape[:1] if name in minor else shape
-              for name, shape in shapes.items()}
     if wp.get_device(device).is_cpu:
-        arrays = _host_arrays({name: (stored[name], f.dtype) for name, f in struct.fields.items()})
+        arrays = _host_arrays({name: (shapes[name], f.dtype) for name, f in struct.fields.items()})
     else:
-        arrays = {name: wp.zeros(stored[name], dtype=f.dtype, device=device)
+        arrays = {name: wp.zeros(shapes[name], dtype=f.dtype, device=device)
                   for name, f in struct.fields.items()}
     for name, array in arrays.items():
         if values is not None and name in values:
@@ -491,13 +481,7 @@ def allocate(struct, num_envs: int, sizes: dict, device, values: dict | None = N
                              struct.fields[name].dtype)
             one = np.asarray(values[name], wp.dtype_to_numpy(scalar))
             assert one.shape[:len(shapes[name]) - 1] == shapes[name][1:], (name, one.shape)
-            every = np.broadcast_to(one, (num_envs,) + one.shape)
-            if name in minor:
-                every = np.moveaxis(every, 0, len(shapes[name]) - 1)
-            array.assign(np.ascontiguousarray(every))
-        if name in minor:     # [dims..., N] stored, seen as [N, dims...]
-            k = len(shapes[name]) - 1
-            array = array.transpose((k, *range(k)))
+            array.assign(np.ascontiguousarray(np.broadcast_to(one, (num_envs,) + one.shape)))
         setattr(out, name, array)
     return out
 

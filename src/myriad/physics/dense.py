@@ -1,4 +1,4 @@
-"""Loops over runs of floats: a constraint row's columns, a dof's row of the factor.
+"""Loops over contiguous runs of floats: a constraint row's columns, a dof's row of the factor.
 
 Every row-sized loop of the engine goes through these few functions: J·v and v += M⁻¹Jᵀ·λ
 over a row's span (`row_dot`, `row_apply`) and building rows (`row_fill`, `row_copy`,
@@ -13,8 +13,8 @@ loop walks plain pointers from one address.
 
 Rows: `a[e, r]` of an [env, row, column] array, holding the dofs of its span `sp` (two dof
 ranges [sp[0], sp[1]) and [sp[2], sp[3]), stored one after the other: `constraints`);
-velocities `v[e]` of an [env, dof] array. An env's row is contiguous unless the array was laid
-out world-minor (`STRIDED`). Nothing happens for an empty run.
+velocities `v[e]` of an [env, dof] array. Every engine array is contiguous (allocated whole by
+`build.allocate`; a CPU shard is a range of envs). Nothing happens for an empty run.
 
 On a CPU the contiguous loops are vectorized 8 floats wide (`VECTOR_LOOP`: clang's default
 width here, 16 floats × 4, never runs for rows of 6 to 30 floats); sums are then accumulated in
@@ -31,56 +31,20 @@ VECTOR_LOOP = """
 #endif
 """
 
-# An array's last dimension may have a stride: a world-minor array (`build.allocate`, on request
-# of MYRIAD_WORLD_MINOR) keeps its env index fastest in memory, so the elements of one env's row
-# sit N apart. Each loop below is written once, as a generic lambda over how it reads the row:
-# `Strided`, or on a CPU a plain pointer where the elements are consecutive (every array unless
-# asked otherwise: there the loops compile, vectorize and round as they always did). CUDA runs
-# the strided form for either layout (a stride of 1 reads the same elements in the same order):
-# one form of each loop in the module, not two.
-STRIDED = """
-#if defined(__CUDA_ARCH__)
-#define CONTIGUOUS(test) false
-#else
-#define CONTIGUOUS(test) (test)
-#endif
-    struct Strided {
-        float* p;
-        int s;
-        CUDA_CALLABLE float& operator[](int i) const { return p[i * s]; }
-        CUDA_CALLABLE Strided operator+(int i) const { return Strided{p + i * s, s}; }
-    };
-    struct StridedInt {
-        int* p;
-        int s;
-        CUDA_CALLABLE int& operator[](int i) const { return p[i * s]; }
-    };
-"""
 
-
-def step_of(array: str) -> str:
-    """C++: the elements between consecutive entries of `array`'s last dimension."""
-    return f"({array}.strides[{array}.ndim - 1] / (int)sizeof({array}.data[0]))"
-
-
-@wp.func_native(STRIDED + """
+@wp.func_native("""
+    const float* row = wp::address(a, e, r, 0);
+    const float* ve = wp::address(v, e, 0);
+    float s = 0.0f;
     const int n1 = sp[1] - sp[0];
+    const float* v1 = ve + sp[0];
+""" + VECTOR_LOOP + """
+    for (int i = 0; i < n1; ++i) s += row[i] * v1[i];
     const int n2 = sp[3] - sp[2];
-    auto dot = [&](auto row, auto ve) {
-        float s = 0.0f;
-        auto v1 = ve + sp[0];
+    const float* v2 = ve + sp[2];
 """ + VECTOR_LOOP + """
-        for (int i = 0; i < n1; ++i) s += row[i] * v1[i];
-        auto v2 = ve + sp[2];
-""" + VECTOR_LOOP + """
-        for (int i = 0; i < n2; ++i) s += row[n1 + i] * v2[i];
-        return s;
-    };
-    float* row = wp::address(a, e, r, 0);
-    float* ve = wp::address(v, e, 0);
-    const int sa = """ + step_of("a") + """, sv = """ + step_of("v") + """;
-    if (CONTIGUOUS(sa == 1 && sv == 1)) return dot(row, ve);
-    return dot(Strided{row, sa}, Strided{ve, sv});
+    for (int i = 0; i < n2; ++i) s += row[n1 + i] * v2[i];
+    return s;
 """)
 def row_dot(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
             sp: wp.vec4i) -> float:
@@ -88,23 +52,18 @@ def row_dot(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=floa
     ...
 
 
-@wp.func_native(STRIDED + """
+@wp.func_native("""
     if (dl == 0.0f) return;
-    const int n1 = sp[1] - sp[0];
-    const int n2 = sp[3] - sp[2];
-    auto apply = [&](auto row, auto ve) {
-        auto v1 = ve + sp[0];
-""" + VECTOR_LOOP + """
-        for (int i = 0; i < n1; ++i) v1[i] += dl * row[i];
-        auto v2 = ve + sp[2];
-""" + VECTOR_LOOP + """
-        for (int i = 0; i < n2; ++i) v2[i] += dl * row[n1 + i];
-    };
-    float* row = wp::address(a, e, r, 0);
+    const float* row = wp::address(a, e, r, 0);
     float* ve = wp::address(v, e, 0);
-    const int sa = """ + step_of("a") + """, sv = """ + step_of("v") + """;
-    if (CONTIGUOUS(sa == 1 && sv == 1)) apply(row, ve);
-    else apply(Strided{row, sa}, Strided{ve, sv});
+    const int n1 = sp[1] - sp[0];
+    float* v1 = ve + sp[0];
+""" + VECTOR_LOOP + """
+    for (int i = 0; i < n1; ++i) v1[i] += dl * row[i];
+    const int n2 = sp[3] - sp[2];
+    float* v2 = ve + sp[2];
+""" + VECTOR_LOOP + """
+    for (int i = 0; i < n2; ++i) v2[i] += dl * row[n1 + i];
 """)
 def row_apply(v: wp.array2d(dtype=float), e: int, dl: float, a: wp.array3d(dtype=float), r: int,
               sp: wp.vec4i):
@@ -122,18 +81,14 @@ _LANE_RANGES = """
 """
 
 
-@wp.func_native(STRIDED + _LANE_RANGES + """
-    auto dot = [&](auto row, auto ve) {
-        float s = 0.0f;
-        for (int i = s1; i < sp[1]; i += lanes) s += row[i - sp[0]] * ve[i];
-        for (int i = s2; i < sp[3]; i += lanes) s += row[n1 + i - sp[2]] * ve[i];
-        return s;
-    };
-    float* row = wp::address(a, e, r, 0);
-    float* ve = wp::address(v, e, 0);
-    const int sa = """ + step_of("a") + """, sv = """ + step_of("v") + """;
-    if (CONTIGUOUS(sa == 1 && sv == 1)) return dot(row, ve);
-    return dot(Strided{row, sa}, Strided{ve, sv});
+@wp.func_native("""
+    const float* row = wp::address(a, e, r, 0);
+    const float* ve = wp::address(v, e, 0);
+    float s = 0.0f;
+""" + _LANE_RANGES + """
+    for (int i = s1; i < sp[1]; i += lanes) s += row[i - sp[0]] * ve[i];
+    for (int i = s2; i < sp[3]; i += lanes) s += row[n1 + i - sp[2]] * ve[i];
+    return s;
 """)
 def row_dot_lane(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype=float),
                  sp: wp.vec4i, lane: int, lanes: int) -> float:
@@ -141,18 +96,13 @@ def row_dot_lane(a: wp.array3d(dtype=float), e: int, r: int, v: wp.array2d(dtype
     ...
 
 
-@wp.func_native(STRIDED + """
+@wp.func_native("""
     if (dl == 0.0f) return;
-""" + _LANE_RANGES + """
-    auto apply = [&](auto row, auto ve) {
-        for (int i = s1; i < sp[1]; i += lanes) ve[i] += dl * row[i - sp[0]];
-        for (int i = s2; i < sp[3]; i += lanes) ve[i] += dl * row[n1 + i - sp[2]];
-    };
-    float* row = wp::address(a, e, r, 0);
+    const float* row = wp::address(a, e, r, 0);
     float* ve = wp::address(v, e, 0);
-    const int sa = """ + step_of("a") + """, sv = """ + step_of("v") + """;
-    if (CONTIGUOUS(sa == 1 && sv == 1)) apply(row, ve);
-    else apply(Strided{row, sa}, Strided{ve, sv});
+""" + _LANE_RANGES + """
+    for (int i = s1; i < sp[1]; i += lanes) ve[i] += dl * row[i - sp[0]];
+    for (int i = s2; i < sp[3]; i += lanes) ve[i] += dl * row[n1 + i - sp[2]];
 """)
 def row_apply_lane(v: wp.array2d(dtype=float), e: int, dl: float, a: wp.array3d(dtype=float),
                    r: int, sp: wp.vec4i, lane: int, lanes: int):
@@ -171,18 +121,13 @@ def add_scaled(acc: float, dl: float, x: float) -> float:
     ...
 
 
-@wp.func_native(STRIDED + """
-    auto dot = [&](auto ap, auto bp) {
-        float s = 0.0f;
+@wp.func_native("""
+    const float* ap = wp::address(a, e, ra, oa);
+    const float* bp = wp::address(b, e, rb, ob);
+    float s = 0.0f;
 """ + VECTOR_LOOP + """
-        for (int i = 0; i < n; ++i) s += ap[i] * bp[i];
-        return s;
-    };
-    float* ap = wp::address(a, e, ra, oa);
-    float* bp = wp::address(b, e, rb, ob);
-    const int sa = """ + step_of("a") + """, sb = """ + step_of("b") + """;
-    if (CONTIGUOUS(sa == 1 && sb == 1)) return dot(ap, bp);
-    return dot(Strided{ap, sa}, Strided{bp, sb});
+    for (int i = 0; i < n; ++i) s += ap[i] * bp[i];
+    return s;
 """)
 def rows_dot_at(a: wp.array3d(dtype=float), ra: int, oa: int, b: wp.array3d(dtype=float),
                 rb: int, ob: int, e: int, n: int) -> float:
@@ -192,31 +137,21 @@ def rows_dot_at(a: wp.array3d(dtype=float), ra: int, oa: int, b: wp.array3d(dtyp
     ...
 
 
-@wp.func_native(STRIDED + """
-    auto fill = [&](auto yp) {
-""" + VECTOR_LOOP + """
-        for (int i = 0; i < n; ++i) yp[i] = value;
-    };
+@wp.func_native("""
     float* yp = wp::address(y, e, r, 0);
-    const int sy = """ + step_of("y") + """;
-    if (CONTIGUOUS(sy == 1)) fill(yp);
-    else fill(Strided{yp, sy});
+""" + VECTOR_LOOP + """
+    for (int i = 0; i < n; ++i) yp[i] = value;
 """)
 def row_fill(y: wp.array3d(dtype=float), e: int, r: int, value: float, n: int):
     """y[e, r, :n] = value."""
     ...
 
 
-@wp.func_native(STRIDED + """
-    auto copy = [&](auto yp, auto xp) {
-""" + VECTOR_LOOP + """
-        for (int i = 0; i < n; ++i) yp[i] = xp[i];
-    };
+@wp.func_native("""
     float* yp = wp::address(y, e, r, 0);
-    float* xp = wp::address(x, e, r, 0);
-    const int sy = """ + step_of("y") + """, sx = """ + step_of("x") + """;
-    if (CONTIGUOUS(sy == 1 && sx == 1)) copy(yp, xp);
-    else copy(Strided{yp, sy}, Strided{xp, sx});
+    const float* xp = wp::address(x, e, r, 0);
+""" + VECTOR_LOOP + """
+    for (int i = 0; i < n; ++i) yp[i] = xp[i];
 """)
 def row_copy(y: wp.array3d(dtype=float), x: wp.array3d(dtype=float), e: int, r: int, n: int):
     """y[e, r, :n] = x[e, r, :n]."""

@@ -163,8 +163,7 @@ class Simulator:
     @property
     def nbytes(self) -> int:
         """Bytes of every per-env array this simulator allocated (not the optional Jacobians)."""
-        return sum(a.size * wp.types.type_size_in_bytes(a.dtype)
-                   for _, _, a in self.data.arrays())
+        return sum(a.capacity for _, _, a in self.data.arrays())
 
     def __repr__(self) -> str:
         return f"Simulator({self.model!r}, num_envs={self.num_envs}, device={self.device})"

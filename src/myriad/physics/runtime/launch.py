@@ -23,7 +23,6 @@ import torch
 import warp as wp
 
 from . import float_mode
-from ..structs import STRUCTS
 
 
 @dataclasses.dataclass(frozen=True)
@@ -71,34 +70,6 @@ def cpu_block_dim() -> int:
     if not value.isdigit() or not 1 <= int(value) <= 1024:
         raise ValueError(f"MYRIAD_CPU_BLOCK_DIM={value!r}: must be an integer from 1 to 1024")
     return int(value)
-
-
-def world_minor_structs() -> frozenset:
-    """Names of the per-env structs (`structs.STRUCTS`) whose internal fields are laid out
-    world-minor, from the environment variable MYRIAD_WORLD_MINOR: "" or "0" none (the
-    default), "all" every one, else a comma-separated list ("Rows,Contacts").
-
-    World-major (the default) stores an array [N, ...] env after env, so a CPU thread walking
-    its env reads consecutive addresses. World-minor keeps the [N, ...] shape and indexing but
-    puts the env index fastest in memory (strides (element, ..., N·element)), so that adjacent
-    GPU threads holding adjacent envs read adjacent addresses: a warp of a one-thread-per-world
-    sweep can then load a row entry of 32 worlds in one transaction instead of 32 (unmeasured
-    on a GPU so far: `benchmarks/lane_sweep.py` compares the layouts). The operations are the
-    same on either layout; only where each element sits changes (on a CPU the vectorized row
-    loops add a strided row in another order: `dense.STRIDED`). Public fields (the
-    Simulator's torch views) stay world-major."""
-    value = os.environ.get("MYRIAD_WORLD_MINOR", "").strip()
-    names = {struct.__name__ for struct in STRUCTS}
-    if value in ("", "0"):
-        return frozenset()
-    if value == "all":
-        return frozenset(names)
-    chosen = {name.strip() for name in value.split(",") if name.strip()}
-    unknown = sorted(chosen - names)
-    if unknown:
-        raise ValueError(f"MYRIAD_WORLD_MINOR={value!r}: unknown struct(s) {unknown}; choose "
-                         f"from {sorted(names)}, 'all' or '0'")
-    return frozenset(chosen)
 
 
 def block_threads(device) -> int:

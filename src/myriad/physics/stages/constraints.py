@@ -191,7 +191,7 @@ def build_rows(m: ModelArrays, opt: Options, layout: RowLayout, p: EnvParams,
     h = opt.h
     contact_rows(m, e, at, layout.contact_width, h, opt.rest_offset, opt.bounce_threshold, p, s,
                  d.factor, contacts, rows)
-    joint_limit_rows(m, e, at, layout.joint_limits, h, opt, p, s, d.factor, rows)
+    joint_limit_rows(m, e, at, layout.joint_limits, h, opt.limit_jnt, p, s, d.factor, rows)
     tendon_limit_rows(m, e, at, layout.tendon_limits, h, opt.limit_tendon, p, s, d.factor, rows)
     if layout.springs > layout.equalities:
         equality_rows(m, e, at, layout.equalities, p, s, d.factor, rows)
@@ -347,12 +347,12 @@ def contact_rows(m: ModelArrays, e: int, at: wp.vec3i, width: int, h: float,
 
 @wp.func
 def joint_limit_rows(m: ModelArrays, e: int, at: wp.vec3i, base: int, h: float,
-                     opt: Options, p: EnvParams, s: State, factor: wp.array2d(dtype=float),
-                     rows: Rows):
+                     limit_jnt: wp.array(dtype=wp.int32), p: EnvParams, s: State,
+                     factor: wp.array2d(dtype=float), rows: Rows):
     """Two rows per limited joint (lower, upper), J = ±e_dof."""
-    for li in range(at[0], wp.where(at[2] != 0, opt.limit_jnt.shape[0], 0), at[1]):
-        j = opt.limit_jnt[li]
-        dof = opt.limit_dof[li]
+    for li in range(at[0], wp.where(at[2] != 0, limit_jnt.shape[0], 0), at[1]):
+        j = limit_jnt[li]
+        dof = m.jnt_dofadr[j]
         x = s.q[e, m.jnt_qposadr[j]]
         # the rows out of reach stay inactive; the solver takes one in when the joint turns
         # toward its limit fast enough to reach it (`solver_tgs._limit_rows`)

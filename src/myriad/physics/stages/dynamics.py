@@ -21,7 +21,6 @@ of at most 15 (243 in all, against 729 for its square block).
 
 import warp as wp
 
-from .. import dense
 from ..lanes import level_body, level_range, stop, sync, world_lane
 from ..spatial import (force_cross, inertia_about_point, inertia_matrix, inertia_times,
                        motion_cross)
@@ -209,49 +208,42 @@ def articulated_factor(m: ModelArrays, p: EnvParams, s: State, e: int, lane: int
             sync()
 
 
-@wp.func_native(dense.STRIDED + """
+@wp.func_native("""
     if (hi <= lo) return;
+    const float* F = wp::address(factor, e, 0);
     const int* adr = wp::address(m.dof_madr, 0);
     const int* num = wp::address(m.dof_mnum, 0);
     const int* cols = wp::address(m.mass_col, 0);
     const int o = col - lo;                 // dof k of row d sits at X[d][o + k]
-    auto run = [&](auto F, auto X0, auto X1, auto X2) {
-        decltype(X0) X[3] = {X0, X1, X2};
-        for (int k = hi - 1; k >= lo; --k) {    // x <- L⁻ᵀ x, leaves first
-            auto fk = F + adr[k];
-            const int* ck = cols + adr[k];
-            for (int d = 0; d < nrows; ++d) {
-                const float xk = X[d][o + k];
-                if (xk == 0.0f) continue;       // a row's J is zero off its bodies' chains
-                for (int t = 1; t < num[k]; ++t) X[d][o + ck[t]] -= fk[t] * xk;
-            }
+    float* X[3];
+    for (int d = 0; d < nrows; ++d) X[d] = wp::address(x, e, r + d, 0);
+    for (int k = hi - 1; k >= lo; --k) {    // x <- L⁻ᵀ x, leaves first
+        const float* fk = F + adr[k];
+        const int* ck = cols + adr[k];
+        for (int d = 0; d < nrows; ++d) {
+            const float xk = X[d][o + k];
+            if (xk == 0.0f) continue;       // a row's J is zero off its bodies' chains
+            for (int t = 1; t < num[k]; ++t) X[d][o + ck[t]] -= fk[t] * xk;
         }
-        for (int k = lo; k < hi; ++k)           // D⁻¹
-            for (int d = 0; d < nrows; ++d) X[d][o + k] *= F[adr[k]];
-        for (int k = lo; k < hi; ++k) {         // x <- L⁻¹ x, root first: two partial sums a row
-            auto fk = F + adr[k];
-            const int* ck = cols + adr[k];
-            const int n = num[k];
-            for (int d = 0; d < nrows; ++d) {
-                auto Xd = X[d] + o;
-                float s0 = Xd[k], s1 = 0.0f;
-                int t = 1;
-                for (; t + 1 < n; t += 2) {
-                    s0 -= fk[t] * Xd[ck[t]];
-                    s1 -= fk[t + 1] * Xd[ck[t + 1]];
-                }
-                if (t < n) s0 -= fk[t] * Xd[ck[t]];
-                Xd[k] = s0 + s1;
+    }
+    for (int k = lo; k < hi; ++k)           // D⁻¹
+        for (int d = 0; d < nrows; ++d) X[d][o + k] *= F[adr[k]];
+    for (int k = lo; k < hi; ++k) {         // x <- L⁻¹ x, root first: two partial sums a row
+        const float* fk = F + adr[k];
+        const int* ck = cols + adr[k];
+        const int n = num[k];
+        for (int d = 0; d < nrows; ++d) {
+            float* Xd = X[d] + o;
+            float s0 = Xd[k], s1 = 0.0f;
+            int t = 1;
+            for (; t + 1 < n; t += 2) {
+                s0 -= fk[t] * Xd[ck[t]];
+                s1 -= fk[t + 1] * Xd[ck[t + 1]];
             }
+            if (t < n) s0 -= fk[t] * Xd[ck[t]];
+            Xd[k] = s0 + s1;
         }
-    };
-    float* F = wp::address(factor, e, 0);
-    float* X0 = wp::address(x, e, r, 0);
-    float* X1 = wp::address(x, e, r + (nrows > 1 ? 1 : 0), 0);
-    float* X2 = wp::address(x, e, r + (nrows > 2 ? 2 : 0), 0);
-    const int sf = """ + dense.step_of("factor") + """, sx = """ + dense.step_of("x") + """;
-    if (CONTIGUOUS(sf == 1 && sx == 1)) run(F, X0, X1, X2);
-    else run(Strided{F, sf}, Strided{X0, sx}, Strided{X1, sx}, Strided{X2, sx});
+    }
 """)
 def solve_span(m: ModelArrays, e: int, factor: wp.array2d(dtype=float),
                x: wp.array3d(dtype=float), r: int, nrows: int, lo: int, hi: int, col: int):

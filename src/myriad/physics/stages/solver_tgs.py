@@ -135,22 +135,16 @@ def _apply(v: wp.array2d(dtype=float), e: int, dl: float, a: wp.array3d(dtype=fl
         dense.row_apply_lane(v, e, dl, a, r, sp, ln[0], ln[1])
 
 
-@wp.func_native(dense.STRIDED + """
+@wp.func_native("""
     if (start >= n) return n;
-    auto scan = [&](auto t, auto bound, auto cap, auto ve) {
-        for (int d = start; d < n; ++d)
-            if (t[d] == dof_type && ((with_bound != 0 && bound[d] > 0.0f) || wp::abs(ve[d]) > cap[d]))
-                return d;
-        return n;
-    };
-    int* t = wp::address(type, e, r0);
-    float* bound = wp::address(mu, e, r0);
-    float* cap = wp::address(k, e, r0);
-    float* ve = wp::address(v, e, 0);
-    const int st = """ + dense.step_of("type") + """, sb = """ + dense.step_of("mu") + """;
-    const int sc = """ + dense.step_of("k") + """, sv = """ + dense.step_of("v") + """;
-    if (CONTIGUOUS(st == 1 && sb == 1 && sc == 1 && sv == 1)) return scan(t, bound, cap, ve);
-    return scan(StridedInt{t, st}, Strided{bound, sb}, Strided{cap, sc}, Strided{ve, sv});
+    const int* t = wp::address(type, e, r0);
+    const float* cap = wp::address(k, e, r0);
+    const float* bound = wp::address(mu, e, r0);
+    const float* ve = wp::address(v, e, 0);
+    for (int d = start; d < n; ++d)
+        if (t[d] == dof_type && ((with_bound != 0 && bound[d] > 0.0f) || wp::abs(ve[d]) > cap[d]))
+            return d;
+    return n;
 """)
 def _next_dof_row(type: wp.array2d(dtype=wp.int32), mu: wp.array2d(dtype=float),
                   k: wp.array2d(dtype=float), v: wp.array2d(dtype=float), e: int, r0: int,
@@ -162,29 +156,23 @@ def _next_dof_row(type: wp.array2d(dtype=wp.int32), mu: wp.array2d(dtype=float),
     ...
 
 
-@wp.func_native(dense.STRIDED + """
+@wp.func_native("""
     if (start >= n) return n;
+    const int* t = wp::address(type, e, base);
+    const float* er = wp::address(err, e, base);
+    const float* ve = wp::address(v, e, 0);
+    const float* de = wp::address(dq, e, 0);
     const int* dofs = wp::address(limit_dof, 0);
-    auto scan = [&](auto t, auto er, auto ve, auto de) {
-        for (int i = start; i < n; ++i) {
-            if (t[i] != inactive) continue;
-            const int dof = dofs[i / 2];
-            float travel = hs * ve[dof];
-            if (tgs != 0) travel = travel + de[dof];      // (a statement of its own: no contraction)
-            const float sign = 1.0f - 2.0f * (float)(i % 2);
-            const float signed_travel = sign * travel;
-            if (er[i] + signed_travel < 0.0f) return i;
-        }
-        return n;
-    };
-    int* t = wp::address(type, e, base);
-    float* er = wp::address(err, e, base);
-    float* ve = wp::address(v, e, 0);
-    float* de = wp::address(dq, e, 0);
-    const int st = """ + dense.step_of("type") + """, se = """ + dense.step_of("err") + """;
-    const int sv = """ + dense.step_of("v") + """, sd = """ + dense.step_of("dq") + """;
-    if (CONTIGUOUS(st == 1 && se == 1 && sv == 1 && sd == 1)) return scan(t, er, ve, de);
-    return scan(StridedInt{t, st}, Strided{er, se}, Strided{ve, sv}, Strided{de, sd});
+    for (int i = start; i < n; ++i) {
+        if (t[i] != inactive) continue;
+        const int dof = dofs[i / 2];
+        float travel = hs * ve[dof];
+        if (tgs != 0) travel = travel + de[dof];      // (a statement of its own: no contraction)
+        const float sign = 1.0f - 2.0f * (float)(i % 2);
+        const float signed_travel = sign * travel;
+        if (er[i] + signed_travel < 0.0f) return i;
+    }
+    return n;
 """)
 def _next_reachable_limit(type: wp.array2d(dtype=wp.int32), err: wp.array2d(dtype=float),
                           v: wp.array2d(dtype=float), dq: wp.array2d(dtype=float),
