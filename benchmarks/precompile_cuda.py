@@ -17,7 +17,7 @@ Warp compiles a module once per block size it is launched with: every module for
 (256 threads), and a module with cooperative kernels (`myriad.physics.lanes`: their last
 argument is `lanes`) also for `runtime.BlockDim.threads`. A module whose source is already in the
 cache (the same identifier, a cubin for each arch) is not compiled again: after a change, only
-the changed modules take time.
+the changed modules take time; `--modules solver_tgs dynamics` compiles only those.
 """
 
 from __future__ import annotations
@@ -45,6 +45,10 @@ def main() -> None:
     from myriad.physics.runtime.launch import BLOCK_DIM
 
     runtime.configure_modules()       # the build options the simulator uses: same hashes
+    unknown = [m for m in args.modules or ()
+               if not any(name.endswith(m) for name in runtime.kernel_modules())]
+    if unknown:
+        ap.error(f"--modules {' '.join(unknown)}: no engine module ends with that name")
     for name in runtime.kernel_modules():
         if args.modules and not any(name.endswith(m) for m in args.modules):
             continue
