@@ -98,12 +98,19 @@ def training_agent(overrides: list[str], float32: bool = False):
 
 def update_seconds(agent) -> float:
     """One update of rl_games' PPO (its mini-epochs over the minibatches) on the dataset of the
-    last rollout, as its train_epoch runs it."""
+    last rollout, as its train_epoch runs it: the observation normalizer learns from the first
+    mini-epoch only (rl_games then sets it to eval mode)."""
+    normalizer = agent.model.running_mean_std if agent.normalize_input else None
     t0 = time.perf_counter()
     for _ in range(agent.mini_epochs_num):
         for i in range(len(agent.dataset)):
             agent.train_actor_critic(agent.dataset[i])
-    return time.perf_counter() - t0
+        if normalizer is not None:
+            normalizer.eval()
+    seconds = time.perf_counter() - t0
+    if normalizer is not None:
+        normalizer.train()          # as set_train() leaves it for the next update
+    return seconds
 
 
 def main():
