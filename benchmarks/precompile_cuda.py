@@ -45,13 +45,13 @@ def main() -> None:
     from myriad.physics.runtime.launch import BLOCK_DIM
 
     runtime.configure_modules()       # the build options the simulator uses: same hashes
-    unknown = [m for m in args.modules or ()
-               if not any(name.endswith(m) for name in runtime.kernel_modules())]
-    if unknown:
-        ap.error(f"--modules {' '.join(unknown)}: no engine module ends with that name")
-    for name in runtime.kernel_modules():
-        if args.modules and not any(name.endswith(m) for m in args.modules):
-            continue
+    names = runtime.kernel_modules()
+    if args.modules:
+        unknown = [m for m in args.modules if not any(name.endswith(m) for name in names)]
+        if unknown:
+            ap.error(f"--modules {' '.join(unknown)}: no engine module ends with that name")
+        names = [name for name in names if any(name.endswith(m) for m in args.modules)]
+    for name in names:
         importlib.import_module(name)
         module = wp.get_module(name)
         if not module.kernels:
