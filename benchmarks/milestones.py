@@ -10,7 +10,7 @@ the per-epoch env-steps/s (physics, observations, rewards, resets, policy and PP
     python benchmarks/milestones.py runs/humanoid_a runs/humanoid_b --at 5e6 10e6 22e6
 
 With --at, each run's mean reward and task metrics (consecutive successes, ...) at the first
-epoch at or past each env-step count instead: two training set-ups compared per sample.
+epoch at or past each env-step count as well: two training set-ups compared per sample.
 """
 
 import argparse
