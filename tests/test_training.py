@@ -56,6 +56,19 @@ def test_train_writes_checkpoint_summary_and_curve_then_resumes(tmp_path, device
     assert summary["epochs"] == 5
 
 
+def test_two_runs_of_one_seed_train_the_same_policy_start_up_draws_included(tmp_path):
+    # the OpenAI hand draws its cube's scale and masses when the task is built, before the
+    # agent exists: from the run's seed too (this torch seeds itself from the OS at import)
+    for name in ("one", "two"):
+        assert cli.main(["train", "task=ShadowHandOpenAI_FF", "device=cpu", "num_envs=16",
+                         f"train_dir={tmp_path}", "max_iterations=1",
+                         f"experiment={name}"]) == 0
+    one, two = (torch.load(tmp_path / name / "nn" / "last.pth", weights_only=False)["model"]
+                for name in ("one", "two"))
+    for key in one:
+        assert torch.equal(one[key], two[key]), key
+
+
 def test_max_time_stops_cleanly_with_a_checkpoint(tmp_path, device):
     args = train_args(tmp_path, "max_time_s=0.01", "experiment=timed", device=device)
     assert cli.main(["train", *args]) == 0

@@ -39,7 +39,6 @@ import io
 import json
 import math
 import os
-import random
 import time
 
 import torch
@@ -476,6 +475,7 @@ def evaluate(overrides: list[str]) -> int:
     from .export import load_network, read_checkpoint
     from .policy import policy_from_network, restore_task_state
     from .agent import atomic_json
+    from .train import seed_all
 
     cfg = run.compose(overrides)
     if not isinstance(cfg.judge, bool):
@@ -515,10 +515,7 @@ def evaluate(overrides: list[str]) -> int:
                                                   "eval.json"))
 
     seed = int(cfg.seed)
-    torch.manual_seed(seed)
-    random.seed(seed)
-    import numpy as np
-    np.random.seed(seed % 2**32)
+    seed_all(seed)
     task = TASKS[name](task_cfg, device=device)
     restored = restore_task_state(task, state)
     network, _ = load_network(state, train_cfgs, task.num_obs, task.num_actions, name,

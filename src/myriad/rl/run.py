@@ -410,7 +410,7 @@ def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
     from ..physics.runtime import load_kernels
     from ..tasks import TASKS
     from .agent import TrainingStopped, from_rank_0
-    from .train import train as run_training
+    from .train import seed_all, train as run_training
 
     processes = 1
     if distributed is not None:
@@ -454,6 +454,8 @@ def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
                 load()
         t0 = time.monotonic()
         print(f"building {name}: {task_cfg['env']['numEnvs']} envs on {device}", flush=True)
+        # the task's start-up draws from the run's seed (each process its own, as the agent's)
+        seed_all(int(cfg.seed) + (0 if distributed is None else distributed["rank"]))
         task = TASKS[name](task_cfg, device=device)
         task.capture_step = cfg.capture_step
         print(f"built in {time.monotonic() - t0:.1f} s", flush=True)
@@ -597,6 +599,7 @@ def play(overrides: list[str]) -> int:
 
     from ..tasks import TASKS
     from .policy import load_policy
+    from .train import seed_all
     from .video import VideoWriter
 
     cfg = compose(overrides)
@@ -606,6 +609,7 @@ def play(overrides: list[str]) -> int:
     given = given_keys(overrides)
     watching = cfg.viewer is not None
     task_cfg["env"]["numEnvs"] = int(cfg.num_envs or (cfg.viewer_envs if watching else 1))
+    seed_all(int(cfg.seed))
     task = TASKS[name](task_cfg, device=device)
     # the task as training left it where it fits (HumanoidAMP's clip; AnymalTerrain's levels
     # at the run's env count), as eval does

@@ -22,6 +22,16 @@ from .agent import MyriadAgent, MyriadVecEnv, _to_cpu, from_rank_0
 from .amp import AMPAgent
 
 
+def seed_all(seed: int) -> None:
+    """torch's generators (CPU and CUDA), numpy's and Python's from one seed. This torch seeds
+    its generator from the operating system when it is imported, so whatever draws before the
+    seeding (a task's start-up randomization: the OpenAI hand's cube scale and masses, the G1's
+    friction) would differ from run to run of one seed."""
+    torch.manual_seed(seed)
+    np.random.seed(seed % 2**32)
+    random.seed(seed)
+
+
 def rl_games_params(train_cfg: dict, task, run: dict) -> dict:
     """The rl_games parameter dict for this run, from cfg/train/<Task>PPO.yaml."""
     params = json.loads(json.dumps(train_cfg["params"]))      # deep copy
@@ -63,9 +73,7 @@ def build_agent(task, train_cfg: dict, run: dict, seed: int):
     # rl_games seeds torch, numpy and random for a truthy seed only (`if self.seed:`), so seed=0
     # trained unseeded (two runs, two initial networks). Seeded here for every seed; rl_games
     # then seeds the others again with the same value, so their runs are as before
-    torch.manual_seed(params["seed"])
-    np.random.seed(params["seed"] % 2**32)
-    random.seed(params["seed"])
+    seed_all(params["seed"])
     runner = Runner()
     # Adversarial Motion Priors (HumanoidAMP) or plain PPO
     agent_class = AMPAgent if "amp" in params["config"] else MyriadAgent
