@@ -54,6 +54,8 @@ import torch.distributed as dist
 from rl_games.algos_torch import a2c_continuous
 from rl_games.common import a2c_common, env_configurations, vecenv
 
+from . import update
+
 
 def atomic_write(path: str, write) -> None:
     """Write through a temporary file and rename: readers never see a half-written file."""
@@ -271,6 +273,13 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             critic = getattr(self, "central_value_net", None)
             use_bfloat16_mlps(torch.nn.ModuleList(
                 [self.model] + ([critic.model] if critic is not None else [])), self.device)
+        # the minibatch step with the adaptive learning rate on the device (myriad.rl.update),
+        # captured as a CUDA graph with capture_update=true; rl_games' own where it cannot be
+        capture = bool(self.run_cfg.get("capture_update", False))
+        why_not = update.unsupported(self)
+        if why_not is not None and capture and torch.device(self.device).type == "cuda":
+            raise ValueError(f"capture_update=true: not with {why_not}")
+        self.minibatch_step = update.MinibatchStep(self, capture) if why_not is None else None
         self.started = time.monotonic()
         self.time_split = {"physics_s": 0.0, "policy_s": 0.0, "update_s": 0.0}
         self.best_mean_reward = None        # best mean episode reward seen, any epoch
@@ -434,12 +443,19 @@ class MyriadAgent(a2c_continuous.A2CAgent):
     def get_full_state_weights(self):
         state = super().get_full_state_weights()
         state["frame"] = self.frame + self.frames_not_counted
+        for group in state["optimizer"]["param_groups"]:    # copies of the optimizer's
+            # the device-side schedule's rate is a tensor there; a checkpoint holds a number,
+            # which any device (and rl_games' own step) can resume from
+            group["lr"], group["capturable"] = float(group["lr"]), False
         # several processes: each has one GPU, and reading (or, on resume, setting) the
         # generators of all would open a CUDA context on every GPU from each process
         cuda = torch.cuda.get_rng_state_all() \
             if torch.cuda.is_available() and not self.multi_gpu else None
         state["myriad"] = {
             "wall_s": time.monotonic() - self.started, "time_split": dict(self.time_split),
+            # the adaptive schedule's rate: rl_games keeps it in the agent, not the checkpoint,
+            # and a resumed run would restart the schedule from the config's learning_rate
+            "last_lr": float(self.last_lr),
             "best_mean_reward": self.best_mean_reward,
             "best_saved_reward": self.best_saved_reward,
             "nonfinite_actions": self.nonfinite_actions,
@@ -462,6 +478,10 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.best_saved_reward = ours["best_saved_reward"]
         self.restored_best = self.best_saved_reward
         self.nonfinite_actions = ours["nonfinite_actions"]
+        if "last_lr" in ours:
+            self.last_lr = ours["last_lr"]
+            if self.minibatch_step is not None:
+                self.minibatch_step.set_learning_rate(self.last_lr)
         self.contact_overflow_steps = ours.get("contact_overflow_steps", 0)
         task = self.own_task_state(ours)
         if task:
@@ -517,6 +537,11 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         return super().update_epoch()
 
     # ---------------------------------------------------------------- one epoch
+    def train_actor_critic(self, input_dict):
+        if self.minibatch_step is None:
+            return super().train_actor_critic(input_dict)
+        return self.minibatch_step(input_dict)
+
     def play_steps(self):
         self.vec_env.clock.mark("play")
         batch = super().play_steps()
@@ -567,6 +592,9 @@ class MyriadAgent(a2c_continuous.A2CAgent):
                 self.raise_diverged()
             raise
         self.merge_normalizers()
+        if self.minibatch_step is not None:     # the rate the device's schedule reached
+            self.last_lr = self.minibatch_step.learning_rate()
+            out = out[:9] + (self.last_lr,) + out[10:]
         self.vec_env.clock.mark("end")
         step_time, play_time, update_time, total_time = out[:4]
         physics_s, policy_s, update_s = self.vec_env.clock.split(step_time, play_time, update_time)

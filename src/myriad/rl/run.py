@@ -422,8 +422,9 @@ def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
     max_time = math.inf if cfg.max_time_s is None else float(cfg.max_time_s)
     if not max_time > 0:
         raise ValueError(f"max_time_s={cfg.max_time_s}: must be > 0")
-    if not isinstance(cfg.capture_step, bool):
-        raise ValueError(f"capture_step={cfg.capture_step!r}: must be true or false")
+    for key in ("capture_step", "capture_update"):
+        if not isinstance(cfg[key], bool):
+            raise ValueError(f"{key}={cfg[key]!r}: must be true or false")
     if distributed is not None:
         start_process_group(distributed)
     task = None
@@ -464,6 +465,7 @@ def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
             if distributed is None or distributed["rank"] == 0 else None
         minibatch = train_cfg["params"]["config"]["minibatch_size"]
         run = {"train_dir": cfg.train_dir, "experiment": experiment, "max_time_s": max_time,
+               "capture_update": cfg.capture_update,
                "describe": {"task": name, "device": device,
                             "num_envs": task.num_envs * processes, "seed": int(cfg.seed),
                             "minibatch_size": minibatch * processes,
