@@ -14,22 +14,25 @@ from myriad.rl.train import build_agent
 from myriad.tasks import TASKS
 
 
-def ant_agent(device, rl_games_step=False, capture=False, **config):
-    """An Ant agent as `myriad train` builds it, small: 64 envs × 16 steps in 4 minibatches of
-    256, 4 mini-epochs; the hidden layers in float32 on every CPU."""
-    overrides = ["task=Ant", f"device={device}", "num_envs=64"]
+def ant_agent(device, rl_games_step=False, capture=False, task="Ant", **config):
+    """An agent as `myriad train` builds it, small: 64 envs in minibatches of 256 (Ant: 16
+    steps, 4 minibatches, 4 mini-epochs); the hidden layers in float32 on every CPU.
+    `rl_games_step`: rl_games' own minibatch step, host-side schedule and critic step."""
+    overrides = [f"task={task}", f"device={device}", "num_envs=64"]
     cfg = compose(overrides)
     task_cfg, train_cfg, device = task_and_train_configs(cfg, overrides)
     params = train_cfg["params"]["config"]
     params.pop("mlp_bfloat16", None)
     params.update(minibatch_size=256, **config)
     torch.manual_seed(0)
-    task = TASKS["Ant"](task_cfg, device=device)
+    task = TASKS[task](task_cfg, device=device)
     run = {"train_dir": tempfile.mkdtemp(prefix="myriad_update_"), "experiment": "update",
            "max_time_s": float("inf"), "describe": {}, "capture_update": capture}
     agent = build_agent(task, train_cfg, run, seed=3)
-    if rl_games_step:           # rl_games' own minibatch step and its host-side schedule
+    if rl_games_step:
         agent.minibatch_step, agent.schedule_type = None, "legacy"
+        if agent.has_central_value:
+            del agent.central_value_net.train_critic    # back to the class's
     agent.init_tensors()
     agent.obs = agent.env_reset()
     return agent
@@ -50,8 +53,9 @@ def optimizer_tensors(agent):
             for t in state.values()]
 
 
-def test_the_device_side_step_trains_as_rl_games_own_bit_for_bit():
-    ours, theirs = ant_agent("cpu"), ant_agent("cpu", rl_games_step=True)
+@pytest.mark.parametrize("task", ["Ant", "ShadowHandOpenAI_FF"])    # the second: a critic
+def test_the_device_side_step_trains_as_rl_games_own_bit_for_bit(task):
+    ours, theirs = ant_agent("cpu", task=task), ant_agent("cpu", rl_games_step=True, task=task)
     assert ours.minibatch_step is not None and theirs.minibatch_step is None
     first_lr = ours.last_lr
     train_epochs(ours, 3)
@@ -62,6 +66,10 @@ def test_the_device_side_step_trains_as_rl_games_own_bit_for_bit():
         assert torch.equal(a, b), name
     for a, b in zip(optimizer_tensors(ours), optimizer_tensors(theirs)):
         assert torch.equal(a, b)
+    if ours.has_central_value:
+        for (name, a), b in zip(ours.central_value_net.state_dict().items(),
+                                theirs.central_value_net.state_dict().values()):
+            assert torch.equal(a, b), name
     # the normalizer keeps the tensors it had (a captured step reads those)
     assert ours.model.running_mean_std.count.item() == theirs.model.running_mean_std.count.item()
 

@@ -280,6 +280,8 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         if why_not is not None and capture and torch.device(self.device).type == "cuda":
             raise ValueError(f"capture_update=true: not with {why_not}")
         self.minibatch_step = update.MinibatchStep(self, capture) if why_not is None else None
+        if self.minibatch_step is not None and self.has_central_value:
+            update.critic_loss_kept_on_device(self.central_value_net)
         self.started = time.monotonic()
         self.time_split = {"physics_s": 0.0, "policy_s": 0.0, "update_s": 0.0}
         self.best_mean_reward = None        # best mean episode reward seen, any epoch

@@ -54,6 +54,16 @@ def unsupported(agent) -> str | None:
     return None
 
 
+def critic_loss_kept_on_device(critic) -> None:
+    """rl_games' asymmetric critic (`CentralValueTrain`) reads every minibatch's loss to the host
+    (`loss.item()`), only to average it for TensorBoard: the same step, its loss left on the
+    device (the summary writer reads the average once per epoch)."""
+    def train_critic(minibatch):
+        critic.train()
+        return critic.calc_gradients(minibatch).detach()
+    critic.train_critic = train_critic
+
+
 class MinibatchStep:
     """Called in place of `A2CAgent.train_actor_critic` with one minibatch (rl_games' dataset
     item); returns what that returns. `capture`: on CUDA, replay the step as a CUDA graph."""
