@@ -1,24 +1,31 @@
-"""The PPO minibatch step with its adaptive learning rate on the device (`myriad.rl.update`)
-trains as rl_games' own step does: the same weights, optimizer state and rate, bit for bit on a
-CPU; captured as a CUDA graph (`capture_update=true`, the GPU suite runs this file with
---device cuda:0) the same up to float32 rounding. A checkpoint carries the rate to a resumed run.
+"""The PPO minibatch step with its adaptive learning rate on the device (`myriad.rl.update`) and
+the rollout that counts finished episodes there (`myriad.rl.rollout`) train as rl_games' own
+step and rollout do: the same weights, optimizer state and rate, bit for bit on a CPU, and
+neither reads anything back to the host. Captured as a CUDA graph (`capture_update=true`; the
+GPU suite runs this file with --device cuda:0) the step trains the same up to float32
+rounding. A checkpoint carries the rate to a resumed run.
 """
 
 import tempfile
 
+import numpy as np
 import pytest
 import torch
+from rl_games.algos_torch import torch_ext
 
 from myriad.rl.run import compose, task_and_train_configs
+from test_host_sync import recording_syncs
 from myriad.rl.train import build_agent
 from myriad.tasks import TASKS
 
 
-def ant_agent(device, rl_games_step=False, capture=False, task="Ant", **config):
+def ant_agent(device, rl_games_step=False, capture=False, task="Ant", episode=None, **config):
     """An agent as `myriad train` builds it, small: 64 envs in minibatches of 256 (Ant: 16
     steps, 4 minibatches, 4 mini-epochs); the hidden layers in float32 on every CPU.
-    `rl_games_step`: rl_games' own minibatch step, host-side schedule and critic step."""
-    overrides = [f"task={task}", f"device={device}", "num_envs=64"]
+    `rl_games_step`: rl_games' own minibatch step, host-side schedule, critic step and
+    rollout. `episode`: the task's episode length."""
+    overrides = [f"task={task}", f"device={device}", "num_envs=64"] + (
+        [f"task.env.episodeLength={episode}"] if episode else [])
     cfg = compose(overrides)
     task_cfg, train_cfg, device = task_and_train_configs(cfg, overrides)
     params = train_cfg["params"]["config"]
@@ -33,6 +40,10 @@ def ant_agent(device, rl_games_step=False, capture=False, task="Ant", **config):
         agent.minibatch_step, agent.schedule_type = None, "legacy"
         if agent.has_central_value:
             del agent.central_value_net.train_critic    # back to the class's
+        agent.rollout_on_device = False
+        agent.game_rewards = torch_ext.AverageMeter(1, agent.games_to_track).to(device)
+        agent.game_shaped_rewards = torch_ext.AverageMeter(1, agent.games_to_track).to(device)
+        agent.game_lengths = torch_ext.AverageMeter(1, agent.games_to_track).to(device)
     agent.init_tensors()
     agent.obs = agent.env_reset()
     return agent
@@ -54,8 +65,10 @@ def optimizer_tensors(agent):
 
 
 @pytest.mark.parametrize("task", ["Ant", "ShadowHandOpenAI_FF"])    # the second: a critic
-def test_the_device_side_step_trains_as_rl_games_own_bit_for_bit(task):
-    ours, theirs = ant_agent("cpu", task=task), ant_agent("cpu", rl_games_step=True, task=task)
+def test_the_device_side_loop_trains_as_rl_games_own_bit_for_bit(task):
+    # 20-step episodes: the rollouts count finished episodes from the second epoch on
+    ours, theirs = (ant_agent("cpu", task=task, episode=20),
+                    ant_agent("cpu", rl_games_step=True, task=task, episode=20))
     assert ours.minibatch_step is not None and theirs.minibatch_step is None
     first_lr = ours.last_lr
     train_epochs(ours, 3)
@@ -72,6 +85,12 @@ def test_the_device_side_step_trains_as_rl_games_own_bit_for_bit(task):
             assert torch.equal(a, b), name
     # the normalizer keeps the tensors it had (a captured step reads those)
     assert ours.model.running_mean_std.count.item() == theirs.model.running_mean_std.count.item()
+    # the episodes counted on the device: as many, the same mean up to float32 rounding (a
+    # masked sum adds in another order)
+    assert ours.game_rewards.current_size == theirs.game_rewards.current_size >= 64
+    for meter in ("game_rewards", "game_shaped_rewards", "game_lengths"):
+        np.testing.assert_allclose(getattr(ours, meter).get_mean(),
+                                   getattr(theirs, meter).get_mean(), rtol=1e-5, err_msg=meter)
 
 
 def test_a_checkpoint_carries_the_learning_rate_to_the_resumed_run():
@@ -108,3 +127,44 @@ def test_a_captured_step_trains_as_the_eager_one(device):
 def test_what_the_device_side_step_cannot_take_keeps_rl_games_step():
     agent = ant_agent("cpu", lr_schedule="linear")
     assert agent.minibatch_step is None and agent.schedule_type == "legacy"
+
+
+def test_the_episode_meter_keeps_rl_games_running_mean():
+    from myriad.rl.rollout import EpisodeMeter
+
+    theirs, ours = torch_ext.AverageMeter(1, 100), EpisodeMeter(1, 100, "cpu")
+    gen = torch.Generator().manual_seed(0)
+    for share in [0.0, 0.01, 0.1, 0.5, 0.0, 0.9, 0.02] * 3:    # none ended, a few, > 100
+        values = torch.randn(300, 1, generator=gen) * 50
+        done = torch.rand(300, generator=gen) < share
+        theirs.update(values[done])
+        ours.update_where(values, done)
+        assert ours.current_size == theirs.current_size
+        np.testing.assert_allclose(ours.get_mean(), theirs.get_mean(), rtol=1e-5, atol=1e-5)
+    ours.clear()
+    assert ours.current_size == 0 and float(ours.mean) == 0.0
+
+
+@pytest.mark.parametrize("task", ["Ant", "ShadowHandOpenAI_FF"])
+def test_the_rollout_and_the_update_read_nothing_back(task):
+    """What a GPU would wait for (test_host_sync's recorder): rl_games' rollout reads the
+    finished envs back at every step (nonzero, cpu, numpy) and its update every minibatch's KL
+    (item); neither happens here."""
+    agent = ant_agent("cpu", task=task, episode=4)      # episodes end within the rollout
+    agent.vec_env.env.skip_idle_resets = False          # the step as a GPU runs it
+    train_epochs(agent, 1)
+    agent.epoch_num = agent.update_epoch()
+    agent.set_eval()
+    with recording_syncs() as syncs, torch.no_grad():
+        batch = agent.play_steps()
+    assert syncs == [], f"the rollout read back: {sorted(set(syncs))}"
+    assert agent.game_lengths.current_size > 0
+    agent.set_train()
+    agent.curr_frames = batch.pop("played_frames")
+    agent.prepare_dataset(batch)
+    with recording_syncs() as syncs:
+        for _ in range(agent.mini_epochs_num):
+            for i in range(len(agent.dataset)):
+                out = agent.train_actor_critic(agent.dataset[i])
+                agent.dataset.update_mu_sigma(out[6], out[7])
+    assert syncs == [], f"the update read back: {sorted(set(syncs))}"

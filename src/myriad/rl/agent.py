@@ -54,7 +54,7 @@ import torch.distributed as dist
 from rl_games.algos_torch import a2c_continuous
 from rl_games.common import a2c_common, env_configurations, vecenv
 
-from . import update
+from . import rollout, update
 
 
 def atomic_write(path: str, write) -> None:
@@ -282,6 +282,11 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.minibatch_step = update.MinibatchStep(self, capture) if why_not is None else None
         if self.minibatch_step is not None and self.has_central_value:
             update.critic_loss_kept_on_device(self.central_value_net)
+        # the rollout counts finished episodes on the device (myriad.rl.rollout); a recurrent
+        # policy's or one with action masks keeps rl_games' own
+        self.rollout_on_device = not self.is_rnn and not self.use_action_masks
+        if self.rollout_on_device:
+            rollout.use_episode_meters(self)
         self.started = time.monotonic()
         self.time_split = {"physics_s": 0.0, "policy_s": 0.0, "update_s": 0.0}
         self.best_mean_reward = None        # best mean episode reward seen, any epoch
@@ -546,7 +551,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
 
     def play_steps(self):
         self.vec_env.clock.mark("play")
-        batch = super().play_steps()
+        batch = rollout.play_steps(self) if self.rollout_on_device else super().play_steps()
         self.vec_env.clock.mark("played")
         return batch
 
