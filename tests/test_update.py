@@ -19,7 +19,8 @@ from myriad.rl.train import build_agent
 from myriad.tasks import TASKS
 
 
-def ant_agent(device, rl_games_step=False, capture=False, task="Ant", episode=None, **config):
+def ant_agent(device, rl_games_step=False, capture=False, task="Ant", episode=None,
+              capture_step=False, **config):
     """An agent as `myriad train` builds it, small: 64 envs in minibatches of 256 (Ant: 16
     steps, 4 minibatches, 4 mini-epochs); the hidden layers in float32 on every CPU.
     `rl_games_step`: rl_games' own minibatch step, host-side schedule, critic step and
@@ -33,6 +34,7 @@ def ant_agent(device, rl_games_step=False, capture=False, task="Ant", episode=No
     params.update(minibatch_size=256, **config)
     torch.manual_seed(0)
     task = TASKS[task](task_cfg, device=device)
+    task.capture_step = capture_step
     run = {"train_dir": tempfile.mkdtemp(prefix="myriad_update_"), "experiment": "update",
            "max_time_s": float("inf"), "describe": {}, "capture_update": capture}
     agent = build_agent(task, train_cfg, run, seed=3)
@@ -40,7 +42,7 @@ def ant_agent(device, rl_games_step=False, capture=False, task="Ant", episode=No
         agent.minibatch_step, agent.schedule_type = None, "legacy"
         if agent.has_central_value:
             del agent.central_value_net.train_critic    # back to the class's
-        agent.rollout_on_device = False
+        agent.rollout = None
         agent.game_rewards = torch_ext.AverageMeter(1, agent.games_to_track).to(device)
         agent.game_shaped_rewards = torch_ext.AverageMeter(1, agent.games_to_track).to(device)
         agent.game_lengths = torch_ext.AverageMeter(1, agent.games_to_track).to(device)
@@ -168,3 +170,28 @@ def test_the_rollout_and_the_update_read_nothing_back(task):
                 out = agent.train_actor_critic(agent.dataset[i])
                 agent.dataset.update_mu_sigma(out[6], out[7])
     assert syncs == [], f"the update read back: {sorted(set(syncs))}"
+
+
+def test_a_captured_rollout_steps_as_the_eager_one(device):
+    """capture_step=true on CUDA: the rollout's steps, the policy's inference included, replay as
+    one graph. With the policy's std near 0 (sampling draws differently inside a graph) and no
+    episode ending, both rollouts store the same observations, actions and rewards."""
+    buffers = []
+    for capture in (False, True):
+        agent = ant_agent(device, capture_step=capture)
+        with torch.no_grad():
+            agent.model.a2c_network.sigma.fill_(-20.0)
+        agent.set_eval()
+        with torch.no_grad():
+            agent.play_steps()
+            batch = agent.play_steps()      # the second epoch: replays only
+        if torch.device(device).type == "cuda":
+            assert (agent.rollout.graph is not None) == capture
+            assert agent.vec_env.env.capture_step is False, "the rollout's graph has the step"
+        else:
+            assert agent.rollout.graph is None, "a CPU ignores capture_step"
+        assert not agent.experience_buffer.tensor_dict["dones"].any(), "an episode ended"
+        buffers.append({k: batch[k].clone() for k in ("obses", "actions", "values", "returns")})
+    for key in buffers[0]:
+        torch.testing.assert_close(buffers[1][key], buffers[0][key], rtol=1e-4, atol=1e-4,
+                                   msg=key)

@@ -84,6 +84,7 @@ class EpochClock:
         self.cuda = torch.device(device).type == "cuda"
         self.steps: list[tuple[torch.cuda.Event, torch.cuda.Event]] = []
         self.marks: dict[str, torch.cuda.Event] = {}
+        self.paused = False     # while a graph is captured: its replays are timed instead
 
     def _event(self):
         event = torch.cuda.Event(enable_timing=True)
@@ -95,7 +96,7 @@ class EpochClock:
             self.marks[name] = self._event()
 
     def step(self, run_step):
-        if not self.cuda:
+        if not self.cuda or self.paused:
             return run_step()
         begin = self._event()
         out = run_step()
@@ -282,11 +283,18 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.minibatch_step = update.MinibatchStep(self, capture) if why_not is None else None
         if self.minibatch_step is not None and self.has_central_value:
             update.critic_loss_kept_on_device(self.central_value_net)
-        # the rollout counts finished episodes on the device (myriad.rl.rollout); a recurrent
-        # policy's or one with action masks keeps rl_games' own
-        self.rollout_on_device = not self.is_rnn and not self.use_action_masks
-        if self.rollout_on_device:
-            rollout.use_episode_meters(self)
+        # the rollout counts finished episodes on the device (myriad.rl.rollout), and with
+        # capture_step=true on CUDA replays each step, the policy's inference included, as one
+        # graph (the task's own step graph then stays off); a recurrent policy's, or one with
+        # action masks, keeps rl_games' rollout
+        self.rollout = None
+        if not self.is_rnn and not self.use_action_masks:
+            task = self.vec_env.env
+            whole = task.capture_step and task.device.type == "cuda" and \
+                rollout.capture_unsupported(self) is None
+            self.rollout = rollout.Rollout(self, capture=whole)
+            if whole:
+                task.capture_step = False
         self.started = time.monotonic()
         self.time_split = {"physics_s": 0.0, "policy_s": 0.0, "update_s": 0.0}
         self.best_mean_reward = None        # best mean episode reward seen, any epoch
@@ -551,7 +559,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
 
     def play_steps(self):
         self.vec_env.clock.mark("play")
-        batch = rollout.play_steps(self) if self.rollout_on_device else super().play_steps()
+        batch = self.rollout.play() if self.rollout is not None else super().play_steps()
         self.vec_env.clock.mark("played")
         return batch
 
@@ -562,7 +570,11 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         return batch
 
     def prepare_dataset(self, batch_dict):
-        super().prepare_dataset(batch_dict)
+        if self.normalize_value:    # its statistics stay in the tensors a captured rollout reads
+            update.in_place(self.value_mean_std, lambda: super(MyriadAgent, self)
+                            .prepare_dataset(batch_dict))
+        else:
+            super().prepare_dataset(batch_dict)
         if self.symmetry:
             self.add_mirror_images()
 

@@ -32,6 +32,21 @@ INPUTS = ("obs", "actions", "old_logp_actions", "advantages", "old_values", "ret
 WARMUP_STEPS = 3        # eager steps on a side stream before the capture, as torch asks
 
 
+def in_place(normalizer, update) -> None:
+    """Run `update()`, which updates a running mean/std module (rl_games' `RunningMeanStd`) in
+    training mode, and leave its new statistics in the tensors it had before: its update
+    replaces them with new ones, and a captured graph would go on reading the old."""
+    names = ("running_mean", "running_var", "count")
+    held = [getattr(normalizer, name) for name in names]
+    update()
+    with torch.no_grad():
+        for name, tensor in zip(names, held):
+            new = getattr(normalizer, name)
+            if new is not tensor:
+                tensor.copy_(new)
+                setattr(normalizer, name, tensor)
+
+
 def unsupported(agent) -> str | None:
     """Why the device-side step cannot stand in for rl_games' on this agent; None if it can."""
     if agent.is_rnn:
@@ -112,13 +127,9 @@ class MinibatchStep:
     def _update_normalizer(self) -> None:
         """The observation normalizer's update with this minibatch, as its training-mode
         forward does it, written into the tensors it had (the graph reads those)."""
-        rms = self.normalizer
-        held = (rms.running_mean, rms.running_var, rms.count)
+        obs = self.agent._preproc_obs(self.inputs["obs"])
         with torch.no_grad():
-            rms(self.agent._preproc_obs(self.inputs["obs"]))   # replaces the three tensors
-            for name, tensor in zip(("running_mean", "running_var", "count"), held):
-                tensor.copy_(getattr(rms, name))
-                setattr(rms, name, tensor)
+            in_place(self.normalizer, lambda: self.normalizer(obs))
 
     def _step(self) -> None:
         """What a replay runs: rl_games' gradient step on `self.inputs`, then the rate."""
