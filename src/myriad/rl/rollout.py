@@ -47,9 +47,6 @@ class EpisodeMeter(torch.nn.Module):
     def current_size(self) -> int:                  # rl_games reads it once per epoch
         return int(self.size)
 
-    def __len__(self) -> int:
-        return self.current_size
-
     def get_mean(self):
         """[in_shape] (rl_games' meter squeezes a [1, n] mean to [n]: its rows come indexed
         by `nonzero()`'s [k, 1] indices)"""
@@ -66,10 +63,6 @@ class EpisodeMeter(torch.nn.Module):
         ended = count > 0
         self.mean.copy_(torch.where(ended, mean, self.mean))
         self.size.copy_(torch.where(ended, total, self.size))
-
-    def update(self, values: torch.Tensor) -> None:        # rl_games' call: every row counts
-        self.update_where(values, torch.ones(len(values), dtype=torch.bool,
-                                             device=values.device))
 
     def clear(self) -> None:
         self.size.zero_()
@@ -110,6 +103,7 @@ class Rollout:
         self.obs: dict[str, torch.Tensor] = {}      # what the next step reads, owned here
         self.dones: torch.Tensor | None = None
         self.graph: torch.cuda.CUDAGraph | None = None
+        self.index_value = 0                        # the step, on the host
         use_episode_meters(agent)
 
     def _write(self, name: str, value: torch.Tensor) -> None:
@@ -172,7 +166,7 @@ class Rollout:
         """One step, eagerly or replayed; returns its host seconds (rl_games' step_time)."""
         clock = self.agent.vec_env.clock
         start = time.perf_counter()
-        if not self.capture or self.index_value == 0 and self.graph is None:
+        if not self.capture or (self.index_value == 0 and self.graph is None):
             self._step()                    # eager (the first step: warms the step up)
         else:
             if self.graph is None:

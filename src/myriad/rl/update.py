@@ -18,7 +18,7 @@ the statistics and the normalized observations are the ones rl_games' forward co
 
 Everything else is rl_games' own code (`A2CAgent.calc_gradients`, its losses, its Adam): on a
 CPU the step gives the same weights as rl_games' loop, bit for bit (tests/test_update.py).
-Where this cannot hold the agent keeps rl_games' step (`MinibatchStep.unsupported`).
+Where this cannot hold the agent keeps rl_games' step (`unsupported` says why).
 """
 
 from __future__ import annotations
@@ -183,7 +183,9 @@ class MinibatchStep:
             self.eager_steps += 1
             return
         graph = torch.cuda.CUDAGraph()
-        with torch.cuda.graph(graph):   # recorded, not run: the replay below runs it
+        # recorded, not run (the replay below runs it); thread-local: a viewer's copies on
+        # another thread go on meanwhile
+        with torch.cuda.graph(graph, capture_error_mode="thread_local"):
             self._step()
         self.graph = graph
         self.graph.replay()
