@@ -104,6 +104,7 @@ class Rollout:
         self.dones: torch.Tensor | None = None
         self.graph: torch.cuda.CUDAGraph | None = None
         self.index_value = 0                        # the step, on the host
+        self.step_time = 0.0
         use_episode_meters(agent)
 
     def _write(self, name: str, value: torch.Tensor) -> None:
@@ -121,7 +122,9 @@ class Rollout:
         if agent.has_central_value:
             self._write("states", agent.obs["states"])
 
+        start = time.perf_counter()
         obs, rewards, dones, infos = agent.env_step(res_dict["actions"])
+        self.step_time += time.perf_counter() - start       # rl_games' split on a CPU
         shaped_rewards = agent.rewards_shaper(rewards)
         if agent.value_bootstrap and "time_outs" in infos:
             shaped_rewards.add_(agent.gamma * res_dict["values"]
@@ -162,10 +165,9 @@ class Rollout:
                 self.dones.copy_(agent.dones)
         agent.obs, agent.dones = dict(self.obs), self.dones
 
-    def _run_step(self) -> float:
-        """One step, eagerly or replayed; returns its host seconds (rl_games' step_time)."""
+    def _run_step(self) -> None:
+        """One step, eagerly or replayed."""
         clock = self.agent.vec_env.clock
-        start = time.perf_counter()
         if not self.capture or (self.index_value == 0 and self.graph is None):
             self._step()                    # eager (the first step: warms the step up)
         else:
@@ -179,17 +181,18 @@ class Rollout:
                 finally:
                     clock.paused = False
                 self.graph = graph
+            start = time.perf_counter()
             clock.step(self.graph.replay)
-        return time.perf_counter() - start
+            self.step_time += time.perf_counter() - start
 
     def play(self) -> dict:
         agent = self.agent
         self._own_inputs()
-        step_time = 0.0
+        self.step_time = 0.0            # host seconds in env steps (replays, when captured)
         for n in range(agent.horizon_length):
             self.index.fill_(n)
             self.index_value = n
-            step_time += self._run_step()
+            self._run_step()
 
         buffer = agent.experience_buffer
         last_values = agent.get_values(agent.obs)
@@ -202,5 +205,5 @@ class Rollout:
         batch_dict = buffer.get_transformed_list(swap_and_flatten01, agent.tensor_list)
         batch_dict["returns"] = swap_and_flatten01(mb_returns)
         batch_dict["played_frames"] = agent.batch_size
-        batch_dict["step_time"] = step_time
+        batch_dict["step_time"] = self.step_time
         return batch_dict
