@@ -7,8 +7,8 @@
 #           LANES_BUDGET_S 150)
 #   tests   the test suite on CUDA, one pytest process per file
 #   soak    every task under random actions for two episode lengths: nothing may go non-finite
-#   update  the PPO minibatch step three ways: rl_games', the device-side rate, and captured as
-#           a CUDA graph (update_step.py; UPDATE_RUNS, UPDATE_BUDGET_S 240)
+#   loop    the PPO loop's rollout and update three ways each: rl_games', with nothing read
+#           back, and captured as CUDA graphs (loop_steps.py; LOOP_RUNS, LOOP_BUDGET_S 240)
 #   train   short training runs that time the paper's milestones
 #   isaacgym  (not in the default list) the isaacgym layer's cost against Myriad's own API,
 #           and AnymalTerrain on its height field against the original's triangle mesh
@@ -18,18 +18,18 @@
 # MuJoCo Warp's kernels are not in that cache and compile in the peers stage):
 #   python benchmarks/precompile_cuda.py --arch 90 --cache .device/kcache     # here (no GPU)
 #   WARP_CACHE_PATH=.device/kcache bash benchmarks/gpu_suite.sh peers         # there, one stage
-#   bash benchmarks/gpu_suite.sh                  # all six: peers lanes tests soak update train
+#   bash benchmarks/gpu_suite.sh                  # all six: peers lanes tests soak loop train
 # Each stage prints its budget first and, last, what it skipped to stay inside it. Budgets, in
 # seconds: PEERS_S (the whole peers stage, 480) of which PEERS_BUDGET_S (240) for gpu_peers.py;
 # TEST_TIMEOUT (420, per test file; the files run side by side); SOAK_BUDGET_S (420);
-# UPDATE_BUDGET_S (240); TRAIN_BUDGET_S (450). Logs go to $LOGS (default gpu_logs/); the tables are printed as Markdown
+# LOOP_BUDGET_S (240); TRAIN_BUDGET_S (450). Logs go to $LOGS (default gpu_logs/); the tables are printed as Markdown
 # for docs/.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 DEVICE=${DEVICE:-cuda:0}
 LOGS=${LOGS:-gpu_logs}
 mkdir -p "$LOGS"
-stages=${*:-peers lanes tests soak update train}
+stages=${*:-peers lanes tests soak loop train}
 status=0
 export PYTHONUNBUFFERED=1
 
@@ -94,17 +94,17 @@ for stage in $stages; do
         | tee "$LOGS/soak.log"
       [ "${PIPESTATUS[0]}" -eq 0 ] || status=1
       skipped=$(sed -n 's/^skipped: //p' "$LOGS/soak.log") ;;
-    update)
-      # task:envs pairs; each builds its agent, runs two epochs, then times the update's
-      # minibatch step three ways, interleaved (a cut leaves the tasks before it)
-      budget=${UPDATE_BUDGET_S:-240} dropped=()
-      echo "== update on $DEVICE: budget $budget s"
-      for spec in ${UPDATE_RUNS:-Ant:4096 Humanoid:4096 ShadowHand:16384}; do
+    loop)
+      # task:envs pairs; each builds its agent, runs two epochs, then times the rollout and the
+      # update three ways, interleaved (a cut leaves the tasks before it)
+      budget=${LOOP_BUDGET_S:-240} dropped=()
+      echo "== loop on $DEVICE: budget $budget s"
+      for spec in ${LOOP_RUNS:-Ant:4096 Humanoid:4096 ShadowHand:16384}; do
         left=$((budget - (SECONDS - start)))
         if [ "$left" -lt 40 ]; then dropped+=("$spec ($left s left)"); continue; fi
-        timeout "$left" python3 benchmarks/update_step.py --device "$DEVICE" \
+        timeout "$left" python3 benchmarks/loop_steps.py --device "$DEVICE" \
           --task "${spec%%:*}" --envs "${spec##*:}" --repeats 6 < /dev/null 2>&1 \
-          | tee -a "$LOGS/update_step.log" | grep -E "^(\||[A-Za-z]+ on )"
+          | tee -a "$LOGS/loop_steps.log" | grep -E "^(\||[A-Za-z]+ on )"
         rc=${PIPESTATUS[0]}
         [ "$rc" -eq 124 ] && dropped+=("$spec (cut at $left s)")
         [ "$rc" -eq 0 ] || [ "$rc" -eq 124 ] || status=1
@@ -152,7 +152,7 @@ Anymal 120 10 40}"
       # against the height field it came from, in AnymalTerrain
       timeout 200 python3 benchmarks/terrain_mesh.py --device "$DEVICE" --envs 4096 \
         --rounds 6 --steps 20 2>&1 | tee -a "$LOGS/terrain_mesh.log" | grep -v "^Module" ;;
-    *) echo "unknown stage $stage (peers, lanes, tests, soak, update, train, isaacgym)"; exit 2 ;;
+    *) echo "unknown stage $stage (peers, lanes, tests, soak, loop, train, isaacgym)"; exit 2 ;;
   esac
   echo "== $stage: $((SECONDS - start)) s; skipped to stay inside the budget: ${skipped:-nothing}"
 done
