@@ -144,8 +144,10 @@ class MinibatchStep:
         agent = self.agent
         agent.set_train()
         shapes = {k: tuple(minibatch[k].shape) for k in INPUTS}
-        if not self.inputs or shapes != {k: tuple(v.shape) for k, v in self.inputs.items()}:
-            # the first minibatch, or a new minibatch size: new buffers, a new graph
+        if not self.capture:
+            self.inputs = {k: minibatch[k] for k in INPUTS}
+        elif not self.inputs or shapes != {k: tuple(v.shape) for k, v in self.inputs.items()}:
+            # the first minibatch, or a new minibatch size: the graph's own inputs, a new graph
             self.inputs = {k: minibatch[k].clone() for k in INPUTS}
             self.graph, self.eager_steps = None, 0
         else:
