@@ -195,6 +195,10 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
     progress = {"env_steps": state.get("frame"),
                 "wall_s": (state.get("myriad") or {}).get("wall_s"),
                 "mean_reward": state.get("last_mean_rewards"), "epoch": state.get("epoch")}
+    if state.get("epoch") == summary.get("checkpoint_epoch"):
+        # the run's last checkpoint: its summary has that epoch's mean reward, while
+        # rl_games' last_mean_rewards is the best of the run so far
+        del progress["mean_reward"]
     summary |= {k: float(v) if k in ("wall_s", "mean_reward") else int(v)
                 for k, v in progress.items() if v is not None}
     task = checkpoint_task(checkpoint)
