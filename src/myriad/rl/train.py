@@ -25,8 +25,8 @@ from .amp import AMPAgent
 def seed_all(seed: int) -> None:
     """torch's generators (CPU and CUDA), numpy's and Python's from one seed. This torch seeds
     its generator from the operating system when it is imported, so whatever draws before the
-    seeding (a task's start-up randomization: the OpenAI hand's cube scale and masses, the G1's
-    friction) would differ from run to run of one seed."""
+    seeding (a task's start-up draws: the OpenAI hand's cube scale and masses, the G1's) would
+    differ from run to run of one seed."""
     torch.manual_seed(seed)
     np.random.seed(seed % 2**32)
     random.seed(seed)
