@@ -72,11 +72,8 @@ def main():
     rollouts = {"rl_games' play_steps": (None, rl_meters), "nothing read back": (ours, meters)}
     steps = {"rl_games' step": None, "nothing read back": agent.minibatch_step}
     if cuda:
-        captured = Rollout(agent, capture=True)      # (it makes meters of its own: keep ours)
-        rollouts["captured step"] = (captured, meters)
+        rollouts["captured step"] = (Rollout(agent, capture=True), meters)
         steps["captured step"] = MinibatchStep(agent, capture=True)
-    for name, meter in meters.items():
-        setattr(agent, name, meter)
     epoch()                                 # warm-up: kernels, the first normalizer update
     epoch(keep=True)                        # the rollout whose update is timed
     dataset = agent.dataset.values_dict

@@ -19,8 +19,8 @@ from myriad.rl.train import build_agent
 from myriad.tasks import TASKS
 
 
-def ant_agent(device, rl_games_step=False, capture=False, task="Ant", episode=None,
-              capture_step=False, **config):
+def small_agent(device, rl_games_step=False, capture=False, task="Ant", episode=None,
+                capture_step=False, **config):
     """An agent as `myriad train` builds it, small: 64 envs in minibatches of 256 (Ant: 16
     steps, 4 minibatches, 4 mini-epochs); the hidden layers in float32 on every CPU.
     `rl_games_step`: rl_games' own minibatch step, host-side schedule, critic step and
@@ -69,8 +69,8 @@ def optimizer_tensors(agent):
 @pytest.mark.parametrize("task", ["Ant", "ShadowHandOpenAI_FF"])    # the second: a critic
 def test_the_device_side_loop_trains_as_rl_games_own_bit_for_bit(task):
     # 20-step episodes: the rollouts count finished episodes from the second epoch on
-    ours, theirs = (ant_agent("cpu", task=task, episode=20),
-                    ant_agent("cpu", rl_games_step=True, task=task, episode=20))
+    ours, theirs = (small_agent("cpu", task=task, episode=20),
+                    small_agent("cpu", rl_games_step=True, task=task, episode=20))
     assert ours.minibatch_step is not None and theirs.minibatch_step is None
     first_lr = ours.last_lr
     train_epochs(ours, 3)
@@ -96,24 +96,24 @@ def test_the_device_side_loop_trains_as_rl_games_own_bit_for_bit(task):
 
 
 def test_a_checkpoint_carries_the_learning_rate_to_the_resumed_run():
-    agent = ant_agent("cpu")
+    agent = small_agent("cpu")
     train_epochs(agent, 2)
     state = agent.get_full_state_weights()
     assert state["myriad"]["last_lr"] == agent.last_lr != 3e-4
     assert all(isinstance(g["lr"], float) and not g["capturable"]
                for g in state["optimizer"]["param_groups"])
-    resumed = ant_agent("cpu")
+    resumed = small_agent("cpu")
     resumed.set_full_state_weights(state)
     assert resumed.last_lr == agent.last_lr
     assert resumed.minibatch_step.learning_rate() == agent.last_lr
     # and rl_games' own step resumes from it too (its schedule continues from last_lr)
-    theirs = ant_agent("cpu", rl_games_step=True)
+    theirs = small_agent("cpu", rl_games_step=True)
     theirs.set_full_state_weights(state)
     assert theirs.last_lr == agent.last_lr
 
 
 def test_a_captured_step_trains_as_the_eager_one(device):
-    eager, captured = ant_agent(device), ant_agent(device, capture=True)
+    eager, captured = small_agent(device), small_agent(device, capture=True)
     train_epochs(eager, 3)
     train_epochs(captured, 3)
     if torch.device(device).type == "cuda":
@@ -127,7 +127,7 @@ def test_a_captured_step_trains_as_the_eager_one(device):
 
 
 def test_what_the_device_side_step_cannot_take_keeps_rl_games_step():
-    agent = ant_agent("cpu", lr_schedule="linear")
+    agent = small_agent("cpu", lr_schedule="linear")
     assert agent.minibatch_step is None and agent.schedule_type == "legacy"
 
 
@@ -152,7 +152,7 @@ def test_the_rollout_and_the_update_read_nothing_back(task):
     """What a GPU would wait for (test_host_sync's recorder): rl_games' rollout reads the
     finished envs back at every step (nonzero, cpu, numpy) and its update every minibatch's KL
     (item); neither happens here."""
-    agent = ant_agent("cpu", task=task, episode=4)      # episodes end within the rollout
+    agent = small_agent("cpu", task=task, episode=4)      # episodes end within the rollout
     agent.vec_env.env.skip_idle_resets = False          # the step as a GPU runs it
     train_epochs(agent, 1)
     agent.epoch_num = agent.update_epoch()
@@ -178,7 +178,7 @@ def test_a_captured_rollout_steps_as_the_eager_one(device):
     episode ending, both rollouts store the same observations, actions and rewards."""
     buffers = []
     for capture in (False, True):
-        agent = ant_agent(device, capture_step=capture)
+        agent = small_agent(device, capture_step=capture)
         with torch.no_grad():
             agent.model.a2c_network.sigma.fill_(-20.0)
         agent.set_eval()

@@ -292,6 +292,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             task = self.vec_env.env
             whole = task.capture_step and task.device.type == "cuda" and \
                 rollout.capture_unsupported(self) is None
+            rollout.use_episode_meters(self)
             self.rollout = rollout.Rollout(self, capture=whole)
             if whole:
                 task.capture_step = False

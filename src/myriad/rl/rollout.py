@@ -92,8 +92,8 @@ def capture_unsupported(agent) -> str | None:
 
 class Rollout:
     """rl_games' A2CBase.play_steps (a non-recurrent policy, no action masks) with the finished
-    episodes counted on the device (`EpisodeMeter`), and with `capture` on CUDA each step
-    replayed as a CUDA graph."""
+    episodes counted on the device (the agent's meters: `use_episode_meters`), and with
+    `capture` on CUDA each step replayed as a CUDA graph."""
 
     def __init__(self, agent, capture: bool):
         self.agent = agent
@@ -103,9 +103,7 @@ class Rollout:
         self.obs: dict[str, torch.Tensor] = {}      # what the next step reads, owned here
         self.dones: torch.Tensor | None = None
         self.graph: torch.cuda.CUDAGraph | None = None
-        self.index_value = 0                        # the step, on the host
         self.step_time = 0.0
-        use_episode_meters(agent)
 
     def _write(self, name: str, value: torch.Tensor) -> None:
         stored = self.agent.experience_buffer.tensor_dict[name]
@@ -165,10 +163,10 @@ class Rollout:
                 self.dones.copy_(agent.dones)
         agent.obs, agent.dones = dict(self.obs), self.dones
 
-    def _run_step(self) -> None:
-        """One step, eagerly or replayed."""
+    def _run_step(self, first: bool) -> None:
+        """One step, eagerly or replayed (`first`: the rollout's step 0)."""
         clock = self.agent.vec_env.clock
-        if not self.capture or (self.index_value == 0 and self.graph is None):
+        if not self.capture or (first and self.graph is None):
             self._step()                    # eager (the first step: warms the step up)
         else:
             if self.graph is None:
@@ -191,8 +189,7 @@ class Rollout:
         self.step_time = 0.0            # host seconds in env steps (replays, when captured)
         for n in range(agent.horizon_length):
             self.index.fill_(n)
-            self.index_value = n
-            self._run_step()
+            self._run_step(first=n == 0)
 
         buffer = agent.experience_buffer
         last_values = agent.get_values(agent.obs)

@@ -143,10 +143,10 @@ class MinibatchStep:
     def __call__(self, minibatch: dict) -> tuple:
         agent = self.agent
         agent.set_train()
-        shapes = {k: tuple(minibatch[k].shape) for k in INPUTS}
         if not self.capture:
             self.inputs = {k: minibatch[k] for k in INPUTS}
-        elif not self.inputs or shapes != {k: tuple(v.shape) for k, v in self.inputs.items()}:
+        elif not self.inputs or any(minibatch[k].shape != v.shape
+                                    for k, v in self.inputs.items()):
             # the first minibatch, or a new minibatch size: the graph's own inputs, a new graph
             self.inputs = {k: minibatch[k].clone() for k in INPUTS}
             self.graph, self.eager_steps = None, 0
