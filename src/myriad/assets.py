@@ -1,7 +1,7 @@
-"""Robot models: those written here (the XML files in this folder, `myriad.asset_path`) and
-those that come from packages installed from the registry, found where pip put them, with the
-fixes each needs applied in memory at load time (an installed file is never edited). Every task
-gets its robot from here.
+"""Robot models: those written for Myriad (the XML files of the `assets/` folder beside this
+module, `myriad.asset_path`) and those that come from packages installed from the registry,
+found where pip put them, with the fixes each needs applied in memory at load time (an
+installed file is never edited). Every task gets its robot from here.
 
 | robot       | extra            | package: file                                                       |
 |-------------|------------------|---------------------------------------------------------------------|
@@ -31,9 +31,10 @@ from xml.etree import ElementTree
 import mujoco
 import numpy as np
 
-from ..physics import ModelError
+from .physics import ModelError
 
-HERE = os.path.dirname(os.path.abspath(__file__))
+# the MJCF files written for Myriad (package data beside this module)
+HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "assets")
 
 
 def asset_path(name: str) -> str:
