@@ -34,14 +34,14 @@ import numpy as np
 from .physics import ModelError
 
 # the MJCF files written for Myriad (package data beside this module)
-HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "assets")
+MJCF_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "assets")
 
 
 def asset_path(name: str) -> str:
     """Path of a model shipped with Myriad, e.g. ``asset_path("ant.xml")``."""
-    path = os.path.join(HERE, name)
+    path = os.path.join(MJCF_DIR, name)
     if not os.path.isfile(path):
-        shipped = sorted(p for p in os.listdir(HERE) if p.endswith(".xml"))
+        shipped = sorted(p for p in os.listdir(MJCF_DIR) if p.endswith(".xml"))
         raise FileNotFoundError(f"no asset named {name!r}; Myriad ships {shipped}")
     return path
 
