@@ -235,6 +235,18 @@ def test_resume_continues_counters_time_and_never_replaces_the_best_with_a_worse
     rate = summary["env_steps"] / summary["wall_s"]      # wall_s is rounded to 10 ms
     assert summary["env_steps_per_s"] == pytest.approx(rate, rel=0.05)
 
+    # a resumed run's envs start their episodes together, so its first two episode lengths'
+    # means (here 2 × 16 steps / horizon 16 = epochs 7 and 8) are not the policy's: no best
+    # is taken from them, even over a best every mean exceeds
+    state = torch.load(folder / "nn" / "last.pth", weights_only=False, map_location="cpu")
+    state["myriad"]["best_mean_reward"] = -1e9
+    torch.save(state, folder / "nn" / "last.pth")
+    assert cli.main(["train", *train_args(tmp_path, "max_iterations=7", "resume=auto",
+                                          "experiment=r", *common, device=device)]) == 0
+    summary = json.loads((folder / "summary.json").read_text())
+    assert summary["epochs"] == 7 and summary["mean_reward"] is not None
+    assert summary["best_mean_reward"] == -1e9
+
 
 def test_resume_auto_starts_fresh_when_there_is_nothing_to_resume(tmp_path, capsys):
     assert cli.main(["train", *train_args(tmp_path, "max_iterations=1", "resume=auto",

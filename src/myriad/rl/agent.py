@@ -4,7 +4,8 @@ user's files safe (`train.train` builds it and runs it behind `myriad train`).
 Files of a run, under runs/<experiment>/:
     nn/last.pth         the newest checkpoint (written atomically: a crash or a signal leaves the
                         previous one whole); nn/<Task>.pth is the best mean reward so far, only
-                        ever replaced by a better one, across resumes too
+                        ever replaced by a better one, across resumes too (a resumed run judges
+                        none in its first two episode lengths: its envs start together)
     summary.json        epochs, env_steps, wall_s, mean_reward (last mean episode reward),
                         best_mean_reward, the time split (physics / policy / update), the count
                         of non-finite actions, and the checkpoint with the epoch it holds
@@ -301,6 +302,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.best_mean_reward = None        # best mean episode reward seen, any epoch
         self.best_saved_reward = -math.inf  # reward of the policy in nn/<Task>.pth
         self.restored_best = None
+        self.settled_epoch = 0              # the first epoch whose mean reward counts as a best
         self.nonfinite_actions = 0          # env-steps whose action had a NaN or inf
         self.contact_overflow_steps = 0     # env-steps that found more contacts than slots
         self.checkpoint_epoch = None        # the epoch nn/last.pth holds
@@ -493,6 +495,13 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.best_mean_reward = ours["best_mean_reward"]
         self.best_saved_reward = ours["best_saved_reward"]
         self.restored_best = self.best_saved_reward
+        # the envs start fresh episodes together, so the last finished episodes are first the
+        # early drops and then one wave of whole-length ones: not the policy's mean (ShadowHand
+        # read −10, then 1850 against its 1530) until they have ended about two episodes each.
+        # Neither the best reward nor the best-policy file is judged from that window.
+        self.settled_epoch = self.epoch_num + math.ceil(
+            2 * self.vec_env.env.max_episode_length / self.horizon_length)
+        self.save_best_after = max(self.save_best_after, self.settled_epoch)
         self.nonfinite_actions = ours["nonfinite_actions"]
         if "last_lr" in ours:
             self.last_lr = ours["last_lr"]
@@ -636,8 +645,10 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         mean = None
         if self.game_rewards.current_size > 0:
             mean = float(self.game_rewards.get_mean()[0])
-            self.best_mean_reward = mean if self.best_mean_reward is None \
-                else max(self.best_mean_reward, mean)
+            if self.best_mean_reward is None:
+                self.best_mean_reward = mean
+            elif self.epoch_num >= self.settled_epoch:
+                self.best_mean_reward = max(self.best_mean_reward, mean)
         if bad_now and not self.nonfinite_actions and self.writes_files:
             warnings.warn(f"epoch {self.epoch_num}: {bad_now} actions of the policy were NaN or "
                           "infinite; their envs are reset. The count is in the progress line, "
