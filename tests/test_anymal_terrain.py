@@ -166,6 +166,9 @@ def test_curriculum_pushes_and_friction_in_the_task(device):
     task.commands[:] = torch.tensor([0.8, 0.0, 0.0], device=task.device)
     task.reset_idx(torch.ones(4, dtype=torch.bool, device=task.device))
     assert task.levels.tolist() == [3, 1, 0, 0]
+    # the verdicts, kept for `myriad eval`: the curriculum moved env 2 down, to the floor
+    assert task.episode_outcomes["level_up"].tolist() == [True, False, False, True]
+    assert task.episode_outcomes["level_down"].tolist() == [False, True, True, False]
     assert task.metrics()["terrain_level"] == pytest.approx(1.0)
     np.testing.assert_allclose(task.env_origins.cpu(),
                                task.tile_origins[task.levels, task.kinds].cpu())
@@ -349,7 +352,8 @@ def _foot_centres(task):
 
 def test_training_smoke_run_reports_the_terrain_level_and_resumes_its_curricula(tmp_path):
     """Two epochs, then a resume from a checkpoint whose task state says level 3 and 100
-    batches of the cost curriculum: the run goes on from there, not from level 0 and k = 0.3."""
+    batches of the cost curriculum: the run goes on from there, not from level 0 and k = 0.3;
+    so does a fine-tune from that checkpoint shipped."""
     from myriad import cli
 
     args = ["train", "task=AnymalTerrain", "num_envs=16", f"train_dir={tmp_path}",
@@ -370,6 +374,17 @@ def test_training_smoke_run_reports_the_terrain_level_and_resumes_its_curricula(
     summary = json.loads((tmp_path / "terrain" / "summary.json").read_text())
     assert summary["penalty_factor"] == pytest.approx(0.3 ** (0.997 ** 101), abs=1e-4)
     # 24 steps of a 1000-step episode: only robots that fell moved, one level down
+    assert 2.0 <= summary["terrain_level"] <= 3.0
+    # a shipped policy keeps the task state too: fine-tuning from it (a fresh optimizer, epoch
+    # 0) goes on at its levels and cost factor
+    from myriad.rl import shipped
+    policy = tmp_path / "policy.pth"
+    torch.save(shipped.stripped(state, fp16=False), policy)
+    tune = [a.replace("experiment=terrain", "experiment=tuned") for a in args]
+    assert cli.main([*tune, "max_iterations=1", f"checkpoint={policy}"]) == 0
+    summary = json.loads((tmp_path / "tuned" / "summary.json").read_text())
+    assert summary["epochs"] == 1
+    assert summary["penalty_factor"] == pytest.approx(0.3 ** (0.997 ** 101), abs=1e-4)
     assert 2.0 <= summary["terrain_level"] <= 3.0
     # a checkpoint of another env count is refused, naming what does not fit
     task = make("cpu", num_envs=4)

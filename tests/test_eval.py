@@ -21,7 +21,7 @@ def save_checkpoint(path, task, num_envs=4, summary_task=None):
     cfg = run.compose([f"task={task}", "device=cpu", f"num_envs={num_envs}"])
     task_cfg, train_cfg, _ = run.task_and_train_configs(cfg, [f"num_envs={num_envs}"])
     sizes = {"Ant": (60, 8), "Humanoid": (108, 21), "ShadowHandOpenAI_FF": (42, 20),
-             "Trifinger": (41, 9)}[task]
+             "Trifinger": (41, 9), "AnymalTerrain": (188, 12)}[task]
     torch.manual_seed(0)
     network = build_network(train_cfg, *sizes)
     if summary_task is not None:
@@ -183,6 +183,33 @@ def test_success_rate_comes_from_the_flags_the_task_records(tmp_path):
         success = report["results"]["success_rate"]
         assert success["n"] == 4 and success["mean"] == expected, tolerance
         assert report["task_settings"]["successPositionTolerance"] == tolerance
+
+
+def test_terrain_levels_spread_play_every_level_and_report_the_curriculums_verdicts(tmp_path,
+                                                                                   capsys):
+    """levels=spread: env i of 10 plays level i; in half a second no robot walks the 4 m that
+    leave its tile, so no episode moves up. The verdicts come level by level; levels= takes
+    only its two values, and only for the terrain tasks."""
+    checkpoint = save_checkpoint(tmp_path / "terrain.pth", "AnymalTerrain")
+    out = tmp_path / "terrain.json"
+    assert cli.main(["eval", "task=AnymalTerrain", "device=cpu", f"checkpoint={checkpoint}",
+                     "num_envs=10", "episodes=10", "levels=spread",
+                     "task.env.episodeLength_s=0.5", f"output={out}"]) == 0
+    report = json.loads(out.read_text())
+    assert report["primary"] == "level_up" and report["levels"] == "spread"
+    assert report["results"]["terrain_level"]["mean"] == 4.5
+    assert report["results"]["level_up"]["mean"] == 0.0
+    assert report["results"]["level_up"]["wilson95"][1] < 0.35
+    assert sorted(report["by_level"], key=int) == [str(level) for level in range(10)]
+    assert all(r["episodes"] == 1 and r["level_up"] == 0.0 for r in report["by_level"].values())
+    assert "by level (episodes, level_up, level_down): 0: 1, 0.00" in capsys.readouterr().out
+    assert cli.main(["eval", "task=AnymalTerrain", "device=cpu", f"checkpoint={checkpoint}",
+                     "levels=random"]) == 2
+    assert "levels=random: one of restored, spread" in capsys.readouterr().err
+    ant = save_checkpoint(tmp_path / "ant.pth", "Ant")
+    assert cli.main(["eval", "task=Ant", "device=cpu", f"checkpoint={ant}", "num_envs=1",
+                     "episodes=1", "levels=spread"]) == 2
+    assert "levels=spread: Ant has no terrain levels" in capsys.readouterr().err
 
 
 def test_judge_refuses_an_override_that_changes_the_task(tmp_path, capsys):

@@ -6,8 +6,8 @@ import pytest
 import torch
 
 from myriad.tasks.terrain import (KINDS, TerrainConfig, TerrainCurriculum, column_kind,
-                                  generate_terrain, height_points, next_levels, sample_heights,
-                                  tile_heights)
+                                  generate_terrain, height_points, level_verdicts, next_levels,
+                                  sample_heights, tile_heights)
 
 CONFIG = TerrainConfig()
 UNIT = CONFIG.vertical_scale
@@ -142,6 +142,41 @@ def test_the_curriculum_moves_robots_by_how_far_they_walked():
     # 20 s episodes: down when walked < speed × 5 m; up when walked > 4 m (left the tile);
     # both (the last: left its tile, yet short of its command) cancel, as in the original
     assert next_levels(levels, walked, speed, 20.0, CONFIG).tolist() == [0, 2, 3, 4, 0, 5, 5]
+    up, down = level_verdicts(walked, speed, 20.0, CONFIG)
+    assert up.tolist() == [False, False, False, True, True, False, True]
+    assert down.tolist() == [True, True, False, False, False, False, True]
+
+
+def _spread(num_envs, levels=10, types=20):
+    """`TerrainCurriculum.spread_levels` on `num_envs` envs, kinds assigned as `init_levels`
+    does; returns (levels, kinds)."""
+    from types import SimpleNamespace
+    kinds = torch.div(torch.arange(num_envs) * types, num_envs, rounding_mode="floor")
+    task = SimpleNamespace(terrain_config=TerrainConfig(levels=levels, types=types),
+                           num_envs=num_envs, kinds=kinds, device="cpu",
+                           levels=torch.zeros(num_envs, dtype=torch.long),
+                           tile_origins=torch.rand(levels, types, 3),
+                           env_origins=torch.zeros(num_envs, 3))
+    TerrainCurriculum.spread_levels(task)
+    assert torch.equal(task.env_origins, task.tile_origins[task.levels, task.kinds])
+    return task.levels, kinds
+
+
+def test_spread_levels_put_every_level_on_every_kind_of_tile():
+    # 200 envs: each of the 10 x 20 tiles exactly once; 400: twice
+    for n in (200, 400):
+        levels, kinds = _spread(n)
+        tiles = torch.bincount(levels * 20 + kinds, minlength=200)
+        assert (tiles == n // 200).all()
+    # 100 envs (5 per kind): every level 10 times, over kinds of several columns, not only
+    # the even kinds on levels 0-4 that level = i mod 10 would give
+    levels, kinds = _spread(100)
+    assert (torch.bincount(levels, minlength=10) == 10).all()
+    for level in range(10):
+        assert len(set(kinds[levels == level].tolist())) == 10
+    # 10 envs (every other kind, one env each): each level once
+    levels, kinds = _spread(10)
+    assert sorted(levels.tolist()) == list(range(10)) and len(set(kinds.tolist())) == 10
 
 
 def test_impossible_terrain_settings_are_named():

@@ -18,11 +18,22 @@ episodes):
     actual| base-frame planar velocity) and `tracking_error_yaw` (rad/s), averaged over the
     episode's steps (as benchmarks/anymal_tracking.py measures them, but over whole episodes);
     the terrain tasks also `terrain_level`, the curriculum level each episode was played at (and
-    the envs' mean level at the end); the G1 tasks also `fell`, the share of episodes that
-    ended in a fall;
+    the envs' mean level at the end), and the curriculum's verdict on it: `level_up`, the share
+    of episodes whose robot left its tile (the curriculum moves it up), and `level_down`, the
+    share that walked less than a quarter of their command (moved down), each also level by
+    level (`by_level`); the G1 tasks also `fell`, the share of episodes that ended in a fall;
   - HumanoidAMP: `speed` (m/s, the root's straight-line horizontal distance over the episode
     per second), `fell` and `pose_error` (rad, to the nearest clip frame), not the
     discriminator's reward (`WalkProbe`).
+
+Terrain levels (`levels=`): `restored`, the checkpoint's curriculum state (each env on the level
+the training left it at; at another env count than the run's, every env on level 0), or
+`spread`, every level on every kind of tile (`TerrainCurriculum.spread_levels`; with num_envs a
+multiple of levels × kinds, 200, every tile equally), whose `level_up` is then the figure: what
+the policy crosses, not where the training happened to stand. Under the original's curriculum a
+level's robots that all cross move on and past the top start over at level 0, so a policy that
+crosses everything holds a mean level of 4.5 of 10; a higher mean means robots held back below
+a level they fail.
 
 Episodes: each env contributes at most ceil(episodes / num_envs) episodes, its first ones, and
 the evaluation stops once `episodes` are collected (the envs keep running meanwhile). Taking the
@@ -49,7 +60,8 @@ TRACKING_TASKS = ("Anymal", "AnymalTerrain", "G1Velocity", "G1Rough")
 
 # the top-level keys a judged evaluation may set: none of them changes the task
 JUDGE_ALLOWED = {"task", "train", "checkpoint", "num_envs", "seed", "episodes", "judge",
-                 "device", "output", "train_dir", "task.env.numEnvs"}
+                 "device", "output", "train_dir", "task.env.numEnvs", "levels"}
+TERRAIN_LEVELS = ("restored", "spread")
 PROGRESS_EVERY_S = 10.0
 
 # two-sided 95 % quantiles of Student's t for 1..30 degrees of freedom
@@ -181,7 +193,8 @@ class Probe:
         return {k: env[k] for k in ("episodeLength", "episodeLength_s") if k in env} | {
             "max_episode_length": int(self.task.max_episode_length)}
 
-    def extra(self) -> dict:
+    def extra(self, values: dict[str, list[float]]) -> dict:
+        """What the report adds from the episodes' `values`."""
         return {}
 
 
@@ -295,16 +308,18 @@ def command_tracking(task, advance, seconds: float) -> str:
 
 class TrackingProbe(Probe):
     """Mean |commanded - actual| base velocity over each episode's steps (base frame: planar
-    velocity norm, yaw rate); AnymalTerrain: also the level each episode was played at."""
+    velocity norm, yaw rate); the terrain tasks: also the level each episode was played at and
+    the curriculum's verdict on it (`level_up`, `level_down`), the primary figure the mean level
+    (`levels="restored"`) or the share of episodes that crossed their tile (`"spread"`)."""
     primary = "tracking_error_lin"
 
-    def __init__(self, task):
+    def __init__(self, task, levels: str = "restored"):
         super().__init__(task)
         self.means = EpisodeMeans(task.num_envs, task.device, "tracking_error_lin",
                                   "tracking_error_yaw")
         self.terrain = hasattr(task, "levels")
         if self.terrain:
-            self.primary = "terrain_level"
+            self.primary = "level_up" if levels == "spread" else "terrain_level"
             self.levels = task.levels.clone()
 
     def reset(self):
@@ -333,10 +348,18 @@ class TrackingProbe(Probe):
         out |= {name: flag.double() for name, flag in self.task.episode_outcomes.items()}
         return out
 
-    def extra(self):
+    def extra(self, values):
         if not self.terrain:
             return {}
-        return {"final_mean_terrain_level": float(self.task.levels.float().mean())}
+        by_level = {}
+        played = torch.tensor(values.get("terrain_level", []), dtype=torch.long)
+        for level in sorted(set(played.tolist())):
+            at = (played == level).nonzero().flatten().tolist()
+            by_level[str(level)] = {"episodes": len(at)} | {
+                name: sum(values[name][i] for i in at) / len(at)
+                for name in ("level_up", "level_down", "tracking_error_lin") if name in values}
+        return {"final_mean_terrain_level": float(self.task.levels.float().mean()),
+                "by_level": by_level}
 
 
 class WalkProbe(Probe):
@@ -384,7 +407,7 @@ class WalkProbe(Probe):
         return out
 
 
-def probe_for(name: str, task) -> Probe:
+def probe_for(name: str, task, levels: str = "restored") -> Probe:
     if name == "HumanoidAMP":
         return WalkProbe(task)
     if name in HAND_TASKS:
@@ -394,7 +417,7 @@ def probe_for(name: str, task) -> Probe:
     if name in SUCCESS_RATE_TASKS:
         return ShareProbe(task)
     if name in TRACKING_TASKS:
-        return TrackingProbe(task)
+        return TrackingProbe(task, levels)
     return Probe(task)
 
 
@@ -432,7 +455,7 @@ def run_episodes(task, policy, episodes: int, probe: Probe | None = None, report
 
 def summarize(values: dict[str, list[float]]) -> dict:
     results = {name: mean_ci(v) for name, v in values.items()}
-    for name in ("success_rate", "lift_rate"):
+    for name in ("success_rate", "lift_rate", "level_up", "level_down"):
         if name in values and values[name]:
             results[name]["wilson95"] = wilson_ci(round(sum(values[name])), len(values[name]))
     return results
@@ -451,7 +474,7 @@ def check_judged(overrides: list[str]) -> None:
         raise ValueError(f"judge=true: {shown} would change the task (its success tolerance, "
                          "episode length, randomization ... as configured are what a judged "
                          "figure means); only num_envs=, seed=, episodes=, checkpoint=, "
-                         "device=, output= may be given")
+                         "device=, output=, levels= may be given")
 
 
 def checkpoint_task(checkpoint: str) -> str | None:
@@ -483,6 +506,8 @@ def evaluate(overrides: list[str]) -> int:
     if cfg.judge:
         check_judged(overrides)
     episodes = config_int(cfg.episodes, "episodes", minimum=1)
+    if cfg.levels not in TERRAIN_LEVELS:
+        raise ValueError(f"levels={cfg.levels}: one of {', '.join(TERRAIN_LEVELS)}")
     if cfg.output is not None and not str(cfg.output).endswith(".json"):
         raise ValueError(f"output={cfg.output}: the file name must end in .json")
     device = run.resolve_device(cfg.device)
@@ -518,10 +543,15 @@ def evaluate(overrides: list[str]) -> int:
     seed_all(seed)
     task = TASKS[name](task_cfg, device=device)
     restored = restore_task_state(task, state)
+    if cfg.levels == "spread":
+        if not hasattr(task, "spread_levels"):
+            raise ValueError(f"levels=spread: {name} has no terrain levels (AnymalTerrain and "
+                             "G1Rough have)")
+        task.spread_levels()
     network, _ = load_network(state, train_cfgs, task.num_obs, task.num_actions, name,
                               checkpoint)
     policy = policy_from_network(network, task)
-    probe = probe_for(name, task)
+    probe = probe_for(name, task, cfg.levels)
     print(f"evaluating {checkpoint} on {name}: {episodes} episodes, {task.num_envs} envs on "
           f"{device}, seed {seed}" + (", judged" if cfg.judge else ""), flush=True)
     measured = run_episodes(task, policy, episodes, probe,
@@ -535,11 +565,16 @@ def evaluate(overrides: list[str]) -> int:
         "num_envs": task.num_envs, "seed": seed, "device": device,
         "env_steps": measured["env_steps"], "wall_s": round(measured["wall_s"], 2),
         "task_settings": probe.describe(), "task_state_from_checkpoint": restored,
-        **probe.extra(),
+        **({"levels": cfg.levels} if hasattr(task, "levels") else {}),
+        **probe.extra(measured["values"]),
         "overrides": list(overrides),
         "deterministic": "the actor's mean action, clamped to [-1, 1]"}
     os.makedirs(os.path.dirname(os.path.abspath(output)), exist_ok=True)
     atomic_json(output, report)
+    if report.get("by_level"):
+        print("by level (episodes, level_up, level_down): " + ", ".join(
+            f"{level}: {r['episodes']}, {r.get('level_up', 0):.2f}, {r.get('level_down', 0):.2f}"
+            for level, r in report["by_level"].items()), flush=True)
     print(format_line(report) + f"; wrote {output}", flush=True)
     return 130 if measured["partial"] else 0
 

@@ -20,6 +20,7 @@ from rl_games.torch_runner import Runner
 from . import shipped
 from .agent import MyriadAgent, MyriadVecEnv, _to_cpu, from_rank_0
 from .amp import AMPAgent
+from .policy import restore_task_state
 
 
 def seed_all(seed: int) -> None:
@@ -111,7 +112,12 @@ def train(task, train_cfg: dict, run: dict, seed: int, checkpoint: str | None = 
                              f"{'train on from' if fine_tune else 'resume from'} it "
                              f"({type(err).__name__}: {err})") from err
         if fine_tune:
-            print(f"fine-tuning from {checkpoint}: its networks and normalizers, a fresh "
+            # what spans episodes in the task (AnymalTerrain's levels and cost curriculum) goes
+            # on from where the shipped policy stood, where its shapes fit these envs: a
+            # curriculum restarted at level 0 would spend the first episodes climbing back
+            kept = restore_task_state(task, weights)
+            print(f"fine-tuning from {checkpoint}: its networks and normalizers"
+                  f"{' and the task state (' + ', '.join(kept) + ')' if kept else ''}, a fresh "
                   "optimizer, epoch 0", flush=True)
         else:
             print(f"resuming from {checkpoint}: epoch {agent.epoch_num}, {agent.frame:,} "

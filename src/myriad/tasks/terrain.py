@@ -256,14 +256,20 @@ def sample_heights(heights: torch.Tensor, points_xy: torch.Tensor,
     return torch.minimum(heights[i, j], heights[i + 1, j + 1])
 
 
+def level_verdicts(walked: torch.Tensor, command_speed: torch.Tensor, episode_s: float,
+                   config: TerrainConfig) -> tuple[torch.Tensor, torch.Tensor]:
+    """The curriculum's verdict on episodes: (up, down) [N] flags. Up: the robot left its tile
+    (walked farther than half a tile from its origin); down: it walked less than a quarter of
+    what its command asked over a whole episode."""
+    return walked > config.tile / 2, walked < command_speed * episode_s * 0.25
+
+
 def next_levels(levels: torch.Tensor, walked: torch.Tensor, command_speed: torch.Tensor,
                 episode_s: float, config: TerrainConfig) -> torch.Tensor:
-    """The curriculum at reset: a robot that walked less than a quarter of what its command
-    asked over a whole episode moves down a level, one that left its tile (farther than half a
-    tile from its origin) moves up; level 0 is the floor, and passing the top level starts over
-    at 0 (so robots that master the terrain keep sampling all of it)."""
-    down = walked < command_speed * episode_s * 0.25
-    up = walked > config.tile / 2
+    """The curriculum at reset (`level_verdicts`): down a level, or up one; level 0 is the
+    floor, and passing the top level starts over at 0 (so robots that master the terrain keep
+    sampling all of it; in that steady state the mean level is (levels - 1) / 2, 4.5 of 10)."""
+    up, down = level_verdicts(walked, command_speed, episode_s, config)
     return (levels - down.long() + up.long()).clamp(min=0) % config.levels
 
 
@@ -335,6 +341,17 @@ class TerrainCurriculum:
         self.move_levels = self.curriculum
         return obs
 
+    def spread_levels(self) -> None:
+        """Every level on every kind of tile: the envs of each kind (a contiguous block) take
+        levels (rank in the block + the block's index) mod levels, so a level sees many kinds
+        even with few envs per kind, and with `levels` × `types` envs (or a multiple) each tile
+        gets one."""
+        first = torch.searchsorted(self.kinds, self.kinds, right=False)   # kinds are sorted
+        rank = torch.arange(self.num_envs, device=self.device) - first
+        block = torch.unique_consecutive(self.kinds, return_inverse=True)[1]
+        self.levels[:] = (rank + block) % self.terrain_config.levels
+        self.env_origins[:] = self.tile_origins[self.levels, self.kinds]
+
     def load_training_state(self, state: dict) -> None:
         super().load_training_state(state)
         self.env_origins[:] = self.tile_origins[self.levels, self.kinds]
@@ -343,14 +360,17 @@ class TerrainCurriculum:
         return {"terrain_level": float(self.levels.float().mean())}
 
     def next_origins(self, done: torch.Tensor, command_speed: torch.Tensor) -> None:
-        """At a reset of the envs `done` [N]: the curriculum's move (if on) by how far each base
-        walked from its origin against `command_speed` [N] over the episode."""
+        """At a reset of the envs `done` [N]: the curriculum's verdict on each finished episode
+        by how far its base walked from its origin against `command_speed` [N] over the episode,
+        kept as `episode_outcomes` `level_up` (it left its tile) and `level_down` (it walked less
+        than a quarter of its command), and the move it makes (if on)."""
+        walked = torch.norm(self.envs.root_states[:, 0, :2] - self.env_origins[:, :2], dim=-1)
+        args = (walked, command_speed, self.cfg["env"]["episodeLength_s"], self.terrain_config)
+        self.episode_outcomes["level_up"], self.episode_outcomes["level_down"] = \
+            level_verdicts(*args)
         if not self.move_levels:
             return
-        walked = torch.norm(self.envs.root_states[:, 0, :2] - self.env_origins[:, :2], dim=-1)
-        moved = next_levels(self.levels, walked, command_speed,
-                            self.cfg["env"]["episodeLength_s"], self.terrain_config)
-        self.levels[:] = torch.where(done, moved, self.levels)
+        self.levels[:] = torch.where(done, next_levels(self.levels, *args), self.levels)
         self.env_origins[:] = self.tile_origins[self.levels, self.kinds]
 
     def start_root_states(self, height: float, xy_noise: float) -> torch.Tensor:
