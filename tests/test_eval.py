@@ -112,6 +112,33 @@ def test_consecutive_successes_on_scripted_flags():
     assert ev.consecutive_successes(reached, done) == [2.0, 2.0, 1.0, 1.0]
 
 
+def test_the_curriculums_long_run_levels_from_per_level_moves():
+    """Robots start at level 0; a level's moves are its episodes' shares of up, down, stay."""
+    levels = torch.arange(10).repeat(4)
+
+    def mean_level(move_at):                    # move_at(level) -> the moves of its 4 episodes
+        moves = torch.stack([torch.tensor(move_at(level)) for level in range(10)], 1).flatten()
+        share = ev.curriculum_stationary(levels, moves, 10)
+        assert share.sum().item() == pytest.approx(1.0)
+        return float((share * torch.arange(10)).sum()), share
+
+    # every robot crosses every tile: it cycles through the levels (passing 9 starts over at 0)
+    mean, share = mean_level(lambda level: [1, 1, 1, 1])
+    assert mean == pytest.approx(4.5) and share.tolist() == pytest.approx([0.1] * 10)
+    # crossing up to level 5, held on level 6: all end there, a higher mean than crossing all
+    mean, _ = mean_level(lambda level: [1] * 4 if level < 6 else [0] * 4 if level == 6
+                         else [-1] * 4)
+    assert mean == pytest.approx(6.0)
+    # crossing levels 0-4, sent down from 5: half on 4, half on 5
+    mean, share = mean_level(lambda level: [1] * 4 if level < 5 else [-1] * 4)
+    assert share[4].item() == pytest.approx(0.5) and share[5].item() == pytest.approx(0.5)
+    # half of level 0's episodes cross, none beyond: never past level 1
+    mean, share = mean_level(lambda level: [1, 1, 0, 0] if level == 0 else [0, -1, 0, -1])
+    assert share[2:].sum().item() == 0.0 and share[1].item() == pytest.approx(0.5)
+    # nobody crosses: everyone stays on level 0
+    assert mean_level(lambda level: [0, -1, 0, 0])[0] == 0.0
+
+
 def test_mean_and_95_percent_interval():
     r = ev.mean_ci([1.0, 2.0, 3.0, 4.0])
     assert r["mean"] == 2.5 and r["n"] == 4
@@ -202,6 +229,8 @@ def test_terrain_levels_spread_play_every_level_and_report_the_curriculums_verdi
     assert report["results"]["level_up"]["wilson95"][1] < 0.35
     assert sorted(report["by_level"], key=int) == [str(level) for level in range(10)]
     assert all(r["episodes"] == 1 and r["level_up"] == 0.0 for r in report["by_level"].values())
+    # nobody moves up: the curriculum would keep every robot on level 0, where training starts
+    assert report["curriculum_mean_level"] == 0.0 and report["curriculum_levels"][0] == 1.0
     assert "by level (episodes, level_up, level_down): 0: 1, 0.00" in capsys.readouterr().out
     assert cli.main(["eval", "task=AnymalTerrain", "device=cpu", f"checkpoint={checkpoint}",
                      "levels=random"]) == 2

@@ -33,7 +33,10 @@ multiple of levels × kinds, 200, every tile equally), whose `level_up` is then 
 the policy crosses, not where the training happened to stand. Under the original's curriculum a
 level's robots that all cross move on and past the top start over at level 0, so a policy that
 crosses everything holds a mean level of 4.5 of 10; a higher mean means robots held back below
-a level they fail.
+a level they fail. From the spread's moves per level the report also gives the levels the
+curriculum would hold the policy's robots at in the long run (`curriculum_levels`,
+`curriculum_mean_level`: `curriculum_stationary`), the training's mean level as a property of
+the policy, at any env count.
 
 Episodes: each env contributes at most ceil(episodes / num_envs) episodes, its first ones, and
 the evaluation stops once `episodes` are collected (the envs keep running meanwhile). Taking the
@@ -358,8 +361,41 @@ class TrackingProbe(Probe):
             by_level[str(level)] = {"episodes": len(at)} | {
                 name: sum(values[name][i] for i in at) / len(at)
                 for name in ("level_up", "level_down", "tracking_error_lin") if name in values}
-        return {"final_mean_terrain_level": float(self.task.levels.float().mean()),
-                "by_level": by_level}
+        out = {"final_mean_terrain_level": float(self.task.levels.float().mean()),
+               "by_level": by_level}
+        n_levels = self.task.terrain_config.levels
+        if len(by_level) == n_levels and "level_up" in values:
+            moves = torch.tensor(values["level_up"]) - torch.tensor(values["level_down"])
+            share = curriculum_stationary(played, moves, n_levels)
+            out["curriculum_levels"] = share.tolist()
+            out["curriculum_mean_level"] = float((share * torch.arange(n_levels)).sum())
+        return out
+
+
+def curriculum_stationary(levels: torch.Tensor, moves: torch.Tensor, n_levels: int,
+                          episodes: int = 10_000) -> torch.Tensor:
+    """[n_levels]: the share of robots on each level that the curriculum holds in the long run,
+    for a policy whose episodes played at `levels` [E] moved (+1 up, -1 down, 0 stay) as
+    `moves` [E] (every level played). The chain's step from level l takes that level's shares
+    of moves (down floored at 0, up from the top to 0: `next_levels`); robots start at level 0,
+    as in training, and the shares are averaged over `episodes` episodes after as many more
+    (an average, since a policy that always climbs cycles through the levels without
+    settling). Kinds of tile are pooled per level, as the training's envs (each on one kind)
+    are."""
+    step = torch.zeros(n_levels, n_levels, dtype=torch.float64)
+    for level in range(n_levels):
+        at = moves[levels == level].double()
+        step[level, (level + 1) % n_levels] += (at > 0).double().mean()
+        step[level, max(level - 1, 0)] += (at < 0).double().mean()
+        step[level, level] += (at == 0).double().mean()
+    share = torch.zeros(n_levels, dtype=torch.float64)
+    share[0] = 1.0
+    total = torch.zeros_like(share)
+    for episode in range(2 * episodes):
+        if episode >= episodes:
+            total += share
+        share = share @ step
+    return total / episodes
 
 
 class WalkProbe(Probe):
@@ -575,6 +611,10 @@ def evaluate(overrides: list[str]) -> int:
         print("by level (episodes, level_up, level_down): " + ", ".join(
             f"{level}: {r['episodes']}, {r.get('level_up', 0):.2f}, {r.get('level_down', 0):.2f}"
             for level, r in report["by_level"].items()), flush=True)
+    if "curriculum_mean_level" in report:
+        print(f"the curriculum would hold this policy's robots at a mean level of "
+              f"{report['curriculum_mean_level']:.2f} (levels 0..: " + ", ".join(
+                  f"{share:.2f}" for share in report["curriculum_levels"]) + ")", flush=True)
     print(format_line(report) + f"; wrote {output}", flush=True)
     return 130 if measured["partial"] else 0
 
