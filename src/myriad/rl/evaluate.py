@@ -321,6 +321,7 @@ class TrackingProbe(Probe):
         self.means = EpisodeMeans(task.num_envs, task.device, "tracking_error_lin",
                                   "tracking_error_yaw")
         self.terrain = hasattr(task, "levels")
+        self.level_mode = levels
         if self.terrain:
             self.primary = "level_up" if levels == "spread" else "terrain_level"
             self.levels = task.levels.clone()
@@ -354,18 +355,20 @@ class TrackingProbe(Probe):
     def extra(self, values):
         if not self.terrain:
             return {}
-        by_level = {}
         played = torch.tensor(values.get("terrain_level", []), dtype=torch.long)
-        for level in sorted(set(played.tolist())):
-            at = (played == level).nonzero().flatten().tolist()
-            by_level[str(level)] = {"episodes": len(at)} | {
-                name: sum(values[name][i] for i in at) / len(at)
-                for name in ("level_up", "level_down", "tracking_error_lin") if name in values}
-        out = {"final_mean_terrain_level": float(self.task.levels.float().mean()),
+        columns = {name: torch.tensor(values[name], dtype=torch.float64)
+                   for name in ("level_up", "level_down", "tracking_error_lin") if name in values}
+        by_level = {}
+        for level in played.unique().tolist():
+            at = played == level
+            by_level[str(level)] = {"episodes": int(at.sum())} | {
+                name: float(column[at].mean()) for name, column in columns.items()}
+        out = {"levels": self.level_mode,
+               "final_mean_terrain_level": float(self.task.levels.float().mean()),
                "by_level": by_level}
         n_levels = self.task.terrain_config.levels
         if len(by_level) == n_levels and "level_up" in values:
-            moves = torch.tensor(values["level_up"]) - torch.tensor(values["level_down"])
+            moves = columns["level_up"] - columns["level_down"]
             share = curriculum_stationary(played, moves, n_levels)
             out["curriculum_levels"] = share.tolist()
             out["curriculum_mean_level"] = float((share * torch.arange(n_levels)).sum())
@@ -601,7 +604,6 @@ def evaluate(overrides: list[str]) -> int:
         "num_envs": task.num_envs, "seed": seed, "device": device,
         "env_steps": measured["env_steps"], "wall_s": round(measured["wall_s"], 2),
         "task_settings": probe.describe(), "task_state_from_checkpoint": restored,
-        **({"levels": cfg.levels} if hasattr(task, "levels") else {}),
         **probe.extra(measured["values"]),
         "overrides": list(overrides),
         "deterministic": "the actor's mean action, clamped to [-1, 1]"}
