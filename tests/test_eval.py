@@ -212,6 +212,46 @@ def test_success_rate_comes_from_the_flags_the_task_records(tmp_path):
         assert report["task_settings"]["successPositionTolerance"] == tolerance
 
 
+def test_trifinger_goal_distance_is_the_episodes_last_before_its_reset():
+    """Motors off for a 6-step episode: the fingers never reach the cube, so it ends where it
+    started (it settles by well under a millimetre) and `goal_approach` is 0. Read after the
+    reset that follows, the distance would be the next episode's, centimetres off."""
+    pytest.importorskip("robot_properties_fingers")
+    import myriad
+    task = myriad.make("Trifinger", num_envs=3, episodeLength=6)
+    probe = ev.TrifingerProbe(task)
+    probe.reset()
+    start = probe.start.clone()
+    for _ in range(6):
+        _, _, done, _ = task.step(torch.zeros(task.num_envs, task.num_actions))
+        values = probe.after_step(done.bool())
+    assert done.bool().all()
+    torch.testing.assert_close(values["goal_distance"], start, atol=1e-3, rtol=0)
+    assert values["goal_approach"].abs().max() < 1e-3
+    assert (probe.start - start).abs().max() > 0.01         # the next episodes' own starts
+
+
+def test_hand_goal_angle_is_the_cubes_angle_to_its_goal():
+    """A cube falling freely for a short episode keeps its orientation: a goal at the cube's own
+    orientation reads 0, one turned a quarter about z reads pi/2 (no goal is ever reached)."""
+    pytest.importorskip("gymnasium_robotics")
+    import myriad
+    from myriad.torch_utils import quat_from_angle_axis, quat_mul
+    task = myriad.make("ShadowHand", num_envs=2, episodeLength=4, successTolerance=-1.0)
+    probe = ev.HandProbe(task)
+    probe.reset()
+    turn = quat_from_angle_axis(torch.tensor([0.0, math.pi / 2]),
+                                torch.tensor([[0.0, 0.0, 1.0]] * 2))
+    task.goal_rot[:] = quat_mul(turn, task.envs.root_states[:, task.cube, 3:7])
+    for _ in range(4):
+        _, _, done, _ = task.step(torch.zeros(task.num_envs, task.num_actions))
+        values = probe.after_step(done.bool())
+    assert done.bool().all()
+    torch.testing.assert_close(values["goal_angle"],
+                               torch.tensor([0.0, math.pi / 2], dtype=torch.float64),
+                               atol=1e-3, rtol=0)
+
+
 def test_terrain_levels_spread_play_every_level_and_report_the_curriculums_verdicts(tmp_path,
                                                                                    capsys):
     """levels=spread: env i of 10 plays level i; in half a second no robot walks the 4 m that

@@ -9,11 +9,14 @@ episodes):
   - every task: `episode_reward` (the undiscounted return) and `episode_length` (env steps);
   - hand tasks: `consecutive_successes`, the goals reached in a row before the episode ended (a
     drop, the time limit, or the variant's maxConsecutiveSuccesses), at the variant's own
-    successTolerance and episodeLength; counted from the task's own `successes` buffer;
+    successTolerance and episodeLength; counted from the task's own `successes` buffer; and
+    `goal_angle` (rad), the mean over the episode's steps of the cube's angle to its goal;
   - FrankaCubeStack, Trifinger: `success_rate`, the share of episodes that ended in the task's
     success (the flags the task counts its `success_rate` metric from; Franka also `lift_rate`);
     Trifinger also `fingertip_distance` (m), the mean over the episode's steps of the three
-    fingertips' mean distance to the cube's centre (how close the fingers keep to it);
+    fingertips' mean distance to the cube's centre (how close the fingers keep to it), and the
+    cube's distance to its goal position as the episode ends (`goal_distance`, m) and how much
+    nearer it ended than it started (`goal_approach`, m);
   - Anymal, AnymalTerrain, G1Velocity, G1Rough: `tracking_error_lin` (m/s, |commanded -
     actual| base-frame planar velocity) and `tracking_error_yaw` (rad/s), averaged over the
     episode's steps (as benchmarks/anymal_tracking.py measures them, but over whole episodes);
@@ -56,6 +59,8 @@ import os
 import time
 
 import torch
+
+from ..torch_utils import quat_conjugate, quat_mul, rotation_angle
 
 HAND_TASKS = ("ShadowHand", "ShadowHandOpenAI_FF", "ShadowHandOpenAI_LSTM", "AllegroHand")
 SUCCESS_RATE_TASKS = ("FrankaCubeStack", "Trifinger")
@@ -226,18 +231,24 @@ class EpisodeMeans:
 
 class HandProbe(Probe):
     """Consecutive successes from the task's `successes` count as the task records it at the
-    end of each step's episodes (`episode_outcomes`, before its resets zero it)."""
+    end of each step's episodes (`episode_outcomes`, before its resets zero it), and per episode
+    the mean over its steps of the cube's angle to its goal (`goal_angle`, rad): how far a
+    policy that reaches no goal within the tolerance still turns the cube towards them."""
     primary = "consecutive_successes"
 
     def __init__(self, task):
         super().__init__(task)
         self.counter = ConsecutiveSuccesses(task.num_envs, task.device)
         self.before = task.successes.clone()
+        self.means = EpisodeMeans(task.num_envs, task.device, "goal_angle")
 
     def after_step(self, done):
         reached = (self.task.episode_outcomes["successes"] - self.before).clamp(min=0.0)
         self.before = self.task.successes.clone()
-        return {"consecutive_successes": self.counter.update(reached, done)}
+        cube_rot = self.task.envs.root_states[:, self.task.cube, 3:7]
+        angle = rotation_angle(quat_mul(cube_rot, quat_conjugate(self.task.goal_rot))).abs()
+        means, _ = self.means.add(done, goal_angle=angle)
+        return {"consecutive_successes": self.counter.update(reached, done)} | means
 
     def describe(self):
         env = self.task.cfg["env"]
@@ -259,12 +270,24 @@ class ShareProbe(Probe):
 
 
 class TrifingerProbe(ShareProbe):
-    """Trifinger's success flags, and per episode the mean over its steps of the fingertips'
-    mean distance to the cube's centre (`fingertip_distance`, m)."""
+    """Trifinger's success flags; per episode the mean over its steps of the fingertips' mean
+    distance to the cube's centre (`fingertip_distance`, m); the cube's distance to its goal
+    position as the episode ends (`goal_distance`, m: the success's 2 cm test, as a distance),
+    and how much nearer the goal than it started (`goal_approach`, m)."""
 
     def __init__(self, task):
         super().__init__(task)
         self.means = EpisodeMeans(task.num_envs, task.device, "fingertip_distance")
+        self.start = None
+
+    def _cube_goal_distance(self):
+        cube = self.task.envs.root_states[:, self.task.cube, 0:3]
+        return torch.norm(cube - self.task.goal_pos, dim=-1)
+
+    def reset(self):
+        out = super().reset()
+        self.start = self._cube_goal_distance()
+        return out
 
     def after_step(self, done):
         e = self.task.envs
@@ -272,7 +295,11 @@ class TrifingerProbe(ShareProbe):
         cube = e.root_states[:, self.task.cube, None, 0:3]
         means, _ = self.means.add(done, fingertip_distance=torch.norm(tips - cube, dim=-1)
                                   .mean(-1))
-        return super().after_step(done) | means
+        final = self.task.goal_distance             # before the finished envs' resets
+        ends = {"goal_distance": final, "goal_approach": self.start - final}
+        # a finished env's state is already its next episode's start
+        self.start = torch.where(done, self._cube_goal_distance(), self.start)
+        return super().after_step(done) | means | ends
 
 
 def base_velocity(task) -> torch.Tensor:

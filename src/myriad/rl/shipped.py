@@ -41,8 +41,10 @@ MANIFEST = "manifest.json"
 KEPT = ("model", "assymetric_vf_nets", "central_val_stats", "epoch", "frame")
 # the figures a shipped policy is checked on (`check_of`), better when higher; LOWER's when lower.
 # Not terrain_level: the levels are the training's state, restored only at the run's env count
-HIGHER = ("episode_reward", "consecutive_successes", "success_rate", "lift_rate", "speed")
-LOWER = ("tracking_error_lin", "tracking_error_yaw", "fingertip_distance", "pose_error", "fell")
+HIGHER = ("episode_reward", "consecutive_successes", "success_rate", "lift_rate", "speed",
+          "goal_approach")
+LOWER = ("tracking_error_lin", "tracking_error_yaw", "fingertip_distance", "goal_angle",
+         "goal_distance", "pose_error", "fell")
 # at most the manifest's own episode count: a difference its 100 episodes cannot show at
 # CHECK_SIGMAS is not one training made
 MAX_CHECK_EPISODES = 100

@@ -180,6 +180,8 @@ class Trifinger(VecTask):
         success = reached_goal(cube[:, 0:3], cube[:, 3:7], self.goal_pos, self.goal_rot,
                                self.position_tolerance, self.orientation_tolerance)
         self.episode_outcomes = {"success_rate": success}
+        # the cube's distance to its goal as the step ends, before any reset (`myriad eval`)
+        self.goal_distance = torch.norm(cube[:, 0:3] - self.goal_pos, dim=-1)
         self.shares.count(done, **self.episode_outcomes)
         self.compute_observations()
 
