@@ -100,6 +100,24 @@ def test_the_check_picks_a_figure_a_fresh_policy_fails():
         {"success_rate": (0.0, 0.0), "episode_reward": (819, 786)})) is None
 
 
+def test_float16_ships_only_when_every_figure_stays_in_the_float32_interval():
+    """A primary figure at 0 either way (Trifinger's success before any) says nothing: the
+    figures the check may use must agree too; the primary counts even where it is not one of
+    them (the terrain level); lengths are no figure."""
+    def figures(**means):
+        return {k: {"mean": m, "half_width": 0.0 if k == "success_rate" else 0.01}
+                for k, m in means.items()}
+    full = figures(success_rate=0.0, goal_approach=0.034, episode_length=750.0)
+    assert shipped.half_agrees(full, figures(success_rate=0.0, goal_approach=0.03,
+                                             episode_length=700.0), "success_rate")
+    assert not shipped.half_agrees(full, figures(success_rate=0.0, goal_approach=0.02,
+                                                 episode_length=750.0), "success_rate")
+    level = figures(terrain_level=4.7)
+    assert not shipped.half_agrees(level, figures(terrain_level=4.6), "terrain_level")
+    assert not shipped.half_agrees({"episode_reward": {"mean": 1.0, "half_width": None}},
+                                   {"episode_reward": {"mean": 1.0}}, "episode_reward")
+
+
 def test_play_and_eval_take_the_shipped_policy_when_the_task_has_no_run(tmp_path, capsys):
     cfg = run.compose(["task=Ant", f"train_dir={tmp_path}"])
     path = run.policy_checkpoint(cfg, "Ant")

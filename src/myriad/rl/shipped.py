@@ -9,8 +9,9 @@ A shipped policy is `myriad/policies/<Task>.pth` in the package: what the determ
 and a fine-tune need (rl_games' `model` dict with the observation and value normalizers, the
 asymmetric critic where the task has one, the task state its run's checkpoint held), without
 the optimizer, the random generators or the run's timers; the network's layers in float16 where
-that leaves the evaluation within its own 95 % interval. `myriad/policies/manifest.json` says,
-per task, how the policy was made and what it reaches: the training command, the code revision,
+that leaves each figure of the evaluation within the float32 policy's 95 % interval
+(`half_agrees`). `myriad/policies/manifest.json` says, per task, how the policy was made and
+what it reaches: the training command, the code revision,
 the machine, env-steps and wall time of the run, the `myriad eval` figure of the shipped file
 itself, and the same evaluation of a fresh policy of the task (`baseline`: its network as
 training starts), against which `check_of` picks the figure that shows what training added.
@@ -137,6 +138,19 @@ def check_of(entry: dict) -> tuple[str, float, int] | None:
     return None
 
 
+def half_agrees(full: dict, half: dict, primary: str) -> bool:
+    """Whether the float16 policy's evaluation (`half`) keeps the primary figure and every
+    figure the check may use (HIGHER, LOWER) within the float32 policy's (`full`) own 95 %
+    intervals: a primary at 0 either way (no success yet) says nothing about the rest."""
+    for measure in full:
+        if measure not in half or measure not in (primary,) + HIGHER + LOWER:
+            continue
+        width = full[measure]["half_width"]
+        if width is None or abs(half[measure]["mean"] - full[measure]["mean"]) > width:
+            return False
+    return True
+
+
 def fresh_policy(task: str, train_dir: str) -> str:
     """A checkpoint of `task`'s policy as training starts: its networks' initial weights (one
     epoch at learning rate 0, seed 0) with the observation statistics of that epoch's rollout."""
@@ -213,9 +227,8 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
             with contextlib.redirect_stdout(io.StringIO()):
                 figures[fp16] = _evaluate(task, path, episodes, path + ".json", num_envs)
         full, half = (figures[f]["results"][figures[f]["primary"]] for f in (False, True))
-        # float16 when its mean lies within the float32 policy's own 95 % interval
-        fp16 = full["half_width"] is not None and abs(half["mean"] - full["mean"]) <= \
-            full["half_width"]
+        fp16 = half_agrees(figures[False]["results"], figures[True]["results"],
+                          figures[False]["primary"])
         chosen = os.path.join(tmp, f"{task}{'_fp16' if fp16 else ''}.pth")
         with open(chosen, "rb") as f:
             data = f.read()
