@@ -125,7 +125,8 @@ def test_cpu_profile_applies_only_without_num_envs():
 
 def test_the_command_line_wins_over_the_cpu_profile():
     """ShadowHand's CPU profile sets a smaller network and a minibatch; either, set on the
-    command line, stays as set."""
+    command line, stays as set, as do the task keys the profile sets (before 2026-12-01 the
+    profile's task section replaced them without a word)."""
     cfg = run.compose(["task=ShadowHand", "device=cpu"])
     _, train_cfg, _ = run.task_and_train_configs(cfg)
     assert train_cfg["params"]["network"]["mlp"]["units"] == [512, 256, 128]
@@ -135,6 +136,13 @@ def test_the_command_line_wins_over_the_cpu_profile():
     _, train_cfg, _ = run.task_and_train_configs(run.compose(overrides), overrides)
     assert train_cfg["params"]["network"]["mlp"]["units"] == [64, 64]
     assert train_cfg["params"]["config"]["minibatch_size"] == 4096
+    # and a task key the profile also sets: the cost curriculum of AnymalTerrain's profile
+    # (start 0.05, decay 0.999) keeps the decay given and the profile's start
+    overrides = ["task=AnymalTerrain", "device=cpu", "task.env.penaltyCurriculum.decay=1",
+                 "task.env.numEnvs=64"]
+    task_cfg, _, _ = run.task_and_train_configs(run.compose(overrides), overrides)
+    assert task_cfg["env"]["penaltyCurriculum"] == {"start": 0.05, "decay": 1}
+    assert task_cfg["env"]["numEnvs"] == 64
 
 
 def test_an_asymmetric_critics_minibatch_follows_num_envs_too():

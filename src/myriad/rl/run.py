@@ -234,10 +234,11 @@ def task_and_train_configs(cfg, overrides=(), processes: int = 1) -> tuple[dict,
         # CPU profile: fewer envs and a minibatch to match, perhaps a smaller network (its
         # `network` section; unless the user chose num_envs)
         if cfg.num_envs is None:
-            task_cfg["env"].update(cpu_task)
+            # what the command line set wins over the profile, in the task as in training (a
+            # dotted key: `task=X` and `train=Y` choose the configs the profile then adjusts)
+            kept = tuple(k for k in given_keys(overrides) if "." in k)
+            _merge(task_cfg["env"], cpu_task, "task.env", kept)
             cpu_train = dict(cpu_train)
-            # what the command line set wins over the profile
-            kept = tuple(given_keys(overrides))
             _merge(train_cfg["params"]["network"], cpu_train.pop("network", {}),
                    "train.params.network", kept)
             _merge(train_cfg["params"]["config"], cpu_train, "train.params.config", kept)
