@@ -213,7 +213,7 @@ def test_success_rate_comes_from_the_flags_the_task_records(tmp_path):
 
 
 def test_trifinger_goal_distance_is_the_episodes_last_before_its_reset():
-    """Motors off for a 6-step episode: the fingers never reach the cube, so it ends where it
+    """Zero torques for a 6-step episode: the fingers never reach the cube, so it ends where it
     started (it settles by well under a millimetre) and `goal_approach` is 0. Read after the
     reset that follows, the distance would be the next episode's, centimetres off."""
     pytest.importorskip("robot_properties_fingers")

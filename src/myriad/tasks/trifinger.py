@@ -128,6 +128,9 @@ class Trifinger(VecTask):
         self.goal_rot = torch.zeros(N, 4, device=dev)
         self.prev_tips = torch.zeros(N, 3, 3, device=dev)
         self.prev_cube = torch.zeros(N, 3, device=dev)
+        # the cube's distance to its goal (m) as the last step ended, before any reset: what
+        # `myriad eval` reads of an episode's end
+        self.goal_distance = torch.zeros(N, device=dev)
         # env steps since the task was built (the reach term's schedule), on the device: a step
         # captured once as a CUDA graph reads it where it is at every replay
         self.steps_taken = torch.zeros((), dtype=torch.int64, device=dev)
@@ -180,8 +183,7 @@ class Trifinger(VecTask):
         success = reached_goal(cube[:, 0:3], cube[:, 3:7], self.goal_pos, self.goal_rot,
                                self.position_tolerance, self.orientation_tolerance)
         self.episode_outcomes = {"success_rate": success}
-        # the cube's distance to its goal as the step ends, before any reset (`myriad eval`)
-        self.goal_distance = torch.norm(cube[:, 0:3] - self.goal_pos, dim=-1)
+        self.goal_distance[:] = torch.norm(cube[:, 0:3] - self.goal_pos, dim=-1)
         self.shares.count(done, **self.episode_outcomes)
         self.compute_observations()
 
