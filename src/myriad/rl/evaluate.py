@@ -242,11 +242,16 @@ class HandProbe(Probe):
         self.before = task.successes.clone()
         self.means = EpisodeMeans(task.num_envs, task.device, "goal_angle")
 
+    def reset(self):
+        out = super().reset()
+        self.before = self.task.successes.clone()   # the reset drew new goals: count from here
+        return out
+
     def after_step(self, done):
         reached = (self.task.episode_outcomes["successes"] - self.before).clamp(min=0.0)
         self.before = self.task.successes.clone()
         cube_rot = self.task.envs.root_states[:, self.task.cube, 3:7]
-        angle = rotation_angle(quat_mul(cube_rot, quat_conjugate(self.task.goal_rot))).abs()
+        angle = rotation_angle(quat_mul(cube_rot, quat_conjugate(self.task.goal_rot)))
         means, _ = self.means.add(done, goal_angle=angle)
         return {"consecutive_successes": self.counter.update(reached, done)} | means
 
@@ -496,8 +501,6 @@ def run_episodes(task, policy, episodes: int, probe: Probe | None = None, report
     probe = probe or Probe(task)
     collector = EpisodeCollector(task.num_envs, episodes, task.device)
     obs, done, steps, partial = probe.reset()["obs"], None, 0, False
-    if isinstance(probe, HandProbe):        # the reset above drew new goals: start counting here
-        probe.before = task.successes.clone()
     started = last_report = time.monotonic()
     try:
         while not collector.full:
