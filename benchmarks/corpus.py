@@ -66,7 +66,6 @@ import re
 import sys
 import tempfile
 import time
-import warnings
 import traceback
 import warnings
 import xml.etree.ElementTree as ET

@@ -81,7 +81,7 @@ def test_it_simulates_on_the_ground(device):
 # ---------------------------------------------------------------------------- motion library
 from myriad.physics import ModelError                                    # noqa: E402
 from myriad.tasks.motion import HINGES, MotionLib, clip_path, read_clip  # noqa: E402
-from myriad.torch_utils import exp_map_to_quat, quat_conjugate, quat_mul, rotation_angle  # noqa: E402
+from myriad.torch_utils import angle_between, exp_map_to_quat, quat_mul  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -144,8 +144,8 @@ def test_states_between_frames_are_interpolated(lib):
     mid = lib.state(clips[:-1], times[:-1] + 0.5 * lib.dt[1])
     torch.testing.assert_close(mid.root_pos, 0.5 * (at.root_pos[:-1] + at.root_pos[1:]))
     torch.testing.assert_close(mid.key_pos, 0.5 * (at.key_pos[:-1] + at.key_pos[1:]))
-    to_mid = rotation_angle(quat_mul(mid.root_rot, quat_conjugate(at.root_rot[:-1])))
-    from_mid = rotation_angle(quat_mul(at.root_rot[1:], quat_conjugate(mid.root_rot)))
+    to_mid = angle_between(mid.root_rot, at.root_rot[:-1])
+    from_mid = angle_between(at.root_rot[1:], mid.root_rot)
     torch.testing.assert_close(to_mid, from_mid, atol=1e-4, rtol=0)   # halfway along the arc
     torch.testing.assert_close(mid.root_vel, at.root_vel[:-1])       # velocities: frame f0's
     # past the end: the last frame
@@ -166,7 +166,7 @@ def test_dof_velocities_step_each_joint_to_the_next_frame(lib):
             torch.testing.assert_close(pos[:-1] + vel[:-1] * dt, pos[1:], atol=1e-5, rtol=0)
         else:
             stepped = quat_mul(exp_map_to_quat(vel[:-1] * dt), exp_map_to_quat(pos[:-1]))
-            angle = rotation_angle(quat_mul(stepped, quat_conjugate(exp_map_to_quat(pos[1:]))))
+            angle = angle_between(stepped, exp_map_to_quat(pos[1:]))
             assert angle.max() < 1e-3, name
         torch.testing.assert_close(vel[-1], vel[-2])
 

@@ -38,6 +38,12 @@ def rotation_angle(q: torch.Tensor) -> torch.Tensor:
     return 2.0 * torch.asin(torch.clamp(torch.norm(q[..., :3], dim=-1), max=1.0))
 
 
+def angle_between(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    """The angle in [0, π] of the rotation from orientation b to orientation a (a cube's to
+    its goal's: the hand and Trifinger tasks' success test, reward and evaluation)."""
+    return rotation_angle(quat_mul(a, quat_conjugate(b)))
+
+
 def quat_to_exp_map(q: torch.Tensor) -> torch.Tensor:
     """axis·angle [..., 3] of q, angle in [0, π] (q and -q give the same)."""
     q = torch.where(q[..., 3:4] < 0, -q, q)

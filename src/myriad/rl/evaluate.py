@@ -60,7 +60,7 @@ import time
 
 import torch
 
-from ..torch_utils import quat_conjugate, quat_mul, rotation_angle
+from ..torch_utils import angle_between
 
 HAND_TASKS = ("ShadowHand", "ShadowHandOpenAI_FF", "ShadowHandOpenAI_LSTM", "AllegroHand")
 SUCCESS_RATE_TASKS = ("FrankaCubeStack", "Trifinger")
@@ -251,7 +251,7 @@ class HandProbe(Probe):
         reached = (self.task.episode_outcomes["successes"] - self.before).clamp(min=0.0)
         self.before = self.task.successes.clone()
         cube_rot = self.task.envs.root_states[:, self.task.cube, 3:7]
-        angle = rotation_angle(quat_mul(cube_rot, quat_conjugate(self.task.goal_rot)))
+        angle = angle_between(cube_rot, self.task.goal_rot)
         means, _ = self.means.add(done, goal_angle=angle)
         return {"consecutive_successes": self.counter.update(reached, done)} | means
 

@@ -63,8 +63,8 @@ import torch
 from ..api import Scene
 from ..assets import (SHADOW_FINGERTIPS, allegro_hand_spec, shadow_hand_spec,
                       shadow_hand_tendons)
-from ..torch_utils import (env_mask, quat_conjugate, quat_from_angle_axis, quat_mul,
-                           rotation_angle, scale, unit_axis, unscale, where_rows)
+from ..torch_utils import (angle_between, env_mask, quat_conjugate, quat_from_angle_axis,
+                           quat_mul, scale, unit_axis, unscale, where_rows)
 from .base import VecTask, box_spec
 
 OBSERVATION_TYPES = ("full_state", "openai")
@@ -273,7 +273,7 @@ def compute_hand_reward(cube_pos, cube_rot, goal_pos, goal_rot, actions, success
     code: position and orientation terms, an action penalty, the success bonus and the fall
     penalty."""
     distance = torch.norm(cube_pos - goal_pos, dim=-1)
-    angle = rotation_angle(quat_mul(cube_rot, quat_conjugate(goal_rot)))
+    angle = angle_between(cube_rot, goal_rot)
     reward = (distRewardScale * distance + rotRewardScale / (torch.abs(angle) + rotEps)
               + actionPenaltyScale * torch.sum(actions ** 2, dim=-1))
     reached = torch.abs(angle) <= successTolerance

@@ -59,8 +59,8 @@ import torch
 from ..api import Scene
 from ..assets import (TRIFINGER_ANGLES, TRIFINGER_ARENA_RADIUS, trifinger_boundary_spec,
                       trifinger_spec)
-from ..torch_utils import (env_mask, quat_conjugate, quat_from_angle_axis, quat_mul, quat_rotate,
-                           rotation_angle, unit_axis, unscale, where_rows)
+from ..torch_utils import (angle_between, env_mask, quat_from_angle_axis, quat_rotate,
+                           unit_axis, unscale, where_rows)
 from .base import EpisodeShares, VecTask, box_spec
 
 POSE_FORMS = ("keypoints", "position_rotation")
@@ -301,7 +301,7 @@ def cube_corners(pos: torch.Tensor, rot: torch.Tensor, size: float) -> torch.Ten
 def reached_goal(cube_pos, cube_rot, goal_pos, goal_rot, position_tolerance,
                  orientation_tolerance) -> torch.Tensor:
     """The cube within `position_tolerance` (m) and `orientation_tolerance` (rad) of the goal."""
-    angle = rotation_angle(quat_mul(cube_rot, quat_conjugate(goal_rot)))
+    angle = angle_between(cube_rot, goal_rot)
     return ((torch.norm(cube_pos - goal_pos, dim=-1) <= position_tolerance)
             & (torch.abs(angle) <= orientation_tolerance))
 
@@ -325,7 +325,7 @@ def compute_trifinger_reward(tips, prev_tips, cube_pos, cube_rot, prev_cube_pos,
                          - cube_corners(goal_pos, goal_rot, cube_size), dim=-1)
         reward = reward + poseWeight * dt * logistic_kernel(gap, keypointsKernelScale).mean(-1)
     else:
-        angle = rotation_angle(quat_mul(cube_rot, quat_conjugate(goal_rot)))
+        angle = angle_between(cube_rot, goal_rot)
         distance = torch.norm(cube_pos - goal_pos, dim=-1)
         reward = (reward + poseWeight * dt * logistic_kernel(distance, positionKernelScale)
                   + poseWeight * dt / (3.0 * torch.abs(angle) + 0.01))

@@ -24,7 +24,7 @@ other envs are untouched (every kernel is per env).
 import warp as wp
 
 from ..lanes import stop, sync, world_lane
-from ..types import (AFFINE, CAPSULE, CYLINDER, DYN_FILTER, DYN_FILTEREXACT, DYN_INTEGRATOR,
+from ..types import (CAPSULE, CYLINDER, DYN_FILTER, DYN_FILTEREXACT, DYN_INTEGRATOR,
                      DYN_NONE, HINGE, MOTOR, POSITION, SLIDE, SPHERE, VELOCITY)
 from ..spatial import row_finite
 from ..spatial import velocity_at

@@ -32,7 +32,7 @@ from ..spatial import inertia_matrix, velocity_at
 from ..structs import Contacts, Control, Dynamics, EnvParams, ModelArrays, Options, State
 from ..types import (BOX, CAPSULE, CYLINDER, DATA_POSITIVE, DATA_REAL, ELLIPSOID, OBJ_BODY,
                     OBJ_GEOM, OBJ_SITE, OBJ_UNKNOWN, SENS_ACCELEROMETER, SENS_ACTUATORFRC,
-                    SENS_FORCE, SENS_FRAMEANGACC, SENS_FRAMEANGVEL, SENS_FRAMELINACC,
+                    SENS_FORCE, SENS_FRAMEANGACC, SENS_FRAMELINACC,
                     SENS_FRAMELINVEL, SENS_FRAMEPOS, SENS_FRAMEQUAT, SENS_FRAMEXAXIS,
                     SENS_FRAMEZAXIS, SENS_GYRO, SENS_JOINTACTFRC, SENS_JOINTPOS, SENS_JOINTVEL,
                     SENS_TORQUE, SENS_TOUCH, SENS_VELOCIMETER, SPHERE)
