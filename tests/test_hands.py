@@ -228,6 +228,29 @@ def test_allegro_observation_is_table_10_without_fingertips_and_the_cube_rests_i
     assert (path[-1] - path[-31]).norm(dim=-1).max() < 1e-3     # still over the last second
 
 
+def test_allegro_fingers_are_damped_once_by_their_drives():
+    """Isaac Gym has one damping per DOF, the position drive's gain (the original's 0.1): the
+    joints keep none of their own, and a step of the targets to three quarters of each joint's
+    range is 70 % done in 0.1 s (here 0.86; with the damping counted twice, drive and joint,
+    0.43)."""
+    task = myriad.make("AllegroHand", num_envs=1)
+    task.reset()
+    mj = task.envs.model.mj_model
+    drives = [a for a in range(mj.nu) if mj.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT]
+    dofs = [mj.jnt_dofadr[mj.actuator_trnid[a, 0]] for a in drives]
+    assert len(dofs) == 16 and (mj.dof_damping[dofs] == 0).all()
+    assert np.allclose(-mj.actuator_biasprm[drives, 2], task.cfg["env"]["control"]["damping"])
+    e = task.envs
+    start = e.dof_pos[0].clone()
+    target = task.dof_lower + 0.75 * (task.dof_upper - task.dof_lower)
+    for _ in range(6):                                         # 0.1 s at dt 1/60
+        e.set_dof_position_targets(target[None].contiguous())
+        e.step()
+        e.refresh()
+    done = (e.dof_pos[0] - start) / (target - start)
+    assert done.median() > 0.7 and done.max() < 1.1, done
+
+
 @pytest.mark.parametrize("name", ["ShadowHandOpenAI_FF", "ShadowHandOpenAI_LSTM"])
 def test_the_openai_variants_build_randomized_and_step(name):
     """Their configs: 20 Hz, moving average 0.3, tolerance 0.4, 50 successes at most, Table 15's

@@ -41,7 +41,8 @@ after that many, and running out of time adds fallPenalty / 2.
 (1 - a)·cs with a = averFactor (0.1); the trainer reports it (`metrics`).
 
 Allegro (task-specs §3): Wonik's 16-joint hand of example-robot-data
-(`myriad.assets.allegro_hand_spec`), position drives kp 3, kd 0.1, effort 0.5 N·m, at
+(`myriad.assets.allegro_hand_spec`), position drives kp 3, kd 0.1 (the joints' only damping,
+as Isaac Gym's one per DOF), effort 0.5 N·m, at
 (0, 0, 0.5) with the palm up and the fingers along -y, gravity off; a 6.5 cm cube (density 400)
 let go 4 cm above where it rests on the palm, (0, 0.04, 0.59) (the original's (0, -0.2, 0.56) is
 in its own URDF's frame, whose palm origin lies at the wrist); 30 Hz control; no fingertip terms, so "full_state" is 88 values: joint
