@@ -166,6 +166,16 @@ def _move(task, target, gripper: float, steps: int):
         task.step(actions)
 
 
+def test_the_arm_has_no_damping_and_the_fingers_only_their_drives(task):
+    """The original writes its DOF damping over the URDF's 0.3: 0 on the torque-driven arm and
+    the finger drives' 100 (Isaac Gym's one damping per DOF), so the joints keep none."""
+    mj = task.envs.model.mj_model
+    hinges = [j for j in range(mj.njnt) if mj.jnt_type[j] in (2, 3)]     # slide, hinge
+    assert len(hinges) == 9 and (mj.dof_damping[mj.jnt_dofadr[hinges]] == 0).all()
+    drives = [a for a in range(mj.nu) if mj.actuator_biasprm[a, 2] != 0]
+    assert len(drives) == 2 and (-mj.actuator_biasprm[drives, 2] == 100.0).all()
+
+
 def test_a_grasped_cube_is_lifted_20_cm_without_slipping():
     """The task's OSC and gripper: down over cube A, close, lift 20 cm and hold; the cube keeps
     its place in the gripper (< 5 mm over 3 s) and the episode's lift reward is earned."""

@@ -343,7 +343,10 @@ def franka_spec() -> mujoco.MjSpec:
     the links and boxes for the fingers. Fixed links stay bodies (`panda_hand` is the body whose
     Jacobian an operational-space controller uses), and the points the original adds are sites:
     `panda_grip_site` 0.1025 m along the hand's z, and `panda_{left,right}finger_tip` 0.0441 m
-    along each finger's z, 1.5 mm toward the other finger. The base is fixed (no free joint);
+    along each finger's z, 1.5 mm toward the other finger. The joints have no damping of their
+    own: the original writes its DOF damping over the URDF's 0.3 (0 on the arm, which its
+    controller drives by torque, and 100 on the fingers, their drives' gain, which the scene's
+    drives carry). The base is fixed (no free joint);
     the URDF's mesh paths are resolved to the installed package's folder. Three pairs of wrist
     links whose meshes overlap in every pose (5 to 41 mm) are excluded from colliding."""
     path = installed_file("example-robot-data", FRANKA, "arms")
@@ -351,6 +354,8 @@ def franka_spec() -> mujoco.MjSpec:
     spec = urdf_spec(path, '<mujoco><compiler discardvisual="true" balanceinertia="true" '
                            'fusestatic="false"/></mujoco>',
                      text_fixes={FRANKA_ROBOTS: robots + "robots/"})
+    for joint in spec.joints:
+        joint.damping = [0.0, 0.0, 0.0]
     spec.body("panda_hand").add_site(name="panda_grip_site", pos=[0, 0, FRANKA_GRIP_SITE])
     toward, along = FRANKA_FINGERTIP
     spec.body("panda_leftfinger").add_site(name="panda_leftfinger_tip", pos=[0, toward, along])
