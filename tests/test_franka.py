@@ -7,6 +7,7 @@ import importlib.util
 import json
 import math
 
+import mujoco
 import pytest
 import torch
 
@@ -170,7 +171,7 @@ def test_the_arm_has_no_damping_and_the_fingers_only_their_drives(task):
     """The original writes its DOF damping over the URDF's 0.3: 0 on the torque-driven arm and
     the finger drives' 100 (Isaac Gym's one damping per DOF), so the joints keep none."""
     mj = task.envs.model.mj_model
-    hinges = [j for j in range(mj.njnt) if mj.jnt_type[j] in (2, 3)]     # slide, hinge
+    hinges = [j for j in range(mj.njnt) if mj.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE]
     assert len(hinges) == 9 and (mj.dof_damping[mj.jnt_dofadr[hinges]] == 0).all()
     drives = [a for a in range(mj.nu) if mj.actuator_biasprm[a, 2] != 0]
     assert len(drives) == 2 and (-mj.actuator_biasprm[drives, 2] == 100.0).all()

@@ -287,8 +287,8 @@ def allegro_hand_spec(friction: float = 0.01, armature: float = 0.001,
     per DOF, the position drive's gain (the original's 0.1), which the scene's drive carries
     (`Scene.add_actor(damping=)`); the URDF's 3-10 N·m·s/rad, or a copy of the drive's, would
     damp the fingers twice. Fixed links are fused; the palm gets a free joint (so that it stays
-    one body: `Scene.add_actor(fix_base=True)` removes the joint). The thumb's second link overlaps the palm by 0.6 mm at every pose near
-    the start: the pair is excluded."""
+    one body: `Scene.add_actor(fix_base=True)` removes the joint). The thumb's second link
+    overlaps the palm by 0.6 mm at every pose near the start: the pair is excluded."""
     spec = urdf_spec(installed_file("example-robot-data", ALLEGRO_HAND, "hands"),
                      '<mujoco><compiler discardvisual="true" balanceinertia="true" '
                      'fusestatic="true"/></mujoco>', root_link="palm_link")
