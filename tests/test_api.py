@@ -195,13 +195,25 @@ def test_drives_efforts_fixed_base_and_self_collisions(device):
 
 def test_a_drive_mode_per_dof(device):
     """Hips in effort mode, knees position-driven: only the knees get drives, the hips keep the
-    efforts they are given; wrong lists name what is wrong."""
+    efforts they are given; wrong lists name what is wrong. A driven DOF's one stiffness and
+    damping are its drive's (Isaac Gym's one pair of gains per DOF): the file's joint spring
+    and damper stay on the hips and are gone from the knees."""
+    ant = mujoco.MjSpec.from_file(ANT)
+    for joint in ant.joints:
+        if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
+            joint.stiffness, joint.damping = [3.0, 0.0, 0.0], [0.5, 0.0, 0.0]
     modes = ["effort", "position"] * 4
-    e = Scene().add_actor("mixed", ANT, pos=(0, 0, 1), fix_base=True, dof_mode=modes,
+    e = Scene().add_actor("mixed", ant, pos=(0, 0, 1), fix_base=True, dof_mode=modes,
                           stiffness=[0.0, 20.0] * 4, damping=[0.0, 1.0] * 4).build(
         1, device, myriad.SimParams(dt=1 / 60, substeps=2, gravity=(0, 0, 0)))
     drives = [n for n in e.model.actuator_names if n.endswith("/drive")]
     assert drives == [f"{e.dof_names[k]}/drive" for k in range(1, 8, 2)], "the knees' alone"
+    m = e.model
+    np.testing.assert_array_equal(m.dof_damping, [0.5, 0.0] * 4)
+    np.testing.assert_array_equal(m.jnt_stiffness, [3.0, 0.0] * 4)
+    drive_rows = [m.actuator_names.index(n) for n in drives]
+    np.testing.assert_array_equal(m.actuator_kp[drive_rows], [20.0] * 4)
+    np.testing.assert_array_equal(m.actuator_kv[drive_rows], [1.0] * 4)
     e.set_dof_position_targets(torch.full((1, 8), 0.5, device=device))
     e.set_dof_efforts(torch.tensor([[0.2, 0.0] * 4], device=device))
     for _ in range(30):

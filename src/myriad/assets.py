@@ -282,20 +282,19 @@ def allegro_hand_spec(friction: float = 0.01, armature: float = 0.001,
                       effort: float = 0.5) -> mujoco.MjSpec:
     """Wonik's Allegro right hand of example-robot-data (16 joints, boxes and sphere tips), with
     the original's joint settings in place of the URDF's: dry friction 0.01 (the URDF's 5-12 N·m
-    would hold every finger still against its 0.5 N·m drives), armature 0.001, the drive effort
-    limit 0.5 N·m (each joint's actuatorfrcrange) and no joint damping. Isaac Gym has one damping
-    per DOF, the position drive's gain (the original's 0.1), which the scene's drive carries
-    (`Scene.add_actor(damping=)`); the URDF's 3-10 N·m·s/rad, or a copy of the drive's, would
-    damp the fingers twice. Fixed links are fused; the palm gets a free joint (so that it stays
-    one body: `Scene.add_actor(fix_base=True)` removes the joint). The thumb's second link
-    overlaps the palm by 0.6 mm at every pose near the start: the pair is excluded."""
+    would hold every finger still against its 0.5 N·m drives), armature 0.001 and the drive
+    effort limit 0.5 N·m (each joint's actuatorfrcrange). The URDF's joint damping (3-10
+    N·m·s/rad) stays in the spec: `Scene.add_actor(dof_mode="position", damping=)` replaces it
+    with the drive's (the original's 0.1), as Isaac Gym has one damping per DOF. Fixed links
+    are fused; the palm gets a free joint (so that it stays one body:
+    `Scene.add_actor(fix_base=True)` removes the joint). The thumb's second link overlaps the
+    palm by 0.6 mm at every pose near the start: the pair is excluded."""
     spec = urdf_spec(installed_file("example-robot-data", ALLEGRO_HAND, "hands"),
                      '<mujoco><compiler discardvisual="true" balanceinertia="true" '
                      'fusestatic="true"/></mujoco>', root_link="palm_link")
     for joint in spec.joints:
         if joint.type == mujoco.mjtJoint.mjJNT_FREE:
             continue
-        joint.damping = [0.0, 0.0, 0.0]         # (MuJoCo 4: a polynomial in the speed)
         joint.frictionloss = friction
         joint.armature = armature
         joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_TRUE

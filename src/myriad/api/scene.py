@@ -117,7 +117,9 @@ class Scene:
         `set_dof_position_targets` with `stiffness`, `damping`), "velocity" (drive to
         `set_dof_velocity_targets` with `damping`) or "none" (passive joints); or a list of
         them, one per DOF of the actor in file order (an arm in effort mode with a position-
-        driven gripper). A DOF without a drive keeps the effort it is given.
+        driven gripper). A DOF without a drive keeps the effort it is given, and the file's
+        joint spring and damping; a driven DOF's only stiffness and damping are its drive's
+        (Isaac Gym's one pair of gains per DOF).
         gravity=False: gravity does not act on the actor's bodies (Isaac Gym's disable_gravity;
         MuJoCo's gravcomp 1 on each of them).
         """
@@ -283,6 +285,10 @@ class Scene:
         for j, mode, kp, kv in zip(joints, modes, stiffness, damping):
             if mode not in ("position", "velocity"):
                 continue
+            # Isaac Gym keeps one stiffness and one damping per DOF, and a drive's gains are
+            # they: the file's own spring and damper on a driven joint would act a second time
+            j.stiffness = [0.0, 0.0, 0.0]           # (MuJoCo 4: polynomials in q and q̇)
+            j.damping = [0.0, 0.0, 0.0]
             act = spec.add_actuator(name=f"{j.name}/drive", target=j.name,
                                     trntype=mujoco.mjtTrn.mjTRN_JOINT)
             if mode == "position":
