@@ -286,7 +286,7 @@ class Scene:
             if mode not in ("position", "velocity"):
                 continue
             # Isaac Gym keeps one stiffness and one damping per DOF, and a drive's gains are
-            # they: the file's own spring and damper on a driven joint would act a second time
+            # that pair: the file's own spring and damper on a driven joint would act twice
             j.stiffness = [0.0, 0.0, 0.0]           # (MuJoCo 4: polynomials in q and q̇)
             j.damping = [0.0, 0.0, 0.0]
             act = spec.add_actuator(name=f"{j.name}/drive", target=j.name,
