@@ -233,7 +233,9 @@ def test_trifinger_goal_distance_is_the_episodes_last_before_its_reset():
 
 def test_hand_goal_angle_is_the_cubes_angle_to_its_goal():
     """A cube falling freely for a short episode keeps its orientation: a goal at the cube's own
-    orientation reads 0, one turned a quarter about z reads pi/2 (no goal is ever reached)."""
+    orientation reads 0, one turned a quarter about z reads pi/2 (no goal is ever reached).
+    `cube_spin` is the mean of the cube's angular speed over the episode's steps: 0 for the
+    cube that is not turning, 2 rad/s for one given that spin at each step."""
     pytest.importorskip("gymnasium_robotics")
     import myriad
     from myriad.torch_utils import quat_from_angle_axis, quat_mul
@@ -245,11 +247,15 @@ def test_hand_goal_angle_is_the_cubes_angle_to_its_goal():
     task.goal_rot[:] = quat_mul(turn, task.envs.root_states[:, task.cube, 3:7])
     for _ in range(4):
         _, _, done, _ = task.step(torch.zeros(task.num_envs, task.num_actions))
+        if not done.bool().all():       # what the probe reads: the cube's spin set to 2 rad/s
+            task.envs.root_states[1, task.cube, 10:13] = torch.tensor([0.0, 0.0, 2.0])
         values = probe.after_step(done.bool())
     assert done.bool().all()
     torch.testing.assert_close(values["goal_angle"],
                                torch.tensor([0.0, math.pi / 2], dtype=torch.float64),
                                atol=1e-3, rtol=0)
+    torch.testing.assert_close(values["cube_spin"],
+                               torch.tensor([0.0, 2.0], dtype=torch.float64), atol=1e-3, rtol=0)
 
 
 def test_terrain_levels_spread_play_every_level_and_report_the_curriculums_verdicts(tmp_path,

@@ -10,7 +10,8 @@ episodes):
   - hand tasks: `consecutive_successes`, the goals reached in a row before the episode ended (a
     drop, the time limit, or the variant's maxConsecutiveSuccesses), at the variant's own
     successTolerance and episodeLength; counted from the task's own `successes` buffer; and
-    `goal_angle` (rad), the mean over the episode's steps of the cube's angle to its goal;
+    `goal_angle` (rad), the mean over the episode's steps of the cube's angle to its goal, and
+    `cube_spin` (rad/s), that of the cube's angular speed (whether the policy moves it at all);
   - FrankaCubeStack, Trifinger: `success_rate`, the share of episodes that ended in the task's
     success (the flags the task counts its `success_rate` metric from; Franka also `lift_rate`);
     Trifinger also `fingertip_distance` (m), the mean over the episode's steps of the three
@@ -233,14 +234,16 @@ class HandProbe(Probe):
     """Consecutive successes from the task's `successes` count as the task records it at the
     end of each step's episodes (`episode_outcomes`, before its resets zero it), and per episode
     the mean over its steps of the cube's angle to its goal (`goal_angle`, rad): how far a
-    policy that reaches no goal within the tolerance still turns the cube towards them."""
+    policy that reaches no goal within the tolerance still turns the cube towards them, and
+    of its angular speed (`cube_spin`, rad/s): whether it turns the cube at all, or holds it
+    still."""
     primary = "consecutive_successes"
 
     def __init__(self, task):
         super().__init__(task)
         self.counter = ConsecutiveSuccesses(task.num_envs, task.device)
         self.before = task.successes.clone()
-        self.means = EpisodeMeans(task.num_envs, task.device, "goal_angle")
+        self.means = EpisodeMeans(task.num_envs, task.device, "goal_angle", "cube_spin")
 
     def reset(self):
         out = super().reset()
@@ -250,9 +253,9 @@ class HandProbe(Probe):
     def after_step(self, done):
         reached = (self.task.episode_outcomes["successes"] - self.before).clamp(min=0.0)
         self.before = self.task.successes.clone()
-        cube_rot = self.task.envs.root_states[:, self.task.cube, 3:7]
-        angle = angle_between(cube_rot, self.task.goal_rot)
-        means, _ = self.means.add(done, goal_angle=angle)
+        cube = self.task.envs.root_states[:, self.task.cube]
+        angle = angle_between(cube[:, 3:7], self.task.goal_rot)
+        means, _ = self.means.add(done, goal_angle=angle, cube_spin=cube[:, 10:13].norm(dim=-1))
         return {"consecutive_successes": self.counter.update(reached, done)} | means
 
     def describe(self):
