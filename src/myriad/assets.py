@@ -303,6 +303,14 @@ def allegro_hand_spec(friction: float = 0.01, armature: float = 0.001,
     return spec
 
 
+def allegro_max_velocity(dof_names: list[str]) -> list[float]:
+    """The Allegro URDF's speed limit (`<limit velocity=...>`, rad/s) of each DOF in
+    `dof_names` (joint names, an actor prefix such as "hand/" allowed): 7 rad/s on every
+    joint."""
+    limits = urdf_velocity_limits(installed_file("example-robot-data", ALLEGRO_HAND, "hands"))
+    return [limits[name.rsplit("/", 1)[-1]] for name in dof_names]
+
+
 # ---------------------------------------------------------------------------- Franka Panda
 FRANKA = "robots/panda_description/urdf/panda.urdf"
 FRANKA_ROBOTS = "package://example-robot-data/robots/"

@@ -43,9 +43,14 @@ after that many, and running out of time adds fallPenalty / 2.
 Allegro (task-specs §3): Wonik's 16-joint hand of example-robot-data
 (`myriad.assets.allegro_hand_spec`), position drives kp 3, kd 0.1 (the joints' only damping,
 as Isaac Gym's one per DOF), effort 0.5 N·m, at
-(0, 0, 0.5) with the palm up and the fingers along -y, gravity off; a 6.5 cm cube (density 400)
-let go 4 cm above where it rests on the palm, (0, 0.04, 0.59) (the original's (0, -0.2, 0.56) is
-in its own URDF's frame, whose palm origin lies at the wrist); 30 Hz control; no fingertip terms, so "full_state" is 88 values: joint
+(0, 0, 0.5) with the palm up and the fingers along -y, gravity off, no collisions between its
+own links (the original's collision filter -1), joint speeds capped at the URDF's 7 rad/s (Isaac
+Gym applies a URDF's limits); a 6.5 cm cube (density 400) let go where the original lets it go
+in its hand, over the proximal phalanges (0, -0.0659, 0.5636): 5.9 cm out along the fingers from
+the middle finger's first joint and 7.0 cm above it, the goal position 4 cm lower. Zero
+actions target mid-range, which curls the fingers into a claw that sweeps the cube toward the
+palm; held straight, the fingers keep it about 3 cm from its goal (the original's hand, 2.5);
+30 Hz control; no fingertip terms, so "full_state" is 88 values: joint
 positions, velocities and forces (16 each), cube pose 7, linear and angular velocity 6, goal
 pose 7, relative rotation 4, last actions 16. Reward, success and resets as the Shadow Hand's.
 
@@ -62,8 +67,8 @@ import math
 import torch
 
 from ..api import Scene
-from ..assets import (SHADOW_FINGERTIPS, allegro_hand_spec, shadow_hand_spec,
-                      shadow_hand_tendons)
+from ..assets import (SHADOW_FINGERTIPS, allegro_hand_spec, allegro_max_velocity,
+                      shadow_hand_spec, shadow_hand_tendons)
 from ..torch_utils import (angle_between, env_mask, quat_conjugate, quat_from_angle_axis,
                            quat_mul, scale, unit_axis, unscale, where_rows)
 from .base import VecTask, box_spec
@@ -318,7 +323,17 @@ class AllegroHand(InHandTask):
                                  quat_from_angle_axis(torch.tensor([0.47 * math.pi]), x)),
                         quat_from_angle_axis(torch.tensor([-0.5 * math.pi]), z))[0]
         control = self.cfg["env"]["control"]
+        # self_collisions=False: the original creates the hand with collision filter -1, so
+        # no two of its links touch (fingers pass through each other and the thumb)
         return scene.add_actor("hand", allegro_hand_spec(), pos=HAND_POS,
                                quat=tuple(turn.tolist()), fix_base=True, dof_mode="position",
                                stiffness=control["stiffness"], damping=control["damping"],
-                               gravity=False)
+                               gravity=False, self_collisions=False)
+
+    def __init__(self, cfg: dict, device: str = "cpu"):
+        super().__init__(cfg, device)
+        # the URDF's speed limits (7 rad/s), which Isaac Gym applies and MuJoCo's importer
+        # drops: from straight to mid-range targets the fingers curl at most this fast
+        e = self.envs
+        e.sim.dof_max_velocity[:, e.dof_columns] = torch.tensor(allegro_max_velocity(e.dof_names),
+                                                                device=self.device)
