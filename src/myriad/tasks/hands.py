@@ -49,7 +49,8 @@ Gym applies a URDF's limits); a 6.5 cm cube (density 400) let go where the origi
 in its hand, over the proximal phalanges (0, -0.0659, 0.5636): 5.9 cm out along the fingers from
 the middle finger's first joint and 7.0 cm above it, the goal position 4 cm lower. Zero
 actions target mid-range, which curls the fingers into a claw that sweeps the cube toward the
-palm; held straight, the fingers keep it about 3 cm from its goal (the original's hand, 2.5);
+palm; held straight, the fingers keep it 2-3 cm from its goal (the original's hand too:
+`benchmarks/allegro_original_hand.py`);
 30 Hz control; no fingertip terms, so "full_state" is 88 values: joint
 positions, velocities and forces (16 each), cube pose 7, linear and angular velocity 6, goal
 pose 7, relative rotation 4, last actions 16. Reward, success and resets as the Shadow Hand's.
