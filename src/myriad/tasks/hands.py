@@ -58,7 +58,13 @@ pose 7, relative rotation 4, last actions 16. Reward, success and resets as the 
 Deviations from the original: a success draws the new goal in the same step (the original
 draws it at the start of the next step), so the observation after a success already shows the
 new goal; the goal is not a body in the simulation (the original's goal cube touches nothing
-and feels no gravity: it only draws the goal).
+and feels no gravity: it only draws the goal); the original's body damping (Isaac Gym's default
+0.5 /s on the cube's rotation, 0.01 on the hand's links) is not applied, as Myriad has no body
+damping (on a cube turning at 10 rad/s about 4e-4 N·m, against finger torques up to 0.5 N·m).
+Allegro's hand is example-robot-data's (box links, sphere tips, Wonik's joint ranges), not the
+original's `allegro_touch_sensor.urdf` (mesh links, sensor tips, wider ranges: the spread joints
+±0.558 rad against ±0.47), so an action's target differs by up to 0.044 rad on the fingers and
+0.12 rad on the thumb's first two joints.
 """
 
 from __future__ import annotations
