@@ -318,8 +318,8 @@ class ShadowHand(InHandTask):
 class AllegroHand(InHandTask):
     num_actions = 16
     cube_size, cube_density = 0.065, 400.0
-    video_camera = {"lookat": (-0.05, -0.03, 0.56), "distance": 0.6, "elevation": -30.0,
-                    "azimuth": 90.0}
+    video_camera = {"lookat": (-0.03, -0.06, 0.55), "distance": 0.5, "elevation": -30.0,
+                    "azimuth": 150.0}     # from the thumb's side, onto the cube over the fingers
 
     def hand_actor(self, scene: Scene) -> Scene:
         y, x, z = (torch.tensor([[0.0, 1.0, 0.0]]), torch.tensor([[1.0, 0.0, 0.0]]),
