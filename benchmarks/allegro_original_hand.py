@@ -24,24 +24,25 @@ import argparse
 import math
 import os
 import tempfile
+from xml.etree import ElementTree
 
 import mujoco
 import torch
 import warp as wp
 
 import myriad
-from myriad.assets import urdf_spec, urdf_velocity_limits
+from myriad.assets import dof_max_velocity, urdf_spec
 from myriad.tasks import apply_overrides, task_config
-from myriad.tasks.hands import HAND_POS, AllegroHand, InHandTask
+from myriad.tasks.hands import HAND_POS, AllegroHand
 from myriad.torch_utils import quat_from_angle_axis, quat_mul
 
 HAND = "assets/urdf/kuka_allegro_description"
 ORIGINAL_START = (0.0, -0.2, 0.56)
 
 
-def original_hand_spec(root: str) -> tuple[mujoco.MjSpec, dict[str, float]]:
+def original_hand_spec(root: str) -> tuple[mujoco.MjSpec, ElementTree.Element]:
     """The original's hand from an IsaacGymEnvs checkout, with its joint settings, and its
-    URDF's speed limits by joint name."""
+    URDF (parsed)."""
     urdf = os.path.join(root, HAND, "allegro_touch_sensor.urdf")
     if not os.path.isfile(urdf):
         raise SystemExit(f"--isaacgymenvs {root}: no {HAND}/allegro_touch_sensor.urdf there")
@@ -57,13 +58,12 @@ def original_hand_spec(root: str) -> tuple[mujoco.MjSpec, dict[str, float]]:
         spec = urdf_spec(fixed, '<mujoco><compiler discardvisual="true" fusestatic="true" '
                          'inertiafromgeom="false" balanceinertia="true"/></mujoco>',
                          root_link="allegro_mount")
-        limits = urdf_velocity_limits(fixed)
     for joint in spec.joints:
         if joint.type != mujoco.mjtJoint.mjJNT_FREE:
             joint.frictionloss, joint.armature = 0.01, 0.001
             joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_TRUE
             joint.actfrcrange = [-0.5, 0.5]
-    return spec, limits
+    return spec, ElementTree.fromstring(text)
 
 
 class OriginalAllegroHand(AllegroHand):
@@ -71,7 +71,7 @@ class OriginalAllegroHand(AllegroHand):
     isaacgymenvs: str = ""
 
     def hand_actor(self, scene):
-        self.hand_spec, self.hand_limits = original_hand_spec(self.isaacgymenvs)
+        self.hand_spec, self.hand_urdf = original_hand_spec(self.isaacgymenvs)
         axes = torch.eye(3)
         turn = quat_mul(quat_mul(quat_from_angle_axis(torch.tensor([math.pi]), axes[1:2]),
                                  quat_from_angle_axis(torch.tensor([0.47 * math.pi]), axes[0:1])),
@@ -82,11 +82,8 @@ class OriginalAllegroHand(AllegroHand):
                                stiffness=control["stiffness"], damping=control["damping"],
                                gravity=False, self_collisions=False)
 
-    def __init__(self, cfg: dict, device: str = "cpu"):
-        InHandTask.__init__(self, cfg, device)
-        e = self.envs
-        e.sim.dof_max_velocity[:, e.dof_columns] = torch.tensor(
-            [self.hand_limits[n.rsplit("/", 1)[-1]] for n in e.dof_names], device=self.device)
+    def dof_speed_limits(self) -> list[float]:
+        return dof_max_velocity(self.hand_urdf, self.envs.dof_names)     # 6.283 rad/s
 
 
 def make(original: str | None, num_envs: int, **overrides):

@@ -91,6 +91,33 @@ def urdf_spec(path: str, header: str, root_link: str | None = None,
     return spec
 
 
+def urdf_velocity_limits(urdf: str | ElementTree.Element) -> dict[str, float]:
+    """Each joint's `<limit velocity=...>` in a URDF (rad/s or m/s), by joint name; `urdf`: the
+    file's path, or its parsed root element. MuJoCo's importer drops it; Isaac Gym applies it as
+    the DOF's maximum speed (`Envs.sim.dof_max_velocity`), which a task that follows the
+    original sets from this."""
+    root = urdf
+    if isinstance(urdf, str):
+        try:
+            root = ElementTree.parse(urdf).getroot()
+        except ElementTree.ParseError as err:
+            raise ModelError(f"{urdf}: not readable as XML: {err}") from err
+    return {joint.get("name"): float(limit.get("velocity"))
+            for joint in root.iter("joint")
+            if (limit := joint.find("limit")) is not None and limit.get("velocity") is not None}
+
+
+def dof_max_velocity(urdf: str | ElementTree.Element, dof_names: list[str]) -> list[float]:
+    """`urdf_velocity_limits` in the order of `dof_names` (an actor's `Envs.dof_names`: joint
+    names, their "actor/" prefix dropped), ready for `Envs.sim.dof_max_velocity`."""
+    limits = urdf_velocity_limits(urdf)
+    joints = [name.rsplit("/", 1)[-1] for name in dof_names]
+    missing = [j for j in joints if j not in limits]
+    if missing:
+        raise ModelError(f"{urdf if isinstance(urdf, str) else 'the URDF'}: no <limit "
+                         f"velocity> for joints {missing}")
+    return [limits[j] for j in joints]
+
 # ---------------------------------------------------------------------------- ANYmal C
 ANYMAL_C = "robots/anymal_c_simple_description/urdf/anymal.urdf"
 
@@ -304,11 +331,10 @@ def allegro_hand_spec(friction: float = 0.01, armature: float = 0.001,
 
 
 def allegro_max_velocity(dof_names: list[str]) -> list[float]:
-    """The Allegro URDF's speed limit (`<limit velocity=...>`, rad/s) of each DOF in
-    `dof_names` (joint names, an actor prefix such as "hand/" allowed): 7 rad/s on every
-    joint."""
-    limits = urdf_velocity_limits(installed_file("example-robot-data", ALLEGRO_HAND, "hands"))
-    return [limits[name.rsplit("/", 1)[-1]] for name in dof_names]
+    """The speed limits of example-robot-data's Allegro URDF for `dof_names`
+    (`dof_max_velocity`): 7 rad/s on every joint."""
+    return dof_max_velocity(installed_file("example-robot-data", ALLEGRO_HAND, "hands"),
+                            dof_names)
 
 
 # ---------------------------------------------------------------------------- Franka Panda
@@ -319,28 +345,10 @@ FRANKA_FINGERTIP = (0.0015, 0.0441)  # the original's fingertip points: toward t
                                      # (y, its sign per finger) and along the finger's z (m)
 
 
-def urdf_velocity_limits(urdf: str | ElementTree.Element) -> dict[str, float]:
-    """Each joint's `<limit velocity=...>` in a URDF (rad/s or m/s), by joint name; `urdf`: the
-    file's path, or its parsed root element. MuJoCo's importer drops it; Isaac Gym applies it as
-    the DOF's maximum speed (`Envs.sim.dof_max_velocity`), which a task that follows the
-    original sets from this."""
-    root = urdf
-    if isinstance(urdf, str):
-        try:
-            root = ElementTree.parse(urdf).getroot()
-        except ElementTree.ParseError as err:
-            raise ModelError(f"{urdf}: not readable as XML: {err}") from err
-    return {joint.get("name"): float(limit.get("velocity"))
-            for joint in root.iter("joint")
-            if (limit := joint.find("limit")) is not None and limit.get("velocity") is not None}
-
-
-def franka_max_velocity() -> list[float]:
-    """The Panda's 9 DOF speed limits of example-robot-data's URDF, in DOF order: 2.175 rad/s
-    for joints 1-4, 2.61 for 5-7, 0.2 m/s for each finger."""
-    limits = urdf_velocity_limits(installed_file("example-robot-data", FRANKA, "arms"))
-    return [limits[f"panda_joint{k}"] for k in range(1, 8)] + \
-        [limits[f"panda_finger_joint{k}"] for k in (1, 2)]
+def franka_max_velocity(dof_names: list[str]) -> list[float]:
+    """The speed limits of example-robot-data's Panda URDF for `dof_names` (`dof_max_velocity`):
+    2.175 rad/s for joints 1-4, 2.61 for 5-7, 0.2 m/s for each finger."""
+    return dof_max_velocity(installed_file("example-robot-data", FRANKA, "arms"), dof_names)
 
 
 def franka_spec() -> mujoco.MjSpec:

@@ -134,8 +134,8 @@ class FrankaCubeStack(VecTask):
         # the URDF's speed limits, which Isaac Gym applies and MuJoCo's importer drops: the
         # fingers close at 0.2 m/s (0.2 s from open), not in one physics step. Unlimited, they
         # struck the cube away: a scripted reach-close-lift lifted it in 18 % of envs, not 76 %
-        e.sim.dof_max_velocity[:, e.dof_columns] = torch.tensor(franka_max_velocity(),
-                                                                 device=dev)
+        e.sim.dof_max_velocity[:, e.dof_columns] = torch.tensor(
+            franka_max_velocity(e.dof_names), device=dev)
         names = e.model.site_names
         sites = [names.index(f"franka/{s}") for s in (
             "panda_grip_site", "panda_leftfinger_tip", "panda_rightfinger_tip")]

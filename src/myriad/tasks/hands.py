@@ -337,10 +337,14 @@ class AllegroHand(InHandTask):
                                stiffness=control["stiffness"], damping=control["damping"],
                                gravity=False, self_collisions=False)
 
+    def dof_speed_limits(self) -> list[float]:
+        """Each hand DOF's speed cap (rad/s): the URDF's (7), which Isaac Gym applies and
+        MuJoCo's importer drops; from straight to mid-range targets the fingers curl at most
+        this fast."""
+        return allegro_max_velocity(self.envs.dof_names)
+
     def __init__(self, cfg: dict, device: str = "cpu"):
         super().__init__(cfg, device)
-        # the URDF's speed limits (7 rad/s), which Isaac Gym applies and MuJoCo's importer
-        # drops: from straight to mid-range targets the fingers curl at most this fast
         e = self.envs
-        e.sim.dof_max_velocity[:, e.dof_columns] = torch.tensor(allegro_max_velocity(e.dof_names),
+        e.sim.dof_max_velocity[:, e.dof_columns] = torch.tensor(self.dof_speed_limits(),
                                                                 device=self.device)
