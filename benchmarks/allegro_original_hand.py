@@ -8,7 +8,8 @@ original trains (`allegro_touch_sensor.urdf`, its links' meshes taken as convex 
 takes them); Myriad ships no copy. That hand is placed as the original places it (its root
 `allegro_mount` at (0, 0, 0.5) turned R_y(π)·R_x(0.47π)·R_z(π/4)) with the original's joint
 settings (drives kp 3, kd 0.1, effort 0.5, dry friction 0.01, armature 0.001, its URDF's speed
-limits of 6.283 rad/s, no collisions between its links), and the cube is let go at the
+limits of 6.283 rad/s, its links colliding with each other but not with their parents, as
+Isaac Gym's URDF loader and filter -1 let them), and the cube is let go at the
 original's (0, -0.2, 0.56); Myriad's own hand is the task as it ships. Printed for each hand:
 
 - zero actions (every target mid-range), `--envs` envs for `--seconds` with the task's reset
@@ -80,7 +81,7 @@ class OriginalAllegroHand(AllegroHand):
         return scene.add_actor("hand", self.hand_spec, pos=HAND_POS, quat=tuple(turn.tolist()),
                                fix_base=True, dof_mode="position",
                                stiffness=control["stiffness"], damping=control["damping"],
-                               gravity=False, self_collisions=False)
+                               gravity=False)
 
     def dof_speed_limits(self) -> list[float]:
         return dof_max_velocity(self.hand_urdf, self.envs.dof_names)     # 6.283 rad/s

@@ -1132,3 +1132,62 @@ def test_a_setter_leaves_the_other_tensors_pending_edits_alone(tmp_path):
         gym.refresh_dof_state_tensor(sim)
         torch.testing.assert_close(roots[:, 0, 0], want_roots)
         torch.testing.assert_close(dofs[:, 0], want_dofs)
+
+
+# ------------------------------------------------------------------ collision filters
+FOLDED_ARM = """<robot name="arm">
+  <link name="base"><collision><geometry><box size="0.2 0.2 0.2"/></geometry></collision>
+    <inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="upper"><collision><geometry><sphere radius="0.02"/></geometry></collision>
+    <inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="lower"><collision><origin xyz="0.2 0 0"/><geometry><box size="0.1 0.1 0.1"/></geometry></collision>
+    <inertial><origin xyz="0.2 0 0"/><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
+    <origin xyz="0 0 0.3"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="10"/></joint>
+  <joint name="elbow" type="revolute"><parent link="upper"/><child link="lower"/>
+    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="10" velocity="10"/></joint>
+</robot>"""
+
+
+@pytest.mark.parametrize("filter, collides", [(-1, True), (0, True), (1, False)])
+def test_an_actors_filter_decides_its_self_collisions_minus_one_keeps_the_assets(
+        tmp_path, filter, collides):
+    """Isaac Gym's create_actor filter: 0 lets an actor's links collide with each other (a link
+    never with its parent), a nonzero bitmask stops it, and -1 (the default; the hands' tasks
+    pass it) keeps the asset loader's shape filters, which are 0. The arm's lower link, held
+    out level, falls about its elbow onto its base, its grandparent: it lands on it only where
+    self-collisions are on, else it swings down through it."""
+    (tmp_path / "arm.urdf").write_text(FOLDED_ARM)
+    gym = gymapi.acquire_gym()
+    p = gymapi.SimParams()
+    p.up_axis, p.gravity = gymapi.UP_AXIS_Z, gymapi.Vec3(0.0, 0.0, -G)
+    sim = gym.create_sim(-1, -1, gymapi.SIM_PHYSX, p)
+    options = gymapi.AssetOptions()
+    options.fix_base_link = True
+    asset = gym.load_asset(sim, str(tmp_path), "arm.urdf", options)
+    env = gym.create_env(sim, gymapi.Vec3(-1, -1, 0), gymapi.Vec3(1, 1, 1), 1)
+    actor = gym.create_actor(env, asset, gymapi.Transform(), "arm", 0, filter, 0)
+    shapes = gym.get_actor_rigid_shape_properties(env, actor)
+    assert [s.filter for s in shapes] == [0 if filter == -1 else filter] * 3
+    gym.set_actor_rigid_shape_properties(env, actor, shapes)        # read back unchanged: fine
+    shapes[2].filter = 4
+    with pytest.raises(NotImplementedError, match="filter=4"):
+        gym.set_actor_rigid_shape_properties(env, actor, shapes)
+    gym.prepare_sim(sim)
+    bodies = gymtorch.wrap_tensor(gym.acquire_rigid_body_state_tensor(sim))
+    contacts = gymtorch.wrap_tensor(gym.acquire_net_contact_force_tensor(sim))
+    lower = gym.find_actor_rigid_body_index(env, actor, "lower", gymapi.DOMAIN_SIM)
+    pushed, lowest = 0.0, 1.0
+    for _ in range(100):                                           # 1 s
+        settle(gym, sim, 1)
+        gym.refresh_net_contact_force_tensor(sim)
+        gym.refresh_rigid_body_state_tensor(sim)
+        pushed = max(pushed, float(contacts[lower].norm()))
+        # the box's centre, 0.2 m out along the link: 0.3 m high held level, 0.1 m hanging
+        centre = bodies[lower:lower + 1, 0:3] + quat_rotate(
+            bodies[lower:lower + 1, 3:7], torch.tensor([[0.2, 0.0, 0.0]]))
+        lowest = min(lowest, float(centre[0, 2]))
+    if collides:         # it lands on the base's top edge about 49 degrees down (0.15 m high)
+        assert pushed > 0.1 and lowest > 0.13, (pushed, lowest)
+    else:
+        assert pushed == 0.0 and lowest < 0.11, (pushed, lowest)

@@ -817,6 +817,10 @@ class _Actor:
         self.env, self.index, self.asset = env, index, asset
         self.pose = Transform(pose.p, pose.r)
         self.name, self.group, self.filter = name, int(group), int(filter)
+        # filter -1 keeps the asset loader's shape filters, which are 0 (every shape collides):
+        # an actor so created collides with itself (but a link with its parent) and as 0 with
+        # others; any other value is the bitmask of every one of the actor's shapes
+        self.shape_filter = 0 if self.filter == -1 else self.filter
         self.segmentation_id = segmentation_id
         self.body_segmentation: dict = {}   # body index -> segmentation id (camera images)
         # (body index, "visual" | "collision") -> set_rigid_body_color's Vec3 / texture handle
@@ -824,6 +828,8 @@ class _Actor:
         self.body_textures: dict = {}
         self.dof_props = asset.dof_props.copy()
         self.shape_props = copy.deepcopy(asset.shape_props)
+        for props in self.shape_props:           # what Isaac Gym reports back per shape
+            props.filter = self.shape_filter
         self.body_props = copy.deepcopy(asset.body_props)
         self.tendon_props = copy.deepcopy(asset.tendon_props)
         self.tendon_offsets = [0.0] * len(asset.tendon_props)   # set_actor_tendon_offset
@@ -1037,9 +1043,9 @@ _MODES = {int(DofDriveMode.DOF_MODE_NONE): "none", int(DofDriveMode.DOF_MODE_POS
 
 def _collide(a: _Actor, b: _Actor) -> bool:
     """Isaac Gym's rule for two actors of one env: same collision group (or either -1), and
-    no common bit in their filters."""
+    no common bit in their shapes' filters."""
     same_group = a.group == b.group or a.group == -1 or b.group == -1
-    return same_group and (a.filter & b.filter) == 0
+    return same_group and (a.shape_filter & b.shape_filter) == 0
 
 
 # ---------------------------------------------------------------------------------- Gym
@@ -3003,7 +3009,7 @@ class Gym:
     def set_actor_rigid_shape_properties(self, env: Env, handle: int, props: list) -> bool:
         actor = self._actor(env, handle)
         _check_shape_props(props, len(actor.asset.shape_geoms),
-                           "set_actor_rigid_shape_properties")
+                           "set_actor_rigid_shape_properties", actor.shape_filter)
         actor.shape_props = copy.deepcopy(list(props))
         if env.sim.myriad is not None:
             _apply_shape_props(env.sim, [actor])
@@ -3636,7 +3642,7 @@ def _riser(z: np.ndarray, move_x: np.ndarray, move_y: np.ndarray) -> float:
     return (low + high) / 2 if low < high else high * (1 - 1e-6)
 
 
-def _check_shape_props(props, count: int, call: str) -> None:
+def _check_shape_props(props, count: int, call: str, shape_filter: int = 0) -> None:
     if len(props) != count:
         raise ValueError(f"{call}: {len(props)} entries for {count} collision shapes")
     d = RigidShapeProperties()
@@ -3644,6 +3650,10 @@ def _check_shape_props(props, count: int, call: str) -> None:
         if not (p.friction >= 0 and 0 <= p.restitution <= 1):
             raise ValueError(f"{call}: shape {i}: friction {p.friction} must be >= 0 and "
                              f"restitution {p.restitution} in [0, 1]")
+        if p.filter != shape_filter:
+            raise _unsupported(f"{call}: shape {i}: filter={p.filter} (the actor's is "
+                               f"{shape_filter})", "collision filters are honoured per actor "
+                               "(create_actor's filter), not per shape")
         if getattr(p, "compliance") != d.compliance:
             raise _unsupported(f"{call}: shape {i}: compliance={p.compliance}",
                                "Myriad honours friction and restitution per shape")
@@ -3704,7 +3714,7 @@ def _prepare(sim: Sim) -> None:
     self_collide = []
     for env in envs:
         for k, a in enumerate(env.actors):
-            sc = (a.filter & a.filter) == 0
+            sc = a.shape_filter == 0
             if env.index == 0:
                 self_collide.append(sc)
             elif self_collide[k] != sc:

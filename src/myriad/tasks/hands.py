@@ -43,9 +43,10 @@ after that many, and running out of time adds fallPenalty / 2.
 Allegro (task-specs §3): Wonik's 16-joint hand of example-robot-data
 (`myriad.assets.allegro_hand_spec`), position drives kp 3, kd 0.1 (the joints' only damping,
 as Isaac Gym's one per DOF), effort 0.5 N·m, at
-(0, 0, 0.5) with the palm up and the fingers along -y, gravity off, no collisions between its
-own links (the original's collision filter -1), joint speeds capped at the URDF's 7 rad/s (Isaac
-Gym applies a URDF's limits); a 6.5 cm cube (density 400) let go where the original lets it go
+(0, 0, 0.5) with the palm up and the fingers along -y, gravity off, its links colliding with
+each other but not with their parents (the original's collision filter -1 keeps the URDF
+loader's filters, which let every link pair collide; PhysX skips jointed pairs), joint speeds
+capped at the URDF's 7 rad/s (Isaac Gym applies a URDF's limits); a 6.5 cm cube (density 400) let go where the original lets it go
 in its hand, over the proximal phalanges (0, -0.0659, 0.5636): 5.9 cm out along the fingers from
 the middle finger's first joint and 7.0 cm above it, the goal position 4 cm lower. Zero
 actions target mid-range, which curls the fingers into a claw that sweeps the cube toward the
@@ -330,12 +331,12 @@ class AllegroHand(InHandTask):
                                  quat_from_angle_axis(torch.tensor([0.47 * math.pi]), x)),
                         quat_from_angle_axis(torch.tensor([-0.5 * math.pi]), z))[0]
         control = self.cfg["env"]["control"]
-        # self_collisions=False: the original creates the hand with collision filter -1, so
-        # no two of its links touch (fingers pass through each other and the thumb)
+        # self-collisions on: the original's filter -1 keeps its URDF loader's (none), so its
+        # fingers block each other and the thumb
         return scene.add_actor("hand", allegro_hand_spec(), pos=HAND_POS,
                                quat=tuple(turn.tolist()), fix_base=True, dof_mode="position",
                                stiffness=control["stiffness"], damping=control["damping"],
-                               gravity=False, self_collisions=False)
+                               gravity=False)
 
     def dof_speed_limits(self) -> list[float]:
         """Each hand DOF's speed cap (rad/s): the URDF's (7), which Isaac Gym applies and
