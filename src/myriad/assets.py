@@ -66,7 +66,8 @@ def urdf_spec(path: str, header: str, root_link: str | None = None,
     """A URDF compiled by MuJoCo with `header`'s <mujoco><compiler .../></mujoco> options, a
     free joint to `root_link` (None: fixed to the world) and exact text replacements, written
     back as MJCF (fixed links become frames of their parents) and read as a spec."""
-    text = open(path).read()
+    with open(path) as f:
+        text = f.read()
     if root_link is not None:
         header += ('<link name="world"/><joint name="root" type="floating">'
                    f'<parent link="world"/><child link="{root_link}"/></joint>')
