@@ -390,3 +390,35 @@ def test_training_smoke_run_reports_the_terrain_level_and_resumes_its_curricula(
     task = make("cpu", num_envs=4)
     with pytest.raises(ValueError, match=r"levels has shape \(16,\)"):
         task.load_training_state(kept)
+
+
+def test_the_robot_collides_as_the_originals_minimal_anymal():
+    """The original loads anymal_minimal.urdf for this task, cylinders as capsules: the body, a
+    knee drive per thigh and a sphere per foot are all that touch anything, so shanks and thighs
+    pass over step edges a fuller model would catch on. The flat task keeps anymal.urdf's
+    shapes, without example-robot-data's knee guards and with capsules for cylinders."""
+    import mujoco
+    from myriad.assets import ANYMAL_LEGS, anymal_c_spec
+
+    def shapes(model, body):
+        b = model.body(body).id
+        return sorted((mujoco.mjtGeom(model.geom_type[g]).name,
+                       *np.round(model.geom_size[g][:2], 3))
+                      for g in range(model.ngeom) if model.geom_bodyid[g] == b)
+
+    task = make("cpu", num_envs=1)
+    m = task.envs.model.mj_model
+    robot = [g for g in range(m.ngeom) if m.body(m.geom_bodyid[g]).name.startswith("anymal/")]
+    assert len(robot) == 9
+    assert shapes(m, "anymal/base") == [("mjGEOM_CAPSULE", 0.1, 0.375)]
+    for leg in ANYMAL_LEGS:
+        assert shapes(m, f"anymal/{leg}_HIP") == []
+        assert shapes(m, f"anymal/{leg}_THIGH") == [("mjGEOM_CAPSULE", 0.06, 0.06)]
+        assert shapes(m, f"anymal/{leg}_SHANK") == [("mjGEOM_SPHERE", 0.03, 0.0)]
+    flat = anymal_c_spec().compile()
+    assert mujoco.mjtGeom.mjGEOM_CYLINDER not in flat.geom_type
+    for leg in ANYMAL_LEGS:           # the shank's tube and its foot, no knee guard
+        assert shapes(flat, f"{leg}_SHANK") == [("mjGEOM_CAPSULE", 0.018, 0.141),
+                                                ("mjGEOM_SPHERE", 0.03, 0.0)]
+    assert abs(sum(flat.body_mass) - sum(m.body_mass[[m.body(b).name.startswith("anymal/")
+                                                       for b in range(m.nbody)]])) < 1e-9

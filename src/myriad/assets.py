@@ -62,21 +62,26 @@ def installed_file(package: str, path: str, extra: str) -> str:
 
 
 def urdf_spec(path: str, header: str, root_link: str | None = None,
-              text_fixes: dict[str, str] | None = None) -> mujoco.MjSpec:
+              text_fixes: dict[str, str] | None = None, edit=None) -> mujoco.MjSpec:
     """A URDF compiled by MuJoCo with `header`'s <mujoco><compiler .../></mujoco> options, a
-    free joint to `root_link` (None: fixed to the world) and exact text replacements, written
-    back as MJCF (fixed links become frames of their parents) and read as a spec."""
+    free joint to `root_link` (None: fixed to the world), exact text replacements and `edit`
+    (a function changing the parsed file's root element in place), written back as MJCF (fixed
+    links become frames of their parents) and read as a spec."""
     with open(path) as f:
         text = f.read()
-    if root_link is not None:
-        header += ('<link name="world"/><joint name="root" type="floating">'
-                   f'<parent link="world"/><child link="{root_link}"/></joint>')
-    text, found = re.subn(r"(<robot[^>]*>)", lambda m: m.group(1) + header, text, count=1)
     for old, new in (text_fixes or {}).items():
         if old not in text:
             raise ModelError(f"{path}: not the file these fixes were written for ({old!r} is "
                              "not in it)")
         text = text.replace(old, new)
+    if edit is not None:
+        root = ElementTree.fromstring(text)
+        edit(root)
+        text = ElementTree.tostring(root, encoding="unicode")
+    if root_link is not None:
+        header += ('<link name="world"/><joint name="root" type="floating">'
+                   f'<parent link="world"/><child link="{root_link}"/></joint>')
+    text, found = re.subn(r"(<robot[^>]*>)", lambda m: m.group(1) + header, text, count=1)
     if not found:
         raise ModelError(f"{path}: no <robot> element")
     try:
@@ -123,23 +128,67 @@ def dof_max_velocity(urdf: str | ElementTree.Element, dof_names: list[str]) -> l
 ANYMAL_C = "robots/anymal_c_simple_description/urdf/anymal.urdf"
 
 
-def anymal_c_spec() -> mujoco.MjSpec:
-    """ANYmal C of example-robot-data with a free base, fixed in memory:
+def anymal_c_spec(minimal: bool = False) -> mujoco.MjSpec:
+    """ANYmal C of example-robot-data with a free base and the original's collision shapes,
+    fixed in memory:
     - visual meshes are dropped (they are .dae files MuJoCo cannot read; collision uses
       primitives);
     - inertias are the URDF's (MuJoCo would otherwise recompute them from the collision geoms:
       81.5 kg instead of 52.1 kg);
     - the link `hatch` declares a singular inertia (all six entries 0.001): its products of
       inertia are zeroed; the camera links violate the triangle inequality and are balanced;
-    - fixed links are fused into their parents, leaving the base and the 12 leg links.
+    - fixed links are fused into their parents, leaving the base and the 12 leg links;
+    - collision shapes as the original's files have them (the kinematics are the same):
+      IsaacGymEnvs' `anymal.urdf` (the flat task) has none on the `*_shank_fixed` links, which
+      example-robot-data gives a knee guard (a cylinder and a box each); its
+      `anymal_minimal.urdf` (`minimal=True`, the terrain task) keeps only a cylinder for the
+      body (radius 0.1 m, 0.75 m long), one per knee drive on the thighs (0.06 m, 0.12 m) and a
+      sphere per foot (0.03 m);
+    - cylinders become capsules of the same radius and half-length, as the original loads both
+      (`replace_cylinder_with_capsule`).
     """
     singular = '<inertia ixx="0.001" ixy="0.001" ixz="0.001" iyy="0.001" iyz="0.001" izz="0.001"/>'
-    return urdf_spec(
+    spec = urdf_spec(
         installed_file("example-robot-data", ANYMAL_C, "anymal"),
         '<mujoco><compiler discardvisual="true" inertiafromgeom="false" balanceinertia="true" '
         'fusestatic="true"/></mujoco>', root_link="base",
         text_fixes={singular: '<inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" '
-                              'izz="0.001"/>'})
+                              'izz="0.001"/>'},
+        edit=_anymal_minimal_collisions if minimal else _anymal_collisions)
+    for geom in spec.geoms:
+        if geom.type == mujoco.mjtGeom.mjGEOM_CYLINDER:
+            geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+    return spec
+
+
+ANYMAL_LEGS = ("LF", "RF", "LH", "RH")
+
+
+def _anymal_collisions(robot: ElementTree.Element) -> None:
+    """IsaacGymEnvs' anymal.urdf: example-robot-data's shapes without the knee guards."""
+    for link in robot.iter("link"):
+        if link.get("name", "").endswith("_shank_fixed"):
+            for shape in link.findall("collision"):
+                link.remove(shape)
+
+
+def _anymal_minimal_collisions(robot: ElementTree.Element) -> None:
+    """IsaacGymEnvs' anymal_minimal.urdf: a body cylinder, a cylinder per knee drive, a sphere
+    per foot, in the same links' frames."""
+    along_x = "0 1.57079632679 0"
+    shapes = {"base": ("0 0 0", along_x, '<cylinder length="0.75" radius="0.1"/>')}
+    for leg in ANYMAL_LEGS:
+        shapes[f"{leg}_KFE"] = ("-0.05 0 0", along_x, '<cylinder length="0.12" radius="0.06"/>')
+        shapes[f"{leg}_FOOT"] = ("0 0 0.0225", "0 0 0", '<sphere radius="0.03"/>')
+    for link in robot.iter("link"):
+        for shape in link.findall("collision"):
+            link.remove(shape)
+        if (name := link.get("name")) in shapes:
+            xyz, rpy, geometry = shapes.pop(name)
+            link.append(ElementTree.fromstring(f'<collision><origin xyz="{xyz}" rpy="{rpy}"/>'
+                                               f'<geometry>{geometry}</geometry></collision>'))
+    if shapes:
+        raise ModelError(f"ANYmal C: no links {sorted(shapes)} for the minimal collision shapes")
 
 
 # ---------------------------------------------------------------------------- Unitree G1

@@ -119,8 +119,9 @@ class AnymalTerrain(TerrainCurriculum, VecTask):
 
     def create_envs(self):
         scene = self.add_terrain(Scene(), self.cfg["env"])
-        scene.add_actor("anymal", anymal_c_spec(), pos=(0.0, 0.0, 1.0), self_collisions=False,
-                        dof_mode="effort")
+        # the original's anymal_minimal.urdf: a body, knee drives and feet collide
+        scene.add_actor("anymal", anymal_c_spec(minimal=True), pos=(0.0, 0.0, 1.0),
+                        self_collisions=False, dof_mode="effort")
         return scene.build(self.num_envs, self.device, self.sim_params)
 
     def metrics(self) -> dict[str, float]:
