@@ -162,8 +162,9 @@ def test_fine_tuning_starts_from_the_shipped_networks_with_a_fresh_optimizer(tmp
 
 
 def test_ship_keeps_the_networks_and_records_the_run_and_its_evaluation(tmp_path, monkeypatch):
-    """A run's policy ships with its evaluation and a fresh policy's beside it; one that no
-    figure tells from a fresh policy is refused, and what shipped before stays."""
+    """A run's policy ships with its evaluation and a fresh policy's beside it; evaluated again
+    after a change (`reevaluate`) it keeps its provenance; one that no figure tells from a fresh
+    policy is refused, and what shipped before stays."""
     assert cli.main(["train", "task=Ant", "device=cpu", "num_envs=32", "max_iterations=1",
                      f"train_dir={tmp_path}", "experiment=run"]) == 0
     monkeypatch.setattr(shipped, "folder", lambda: str(tmp_path / "policies"))
@@ -176,6 +177,14 @@ def test_ship_keeps_the_networks_and_records_the_run_and_its_evaluation(tmp_path
     assert entry["dtype"] in ("float16", "float32") and entry["eval"]["episodes"] == 2
     assert entry["baseline"] == fell_at_once and shipped.check_of(entry)[0] == "episode_reward"
     assert json.loads((tmp_path / "policies" / "manifest.json").read_text())["Ant"] == entry
+    # evaluated again with the task unchanged: the same figures, the reason and revision noted
+    shipped.reevaluate(["Ant"], "a change to the task")
+    again = json.loads((tmp_path / "policies" / "manifest.json").read_text())["Ant"]
+    assert again["eval"]["results"] == entry["eval"]["results"]
+    assert again["eval"]["why"] == "a change to the task" and again["eval"]["revision"]
+    assert {k: v for k, v in again.items() if k != "eval"} == {
+        k: v for k, v in entry.items() if k != "eval"}
+    entry = again
     # a fresh policy doing as well: refused, the policy shipped before untouched
     before = (tmp_path / "policies" / "Ant.pth").read_bytes()
     monkeypatch.setattr(shipped, "baseline", lambda task, episodes, num_envs: {
@@ -184,6 +193,10 @@ def test_ship_keeps_the_networks_and_records_the_run_and_its_evaluation(tmp_path
                                          "Ant policy within 100 episodes"):
         shipped.ship(str(tmp_path / "run" / "nn" / "last.pth"), episodes=2)
     assert (tmp_path / "policies" / "Ant.pth").read_bytes() == before
+    assert json.loads((tmp_path / "policies" / "manifest.json").read_text())["Ant"] == entry
+    with pytest.raises(ValueError, match="Ant: no figure tells the shipped policy from a fresh "
+                                         "one now"):
+        shipped.reevaluate(["Ant"], "a change that undid its training")
     assert json.loads((tmp_path / "policies" / "manifest.json").read_text())["Ant"] == entry
 
 

@@ -20,6 +20,7 @@ Maintainers ship a run's checkpoint with
 
     python -m myriad.rl.shipped runs/NAME/nn/last.pth [--episodes 100]   # or nn/<Task>.pth
     python -m myriad.rl.shipped --baseline TASK ...      # (re)measure shipped tasks' baselines
+    python -m myriad.rl.shipped --reevaluate TASK ... --why "..."   # after a change to a task
 """
 
 from __future__ import annotations
@@ -299,6 +300,46 @@ def add_baselines(tasks: list[str], episodes: int | None = None) -> None:
         atomic_json(os.path.join(folder(), MANIFEST), dict(sorted(entries.items())))
 
 
+def reevaluate(tasks: list[str], why: str) -> None:
+    """Evaluate shipped policies again, as they are, and fresh policies of their tasks, after a
+    change to the tasks (`why`): the manifest keeps how each was trained and gets the new
+    figures, with this tree's revision and the reason. A policy that no figure tells from a
+    fresh one any more is not kept silently: the error names it, to withdraw or retrain."""
+    from .agent import atomic_json
+    from .run import revision
+    for task in tasks:
+        entries = manifest()
+        if task not in entries:
+            raise ValueError(f"{task} ships no policy (shipped: {', '.join(sorted(entries))})")
+        entry = entries[task]
+        num_envs = entry["eval"]["num_envs"] if "num_envs=" in entry["eval"]["command"] \
+            else None
+        episodes = entry["eval"]["episodes"]
+        print(f"{task}: evaluating the shipped policy ...", flush=True)
+        with tempfile.TemporaryDirectory() as tmp, contextlib.redirect_stdout(io.StringIO()):
+            report = _evaluate(task, checkpoint_for(task), episodes,
+                               os.path.join(tmp, "eval.json"), num_envs)
+        ran = entry["dtype"]
+        entry["eval"] |= {"results": report["results"], "episodes": report["episodes"],
+                          "num_envs": report["num_envs"], "device": report["device"],
+                          f"{ran}_mean": report["results"][report["primary"]]["mean"],
+                          "revision": revision(), "date": datetime.date.today().isoformat(),
+                          "why": why}
+        # the other precision's figure belongs to the old task: the file holds only this one
+        entry["eval"].pop("float32_mean" if ran == "float16" else "float16_mean", None)
+        print(f"{task}: evaluating a fresh policy ...", flush=True)
+        entry["baseline"] = baseline(task, episodes, num_envs)
+        if check_of(entry) is None:
+            raise ValueError(f"{task}: no figure tells the shipped policy from a fresh one now "
+                             f"(shipped {_figures(entry['eval']['results'])}; fresh "
+                             f"{_figures(entry['baseline']['results'])}): withdraw or retrain it")
+        atomic_json(os.path.join(folder(), MANIFEST), dict(sorted(entries.items())))
+        r = report["results"][report["primary"]]
+        print(f"{task}: {report['primary']} {r['mean']:.4g} ± {r['half_width']:.3g} over "
+              f"{report['episodes']} episodes; fresh {_figures(entry['baseline']['results'])}",
+              flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description="Ship a run's policy with Myriad: strip its "
                                  "checkpoint, evaluate it and a fresh policy of its task, and "
@@ -307,6 +348,10 @@ def main() -> None:
                     "(nn/<Task>.pth)")
     ap.add_argument("--baseline", nargs="+", metavar="TASK",
                     help="only measure these shipped tasks' fresh-policy baselines")
+    ap.add_argument("--reevaluate", nargs="+", metavar="TASK",
+                    help="evaluate these shipped policies and fresh ones again after a change "
+                         "to their tasks (give --why)")
+    ap.add_argument("--why", help="with --reevaluate: the change, for the manifest")
     ap.add_argument("--command", help="the command that trained it (default: its summary's)")
     ap.add_argument("--episodes", type=int, help="of each evaluation (default 100; with "
                     "--baseline, the shipped policy's own evaluation's)")
@@ -318,6 +363,11 @@ def main() -> None:
     args = ap.parse_args()
     if args.baseline:
         add_baselines(args.baseline, args.episodes)
+        return
+    if args.reevaluate:
+        if not args.why:
+            ap.error("--reevaluate needs --why: the change to the tasks")
+        reevaluate(args.reevaluate, args.why)
         return
     if not args.checkpoint:
         ap.error("give a checkpoint to ship, or --baseline TASK ...")
