@@ -1,7 +1,9 @@
 """ANYmal (flat): a quadruped tracks commanded base velocities (seed A.2.2, Tables 5-7).
 
 The robot is ANYbotics' ANYmal C from the `example-robot-data` package (`pip install
-"myriad[anymal]"`), read from its URDF with fixes applied in code (`myriad.assets.anymal_c_spec`).
+"myriad[anymal]"`), read from its URDF with fixes applied in code (`myriad.assets.anymal_c_spec`),
+colliding as the original's `anymal.urdf` (example-robot-data's knee guards dropped, cylinders
+as capsules).
 
 Actions (12): position-drive targets, target = actionScale × action + default joint angle
 (drives Kp 85, Kd 2; efforts limited to the URDF's 80 N·m).

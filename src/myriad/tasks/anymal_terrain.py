@@ -6,6 +6,10 @@ every env shares, with vertical risers where a face is steeper than the original
 threshold. A robot starts on its tile's platform; at each reset the curriculum moves it a level
 up if it walked off its tile, down if it walked less than a quarter of what its command asked.
 
+The robot is the flat task's ANYmal C (`myriad.assets.anymal_c_spec`) colliding as the
+original's `anymal_minimal.urdf`: a capsule for the body, one per knee drive (part of the thigh)
+and a sphere per foot; its shanks and the rest of its thighs touch nothing.
+
 Control at the physics rate: each of the 4 physics steps (5 ms) of an action applies
 torque = clip(Kp·(0.5·a + q0 − q) − Kd·q̇, ±80) with Kp 80, Kd 2, computed here in torch.
 Commands at reset: vx, vy ~ U(−1, 1) m/s and a heading ~ U(−π, π), all zeroed below 0.25 m/s;
