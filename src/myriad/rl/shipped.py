@@ -279,17 +279,23 @@ def _figures(results: dict) -> str:
     return ", ".join(f"{k} {v['mean']:.4g}" for k, v in results.items() if k in HIGHER + LOWER)
 
 
+def _entry(task: str) -> tuple[dict, dict, int | None]:
+    """The manifest, `task`'s entry in it, and the env count its evaluation was given (None:
+    eval's own)."""
+    entries = manifest()
+    if task not in entries:
+        raise ValueError(f"{task} ships no policy (shipped: {', '.join(sorted(entries))})")
+    entry = entries[task]
+    return entries, entry, (entry["eval"]["num_envs"] if "num_envs=" in entry["eval"]["command"]
+                            else None)
+
+
 def add_baselines(tasks: list[str], episodes: int | None = None) -> None:
     """Measure (again) the fresh-policy baselines of shipped tasks, into the manifest: as many
     episodes on as many envs as the shipped policy's evaluation."""
     from .agent import atomic_json
     for task in tasks:
-        entries = manifest()
-        if task not in entries:
-            raise ValueError(f"{task} ships no policy (shipped: {', '.join(sorted(entries))})")
-        entry = entries[task]
-        num_envs = entry["eval"]["num_envs"] if "num_envs=" in entry["eval"]["command"] \
-            else None
+        entries, entry, num_envs = _entry(task)
         print(f"{task}: evaluating a fresh policy ...", flush=True)
         entry["baseline"] = baseline(task, episodes or entry["eval"]["episodes"], num_envs)
         check = check_of(entry)
@@ -308,12 +314,7 @@ def reevaluate(tasks: list[str], why: str) -> None:
     from .agent import atomic_json
     from .run import revision
     for task in tasks:
-        entries = manifest()
-        if task not in entries:
-            raise ValueError(f"{task} ships no policy (shipped: {', '.join(sorted(entries))})")
-        entry = entries[task]
-        num_envs = entry["eval"]["num_envs"] if "num_envs=" in entry["eval"]["command"] \
-            else None
+        entries, entry, num_envs = _entry(task)
         episodes = entry["eval"]["episodes"]
         print(f"{task}: evaluating the shipped policy ...", flush=True)
         with tempfile.TemporaryDirectory() as tmp, contextlib.redirect_stdout(io.StringIO()):
