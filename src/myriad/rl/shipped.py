@@ -53,6 +53,9 @@ MAX_CHECK_EPISODES = 100
 # the checked bound sits this many standard errors (of the check's episode count) from both the
 # shipped figure and the fresh policy's
 CHECK_SIGMAS = 3.0
+# and over at least this many episodes: a rare failure (ANYmal's fall at the start, about one
+# episode in a hundred, which the evaluation's spread hardly shows) must not decide it alone
+MIN_CHECK_EPISODES = 16
 # how far below its figure a shipped policy may fall where the test can afford to check it that
 # closely: half a figure that is better higher, twice one (an error) that is better lower. A
 # policy that kept only that much has lost what training gave it, fresh or not
@@ -131,7 +134,7 @@ def check_of(entry: dict) -> tuple[str, float, int] | None:
         for tolerance in (min(gap / 2, near), gap / 2):     # the bound's distance from mine
             if not tolerance > 0:
                 continue
-            episodes = max(4, math.ceil(max(
+            episodes = max(MIN_CHECK_EPISODES, math.ceil(max(
                 (CHECK_SIGMAS * (mine["std"] or 0.0) / tolerance) ** 2,
                 (CHECK_SIGMAS * (fresh["std"] or 0.0) / (gap - tolerance)) ** 2)))
             if episodes <= MAX_CHECK_EPISODES:
