@@ -3548,9 +3548,8 @@ def _finish_asset(spec: mujoco.MjSpec, options: AssetOptions, source: str,
     if options.vhacd_enabled:
         _decompose_meshes(spec, options.vhacd_params, source)
     if options.replace_cylinder_with_capsule:
-        for g in spec.geoms:        # same radius and half-length: rounded ends added
-            if g.type == mujoco.mjtGeom.mjGEOM_CYLINDER:
-                g.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+        from myriad.assets import cylinders_as_capsules
+        cylinders_as_capsules(spec)
     armature = float(options.armature)
     if armature:
         if options.use_physx_armature:

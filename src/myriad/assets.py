@@ -97,6 +97,14 @@ def urdf_spec(path: str, header: str, root_link: str | None = None,
     return spec
 
 
+def cylinders_as_capsules(spec: mujoco.MjSpec) -> None:
+    """Every cylinder of `spec` a capsule of the same radius and half-length (rounded ends
+    added), as Isaac Gym's `replace_cylinder_with_capsule` loads them."""
+    for geom in spec.geoms:
+        if geom.type == mujoco.mjtGeom.mjGEOM_CYLINDER:
+            geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+
+
 def urdf_velocity_limits(urdf: str | ElementTree.Element) -> dict[str, float]:
     """Each joint's `<limit velocity=...>` in a URDF (rad/s or m/s), by joint name; `urdf`: the
     file's path, or its parsed root element. MuJoCo's importer drops it; Isaac Gym applies it as
@@ -155,9 +163,7 @@ def anymal_c_spec(minimal: bool = False) -> mujoco.MjSpec:
         text_fixes={singular: '<inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" '
                               'izz="0.001"/>'},
         edit=_anymal_minimal_collisions if minimal else _anymal_collisions)
-    for geom in spec.geoms:
-        if geom.type == mujoco.mjtGeom.mjGEOM_CYLINDER:
-            geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+    cylinders_as_capsules(spec)
     return spec
 
 
@@ -265,9 +271,7 @@ def g1_spec(armature: float = G1_ARMATURE) -> mujoco.MjSpec:
                          root_link="pelvis")
     finally:
         os.unlink(fixed.name)
-    for geom in spec.geoms:
-        if geom.type == mujoco.mjtGeom.mjGEOM_CYLINDER:
-            geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+    cylinders_as_capsules(spec)
     for joint in spec.joints:
         if joint.type != mujoco.mjtJoint.mjJNT_FREE:
             joint.armature = armature

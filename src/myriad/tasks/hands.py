@@ -46,8 +46,8 @@ as Isaac Gym's one per DOF), effort 0.5 N·m, at
 (0, 0, 0.5) with the palm up and the fingers along -y, gravity off, its links colliding with
 each other but not with their parents (the original's collision filter -1 keeps the URDF
 loader's filters, which let every link pair collide; PhysX skips jointed pairs), joint speeds
-capped at the URDF's 7 rad/s (Isaac Gym applies a URDF's limits); a 6.5 cm cube (density 400) let go where the original lets it go
-in its hand, over the proximal phalanges (0, -0.0659, 0.5636): 5.9 cm out along the fingers from
+capped at the URDF's 7 rad/s (Isaac Gym applies a URDF's limits); a 6.5 cm cube (density 400)
+let go where the original lets it go in its hand, over the proximal phalanges (0, -0.0659, 0.5636): 5.9 cm out along the fingers from
 the middle finger's first joint and 7.0 cm above it, the goal position 4 cm lower. Zero
 actions target mid-range, which curls the fingers into a claw that sweeps the cube toward the
 palm; held straight, the fingers keep it 2-3 cm from its goal (the original's hand too:
@@ -331,8 +331,8 @@ class AllegroHand(InHandTask):
                                  quat_from_angle_axis(torch.tensor([0.47 * math.pi]), x)),
                         quat_from_angle_axis(torch.tensor([-0.5 * math.pi]), z))[0]
         control = self.cfg["env"]["control"]
-        # self-collisions on: the original's filter -1 keeps its URDF loader's (none), so its
-        # fingers block each other and the thumb
+        # self-collisions on: the original's filter -1 keeps its URDF loader's filters (all 0),
+        # so its fingers block each other and the thumb
         return scene.add_actor("hand", allegro_hand_spec(), pos=HAND_POS,
                                quat=tuple(turn.tolist()), fix_base=True, dof_mode="position",
                                stiffness=control["stiffness"], damping=control["damping"],
