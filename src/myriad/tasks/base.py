@@ -126,6 +126,10 @@ class VecTask:
         self.dt = self.sim_params.dt * self.control_freq_inv     # one env step, seconds
 
         self.envs = self.create_envs()
+        caps = self.dof_speed_limits()
+        if caps is not None:
+            self.envs.sim.dof_max_velocity[:, self.envs.dof_columns] = torch.as_tensor(
+                caps, dtype=torch.float32, device=self.device)
         self.randomizer = None
         if cfg.get("randomization", {}).get("enabled", False):
             from ..randomization import Randomizer
@@ -183,6 +187,13 @@ class VecTask:
     def create_envs(self):
         """Build the scene and return `myriad.api.Envs` with `self.num_envs` envs."""
         raise NotImplementedError
+
+    def dof_speed_limits(self) -> float | list[float] | None:
+        """The DOFs' speed caps (rad/s or m/s; one value, or one per DOF of `envs.dof_names`),
+        applied once after `create_envs`; None keeps the simulator's (PhysX's default, 100).
+        Isaac Gym applies a URDF's velocity limits, which MuJoCo's importer drops: a task whose
+        original follows them returns them here (`assets.dof_max_velocity`)."""
+        return None
 
     def pre_physics_step(self, actions: torch.Tensor) -> None:
         raise NotImplementedError

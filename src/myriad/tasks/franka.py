@@ -131,11 +131,6 @@ class FrankaCubeStack(VecTask):
         limits = e.dof_limits()[0]
         self.dof_lower, self.dof_upper = limits[:, 0], limits[:, 1]
         self.effort = torch.tensor(ARM_EFFORT, device=dev)
-        # the URDF's speed limits, which Isaac Gym applies and MuJoCo's importer drops: the
-        # fingers close at 0.2 m/s (0.2 s from open), not in one physics step. Unlimited, they
-        # struck the cube away: a scripted reach-close-lift lifted it in 18 % of envs, not 76 %
-        e.sim.dof_max_velocity[:, e.dof_columns] = torch.tensor(
-            franka_max_velocity(e.dof_names), device=dev)
         names = e.model.site_names
         sites = [names.index(f"franka/{s}") for s in (
             "panda_grip_site", "panda_leftfinger_tip", "panda_rightfinger_tip")]
@@ -171,6 +166,12 @@ class FrankaCubeStack(VecTask):
         scene.add_actor("cubeB", box_spec("cubeB", [CUBE_B] * 3, rgba=(0.0, 0.4, 0.1, 1.0)),
                         pos=(-0.1, 0.0, TABLE_TOP + CUBE_B / 2))
         return scene.build(self.num_envs, self.device, self.sim_params)
+
+    def dof_speed_limits(self) -> list[float]:
+        """The URDF's speed limits, which Isaac Gym applies: the fingers close at 0.2 m/s
+        (0.2 s from open), not in one physics step. Unlimited, they struck the cube away: a
+        scripted reach-close-lift lifted it in 18 % of envs, not 76 %."""
+        return franka_max_velocity(self.envs.dof_names)
 
     # ------------------------------------------------------------------ state
     def grip_poses(self) -> torch.Tensor:

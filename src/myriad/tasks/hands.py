@@ -343,9 +343,3 @@ class AllegroHand(InHandTask):
         MuJoCo's importer drops; from straight to mid-range targets the fingers curl at most
         this fast."""
         return allegro_max_velocity(self.envs.dof_names)
-
-    def __init__(self, cfg: dict, device: str = "cpu"):
-        super().__init__(cfg, device)
-        e = self.envs
-        e.sim.dof_max_velocity[:, e.dof_columns] = torch.tensor(self.dof_speed_limits(),
-                                                                device=self.device)

@@ -118,7 +118,6 @@ class Trifinger(VecTask):
         upper = torch.tensor(POSITION_BOUND, device=dev)
         self.position_bounds = (upper * torch.tensor([-1.0, -1.0, 0.0], device=dev), upper)
         self.cube = e.actor_index("object")
-        e.sim.dof_max_velocity[:, e.dof_columns] = MAX_VELOCITY     # the motors' 10 rad/s
         self.fingertips = torch.tensor([e.body_index(f"robot/finger_tip_link_{a}")
                                         for a in TRIFINGER_ANGLES], device=dev)
         self.fingertip_sensors = torch.tensor([e.sensor_index(f"robot/finger_tip_{a}_wrench")
@@ -156,6 +155,9 @@ class Trifinger(VecTask):
                                                self.cube_density, rgba=(0.9, 0.5, 0.1, 1.0)),
                             pos=(0.0, 0.0, self.cube_size / 2)))
         return scene.build(self.num_envs, self.device, self.sim_params)
+
+    def dof_speed_limits(self) -> float:
+        return MAX_VELOCITY             # the motors' 10 rad/s
 
     # ------------------------------------------------------------------ step
     def pre_physics_step(self, actions):
