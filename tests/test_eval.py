@@ -12,7 +12,7 @@ import torch
 from myriad import cli
 from myriad.rl import evaluate as ev
 from myriad.rl import run
-from myriad.rl.export import build_network
+from myriad.rl.policy import build_network
 
 
 def save_checkpoint(path, task, num_envs=4, summary_task=None):

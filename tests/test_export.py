@@ -11,7 +11,7 @@ import torch
 ort = pytest.importorskip("onnxruntime")
 
 from myriad import cli  # noqa: E402
-from myriad.rl import run  # noqa: E402
+from myriad.rl import policy, run  # noqa: E402
 from myriad.tasks import TASKS  # noqa: E402
 
 # ShadowHandOpenAI_LSTM's policy and critic, shrunk to train and export in seconds
@@ -203,8 +203,6 @@ VARIANTS = {
 
 
 def variant_network(variant):
-    from myriad.rl import export
-
     _, train_cfg = configs("task=Ant")
     network = train_cfg["params"]["network"]
     network["mlp"]["units"] = [16, 8]
@@ -212,7 +210,7 @@ def variant_network(variant):
     train_cfg["params"]["config"]["normalize_input"] = changes.pop("normalize_input", True)
     network.update(changes)
     torch.manual_seed(1)
-    net = export.build_network(train_cfg, 13, 5).eval()
+    net = policy.build_network(train_cfg, 13, 5).eval()
     if train_cfg["params"]["config"]["normalize_input"]:
         rms = net.running_mean_std
         rms.running_mean.copy_(torch.randn(13, dtype=torch.float64))
@@ -251,13 +249,11 @@ def test_a_checkpoint_of_the_cpu_profile_network_exports(tmp_path):
     """ShadowHand's CPU profile trains a smaller network than its config's: a checkpoint of
     either (trained on a GPU, or on a CPU without num_envs=) exports; here the profile's, which
     `myriad export` tries second."""
-    from myriad.rl import export
-
     _, full = configs("task=ShadowHand", "num_envs=1")
     _, profile = configs("task=ShadowHand")
     units = profile["params"]["network"]["mlp"]["units"]
     assert units != full["params"]["network"]["mlp"]["units"]
-    net = export.build_network(profile, 211, 20)
+    net = policy.build_network(profile, 211, 20)
     checkpoint = tmp_path / "hand.pth"
     torch.save({"model": net.state_dict(), "epoch": 7, "frame": 1234}, checkpoint)
     output = tmp_path / "hand.onnx"

@@ -162,6 +162,27 @@ def test_fine_tuning_starts_from_the_shipped_networks_with_a_fresh_optimizer(tmp
                 before.float()), key
 
 
+def test_a_policy_of_the_cpu_profiles_network_plays_and_trains_on_at_any_env_count(tmp_path,
+                                                                                     capsys):
+    """ShadowHand's shipped policy has its CPU profile's smaller network, which applies only
+    without num_envs= and never on a GPU: with num_envs given (as on a GPU, where the profile
+    is off too) play and training take the network the weights fit (before 2026-12-02 both
+    failed on the size mismatch)."""
+    video = tmp_path / "hand.gif"
+    assert cli.main(["play", "task=ShadowHand", "device=cpu", "checkpoint=shipped",
+                     "num_envs=2", "num_steps=2", f"video={video}", "video_size=[32,32]"]) == 0
+    assert video.is_file()
+    assert cli.main(["train", "task=ShadowHand", "device=cpu", "checkpoint=shipped",
+                     "num_envs=16", "max_iterations=1", f"train_dir={tmp_path}",
+                     "experiment=tuned"]) == 0
+    out = capsys.readouterr().out
+    assert "holds the networks of the task's CPU profile: training on with them" in out
+    tuned = torch.load(tmp_path / "tuned" / "nn" / "last.pth", weights_only=False)
+    start = torch.load(shipped.checkpoint_for("ShadowHand"), weights_only=False)
+    assert {k: v.shape for k, v in tuned["model"].items()} == \
+        {k: v.shape for k, v in start["model"].items()}
+
+
 def test_ship_keeps_the_networks_and_records_the_run_and_its_evaluation(tmp_path, monkeypatch):
     """A run's policy ships with its evaluation and a fresh policy's beside it; evaluated again
     after a change (`reevaluate`) it keeps its provenance; one that no figure tells from a fresh

@@ -51,7 +51,6 @@ GPU) every env gives the same number and nothing is favoured.
 
 from __future__ import annotations
 
-import copy
 import contextlib
 import io
 import json
@@ -567,7 +566,7 @@ def evaluate(overrides: list[str]) -> int:
     output=FILE.json]`."""
     from ..tasks import TASKS, config_int
     from . import run, shipped
-    from .export import load_network, read_checkpoint
+    from .policy import load_network, read_checkpoint
     from .policy import policy_from_network, restore_task_state
     from .agent import atomic_json
     from .train import seed_all
@@ -585,19 +584,11 @@ def evaluate(overrides: list[str]) -> int:
     device = run.resolve_device(cfg.device)
     if cfg.num_envs is None:
         cfg.num_envs = min(episodes, 4096 if device.startswith("cuda") else 256)
-    # the network as the train config gives it and as its CPU profile changes it (a checkpoint
-    # trained on a CPU without num_envs=): the weights pick the one they fit (as export does)
-    candidates = []
     with contextlib.redirect_stdout(io.StringIO()):       # minibatch adjustments: not ours
-        for num_envs in (cfg.num_envs, None):
-            trial = copy.deepcopy(cfg)
-            trial.num_envs = num_envs
-            candidates.append(run.task_and_train_configs(trial, overrides)[:2])
-    task_cfg, _ = candidates[0]
+        task_cfg, train_cfg, _ = run.task_and_train_configs(cfg, overrides)
+    # the train config's network or its CPU profile's: the weights pick the one they fit
+    train_cfgs = run.network_choices(cfg, overrides, train_cfg)
     cfg.seed = config_int(cfg.seed, "seed")
-    train_cfgs = [c[1] for c in candidates]
-    if train_cfgs[1] == train_cfgs[0]:
-        train_cfgs = train_cfgs[:1]
     name = task_cfg["name"]
     checkpoint = run.policy_checkpoint(cfg, name)
     state = read_checkpoint(checkpoint)          # missing or unreadable: a one-line error

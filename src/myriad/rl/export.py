@@ -57,6 +57,8 @@ import warnings
 import torch
 from torch import nn
 
+from .policy import load_network, read_checkpoint
+
 # ONNX operator set of the graph: 17 has LayerNormalization (the LSTM policies' layer norm) as
 # one operator; onnxruntime has run it since 1.14
 OPSET = 17
@@ -234,60 +236,6 @@ class OnnxActor(nn.Module):
             return []
         shape = (self.rnn_layers, batch, self.rnn_units)
         return [torch.zeros(shape) for _ in self.state_names()[0]]
-
-
-def build_network(train_cfg: dict, num_obs: int, num_actions: int) -> nn.Module:
-    """The rl_games model (`ModelBuilder`) of the train config for these sizes, as `myriad
-    play` builds it, on the CPU; construction messages silenced."""
-    from rl_games.algos_torch.model_builder import ModelBuilder
-
-    params = train_cfg["params"]
-    config = params["config"]
-    with contextlib.redirect_stdout(io.StringIO()):      # "build mlp", "RunningMeanStd: ..."
-        return ModelBuilder().load(params).build({
-            "actions_num": num_actions, "input_shape": (num_obs,), "num_seqs": 1,
-            "value_size": 1, "normalize_value": config.get("normalize_value", False),
-            "normalize_input": config.get("normalize_input", False)})
-
-
-def read_checkpoint(checkpoint: str) -> dict:
-    """The checkpoint's dict on the CPU, or a one-line error."""
-    if not os.path.isfile(checkpoint):
-        raise FileNotFoundError(f"checkpoint={checkpoint}: no such file")
-    try:
-        state = torch.load(checkpoint, map_location="cpu", weights_only=False)
-    except Exception as err:        # truncated, or not a torch file: torch raises several kinds
-        raise ValueError(f"checkpoint {checkpoint}: not a readable rl_games checkpoint "
-                         f"({type(err).__name__}: {err})") from err
-    if not isinstance(state, dict) or "model" not in state:
-        raise ValueError(f"checkpoint {checkpoint}: not an rl_games checkpoint (no 'model' "
-                         "weights)")
-    # torch.compile'd runs save their keys with this prefix (rl_games strips it too)
-    state["model"] = {k.removeprefix("_orig_mod."): v for k, v in state["model"].items()}
-    return state
-
-
-def load_network(state: dict, train_cfgs: list[dict], num_obs: int, num_actions: int,
-                 task: str, checkpoint: str) -> tuple[nn.Module, dict]:
-    """The rl_games model with the checkpoint's weights, in eval mode on the CPU, and the train
-    config it was built from: the first of `train_cfgs` (candidate network shapes: the task's
-    network and, where a CPU profile changes it, the profile's) whose network the weights fit.
-    Weights that fit none fail naming the task and the first mismatch."""
-    first_error = None
-    for train_cfg in train_cfgs:
-        network = build_network(train_cfg, num_obs, num_actions)
-        try:
-            network.load_state_dict(state["model"])
-        except RuntimeError as err:        # missing or unexpected keys, size mismatches
-            first_error = first_error or err
-            continue
-        return network.eval(), train_cfg
-    detail = str(first_error).strip().splitlines()
-    shown = "; ".join(line.strip() for line in detail[1:4]) or detail[0]
-    raise ValueError(f"checkpoint {checkpoint} does not fit the {task} policy network of the "
-                     f"train config ({num_obs} observations, {num_actions} actions): is it "
-                     f"another task's checkpoint, or was it trained with other network "
-                     f"settings? {shown}")
 
 
 def _plain(value):
@@ -526,19 +474,12 @@ def export(overrides: list[str]) -> int:
     if cfg.output is not None and not str(cfg.output).endswith(".onnx"):
         raise ValueError(f"output={cfg.output}: the file name must end in .onnx")
     cfg.device = "cpu"            # the graph is device-free; the task is built only to be read
-    # the network as the train config gives it, and as its CPU profile changes it (a
-    # checkpoint trained on a CPU without num_envs=): the weights pick the one they fit
-    candidates = []
+    if cfg.num_envs is None:
+        cfg.num_envs = 1
     with contextlib.redirect_stdout(io.StringIO()):       # minibatch adjustments: not ours
-        for num_envs in (1, None):
-            trial = copy.deepcopy(cfg)
-            if trial.num_envs is None:
-                trial.num_envs = num_envs
-            candidates.append(run.task_and_train_configs(trial, overrides)[:2])
-    task_cfg = candidates[0][0]
-    train_cfgs = [c[1] for c in candidates]
-    if train_cfgs[1] == train_cfgs[0]:
-        train_cfgs = train_cfgs[:1]
+        task_cfg, train_cfg, _ = run.task_and_train_configs(cfg, overrides)
+    # the train config's network or its CPU profile's: the weights pick the one they fit
+    train_cfgs = run.network_choices(cfg, overrides, train_cfg)
     name = task_cfg["name"]
     checkpoint = run.policy_checkpoint(cfg, name)
     output = cfg.output or run.output_beside(checkpoint, cfg.train_dir, f"{name}.onnx")

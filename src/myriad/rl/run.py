@@ -11,6 +11,7 @@ folder, reads a checkpoint to resume from (and sends it to the others) and write
 
 from __future__ import annotations
 
+import copy
 import difflib
 import glob
 import json
@@ -314,6 +315,44 @@ def newest_run(train_dir: str, task: str) -> str | None:
     return max(runs)[1] if runs else None
 
 
+def network_choices(cfg, overrides: list[str], train_cfg: dict) -> list[dict]:
+    """The train configs whose networks a checkpoint of the task may hold: `train_cfg` (as
+    composed for this device and num_envs) and, where the task's CPU profile changes a network
+    (ShadowHand's MLP, the OpenAI LSTM's units) and `train_cfg` does not have it, the same with
+    the profile's networks: a policy trained on a CPU without num_envs= (as every shipped one)
+    then plays, evaluates and trains on on a GPU or at any env count. What the command line set
+    wins over the profile, as in training."""
+    profile = OmegaConf.to_container(cfg.train, resolve=True).get("cpu", {})
+    kept = tuple(k for k in given_keys(overrides) if "." in k)
+    other = copy.deepcopy(train_cfg)
+    params = other["params"]
+    _merge(params["network"], profile.get("network", {}), "train.params.network", kept)
+    critic = params["config"].get("central_value_config")
+    if critic and "network" in (profile.get("central_value_config") or {}):
+        _merge(critic["network"], profile["central_value_config"]["network"],
+               "train.params.config.central_value_config.network", kept)
+    return [train_cfg] if other == train_cfg else [train_cfg, other]
+
+
+def fitting_train_config(checkpoint: str, choices: list[dict], task) -> dict:
+    """The first of `choices` (`network_choices`) whose networks the checkpoint's weights fit,
+    saying so when it is the CPU profile's (a shipped policy trained on on a GPU); none fits:
+    the first, and training fails naming the mismatch as it loads the weights."""
+    from .policy import load_network, read_checkpoint
+
+    if len(choices) == 1:
+        return choices[0]
+    try:
+        _, chosen = load_network(read_checkpoint(checkpoint), choices, task.num_obs,
+                                 task.num_actions, type(task).__name__, checkpoint)
+    except ValueError:
+        return choices[0]
+    if chosen is not choices[0]:
+        print(f"{checkpoint} holds the networks of the task's CPU profile: training on with "
+              "them", flush=True)
+    return chosen
+
+
 def checkpoint_and_experiment(cfg, task: str) -> tuple[str | None, str]:
     """The checkpoint to resume from (or None) and the run folder name, from `checkpoint=`,
     `resume=auto` and `experiment=`."""
@@ -461,6 +500,9 @@ def _train(cfg, overrides: list[str], distributed: dict | None) -> int:
         task = TASKS[name](task_cfg, device=device)
         task.capture_step = cfg.capture_step
         print(f"built in {time.monotonic() - t0:.1f} s", flush=True)
+        if checkpoint:
+            train_cfg = from_rank_0(lambda: fitting_train_config(
+                checkpoint, network_choices(cfg, overrides, train_cfg), task), distributed)
         # the page only watches: it never pauses or resets training; rank 0 serves it
         task.viewer = open_viewer(cfg, task, controls=False) \
             if distributed is None or distributed["rank"] == 0 else None
@@ -616,7 +658,8 @@ def play(overrides: list[str]) -> int:
     task = TASKS[name](task_cfg, device=device)
     # the task as training left it where it fits (HumanoidAMP's clip; AnymalTerrain's levels
     # at the run's env count), as eval does
-    policy = load_policy(checkpoint, train_cfg, task, restore_task=True)
+    policy = load_policy(checkpoint, network_choices(cfg, overrides, train_cfg), task,
+                         restore_task=True)
     video = cfg.video or output_beside(checkpoint, cfg.train_dir, f"{name}.mp4")
     steps = None if watching and "num_steps" not in given else int(cfg.num_steps)
     fps = round(1.0 / task.dt)

@@ -199,7 +199,7 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
     `num_envs`: the evaluation's (default: eval's own); the run's own count restores what
     spans episodes in training (AnymalTerrain's levels), which another count cannot."""
     from .evaluate import checkpoint_task
-    from .export import read_checkpoint
+    from .policy import read_checkpoint
     from .run import revision
     from .agent import atomic_json, atomic_write
 
