@@ -566,8 +566,7 @@ def evaluate(overrides: list[str]) -> int:
     output=FILE.json]`."""
     from ..tasks import TASKS, config_int
     from . import run, shipped
-    from .policy import load_network, read_checkpoint
-    from .policy import policy_from_network, restore_task_state
+    from .policy import load_network, policy_from_network, read_checkpoint, restore_task_state
     from .agent import atomic_json
     from .train import seed_all
 

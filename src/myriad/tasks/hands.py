@@ -41,20 +41,20 @@ after that many, and running out of time adds fallPenalty / 2.
 (1 - a)·cs with a = averFactor (0.1); the trainer reports it (`metrics`).
 
 Allegro (task-specs §3): Wonik's 16-joint hand of example-robot-data
-(`myriad.assets.allegro_hand_spec`), position drives kp 3, kd 0.1 (the joints' only damping,
-as Isaac Gym's one per DOF), effort 0.5 N·m, at
-(0, 0, 0.5) with the palm up and the fingers along -y, gravity off, its links colliding with
-each other but not with their parents (the original's collision filter -1 keeps the URDF
-loader's filters, which let every link pair collide; PhysX skips jointed pairs), joint speeds
-capped at the URDF's 7 rad/s (Isaac Gym applies a URDF's limits); a 6.5 cm cube (density 400)
-let go where the original lets it go in its hand, over the proximal phalanges (0, -0.0659, 0.5636): 5.9 cm out along the fingers from
-the middle finger's first joint and 7.0 cm above it, the goal position 4 cm lower. Zero
-actions target mid-range, which curls the fingers into a claw that sweeps the cube toward the
-palm; held straight, the fingers keep it 2-3 cm from its goal (the original's hand too:
-`benchmarks/allegro_original_hand.py`);
-30 Hz control; no fingertip terms, so "full_state" is 88 values: joint
-positions, velocities and forces (16 each), cube pose 7, linear and angular velocity 6, goal
-pose 7, relative rotation 4, last actions 16. Reward, success and resets as the Shadow Hand's.
+(`myriad.assets.allegro_hand_spec`), position drives kp 3, kd 0.1 (the joints' only damping, as
+Isaac Gym's one per DOF), effort 0.5 N·m, at (0, 0, 0.5) with the palm up and the fingers along
+-y, gravity off, its links colliding with each other but not with their parents (the original's
+collision filter -1 keeps the URDF loader's filters, which let every link pair collide; PhysX
+skips jointed pairs), joint speeds capped at the URDF's 7 rad/s (Isaac Gym applies a URDF's
+limits); a 6.5 cm cube (density 400) let go where the original lets it go in its hand, over the
+proximal phalanges (0, -0.0659, 0.5636): 5.9 cm out along the fingers from the middle finger's
+first joint and 7.0 cm above it, the goal position 4 cm lower. Zero actions target mid-range,
+which curls the fingers into a claw that sweeps the cube toward the palm; held straight, the
+fingers keep it 2-3 cm from its goal (the original's hand too:
+`benchmarks/allegro_original_hand.py`); 30 Hz control; no fingertip terms, so "full_state" is 88
+values: joint positions, velocities and forces (16 each), cube pose 7, linear and angular
+velocity 6, goal pose 7, relative rotation 4, last actions 16. Reward, success and resets as the
+Shadow Hand's.
 
 Deviations from the original: a success draws the new goal in the same step (the original
 draws it at the start of the next step), so the observation after a success already shows the
