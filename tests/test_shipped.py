@@ -148,7 +148,10 @@ def test_a_task_that_ships_no_policy_is_named_with_those_that_do(tmp_path, capsy
     assert f"no trained {missing} run under" in capsys.readouterr().err
 
 
-def test_fine_tuning_starts_from_the_shipped_networks_with_a_fresh_optimizer(tmp_path, capsys):
+def test_fine_tuning_starts_from_the_shipped_networks_with_a_fresh_optimizer(tmp_path, capsys,
+                                                                            monkeypatch):
+    """A fine-tune is a new run from the shipped networks; shipped in turn, its manifest entry
+    counts the env-steps and wall time of both runs and names the first."""
     assert cli.main(["train", "task=Ant", "device=cpu", "checkpoint=shipped", "num_envs=32",
                      "max_iterations=1", f"train_dir={tmp_path}", "experiment=tuned"]) == 0
     assert "fine-tuning from" in capsys.readouterr().out
@@ -160,6 +163,18 @@ def test_fine_tuning_starts_from_the_shipped_networks_with_a_fresh_optimizer(tmp
         if before.is_floating_point() and "mean_std" not in key and before.dim() == 2:
             assert torch.linalg.norm(after - before.float()) < 0.1 * torch.linalg.norm(
                 before.float()), key
+    first = shipped.manifest()["Ant"]
+    summary = json.loads((tmp_path / "tuned" / "summary.json").read_text())
+    assert summary["fine_tuned_from"] == {k: first[k] for k in shipped.LINEAGE}
+    monkeypatch.setattr(shipped, "folder", lambda: str(tmp_path / "policies"))
+    monkeypatch.setattr(shipped, "baseline", lambda task, episodes, num_envs: {
+        "results": {"episode_reward": {"mean": -1e6, "std": 1.0}}})
+    entry = shipped.ship(str(tmp_path / "tuned" / "nn" / "last.pth"), episodes=2)
+    assert entry["env_steps"] == first["env_steps"] + tuned["frame"] == \
+        first["env_steps"] + summary["env_steps"]
+    assert entry["wall_s"] == pytest.approx(first["wall_s"] + tuned["myriad"]["wall_s"])
+    assert entry["command"] == f"{first['command']}; then {summary['command']}"
+    assert entry["fine_tuned_from"] == summary["fine_tuned_from"]
 
 
 def test_a_policy_of_the_cpu_profiles_network_plays_and_trains_on_at_any_env_count(tmp_path,

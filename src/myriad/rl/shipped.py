@@ -60,6 +60,8 @@ MIN_CHECK_EPISODES = 16
 # closely: half a figure that is better higher, twice one (an error) that is better lower. A
 # policy that kept only that much has lost what training gave it, fresh or not
 SHORTFALL = {"higher": 0.5, "lower": 1.0}
+# what a run fine-tuned from a shipped policy keeps of that policy's manifest entry
+LINEAGE = ("command", "revision", "machine", "date", "env_steps", "wall_s")
 
 
 def folder() -> str:
@@ -85,6 +87,14 @@ def checkpoint_for(task: str) -> str:
         raise FileNotFoundError(f"checkpoint=shipped: no policy of {task} ships with Myriad "
                                 f"(shipped: {have}); train one with `myriad train task={task}`")
     return path
+
+
+def lineage(task: str) -> dict:
+    """What `task`'s shipped policy had been trained for, as a run fine-tuned from it records
+    it (summary.json's `fine_tuned_from`): its command, revision, machine, date, env-steps and
+    wall time, each the sum over the runs it came from."""
+    entry = manifest()[task]
+    return {k: entry.get(k) for k in LINEAGE}
 
 
 def is_shipped(path: str) -> bool:
@@ -221,6 +231,12 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
         del progress["mean_reward"]
     summary |= {k: float(v) if k in ("wall_s", "mean_reward") else int(v)
                 for k, v in progress.items() if v is not None}
+    before = summary.get("fine_tuned_from")
+    if before:      # a fine-tune of a shipped policy: the policy's training is both runs
+        command = command or f"{before['command']}; then {summary.get('command')}"
+        for key in ("env_steps", "wall_s"):
+            if summary.get(key) is not None and before.get(key) is not None:
+                summary[key] += before[key]
     task = checkpoint_task(checkpoint)
     figures = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -246,6 +262,7 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
         "seed": summary.get("seed"), "env_steps": summary.get("env_steps"),
         "wall_s": summary.get("wall_s"), "training_mean_reward": summary.get("mean_reward"),
         "epoch": summary.get("epoch"),
+        **({"fine_tuned_from": before} if before else {}),
         "eval": {"command": f"myriad eval task={task} checkpoint=shipped episodes={episodes} "
                             + (f"num_envs={num_envs} " if num_envs else "") + "seed=0",
                  "primary": report["primary"], "results": report["results"],
