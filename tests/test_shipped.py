@@ -150,8 +150,9 @@ def test_a_task_that_ships_no_policy_is_named_with_those_that_do(tmp_path, capsy
 
 def test_fine_tuning_starts_from_the_shipped_networks_with_a_fresh_optimizer(tmp_path, capsys,
                                                                             monkeypatch):
-    """A fine-tune is a new run from the shipped networks; shipped in turn, its manifest entry
-    counts the env-steps and wall time of both runs and names the first."""
+    """A fine-tune is a new run from the shipped networks; shipped in turn (here after a
+    resume), its manifest entry counts the env-steps and wall time of both runs and names the
+    first."""
     assert cli.main(["train", "task=Ant", "device=cpu", "checkpoint=shipped", "num_envs=32",
                      "max_iterations=1", f"train_dir={tmp_path}", "experiment=tuned"]) == 0
     assert "fine-tuning from" in capsys.readouterr().out
@@ -164,6 +165,10 @@ def test_fine_tuning_starts_from_the_shipped_networks_with_a_fresh_optimizer(tmp
             assert torch.linalg.norm(after - before.float()) < 0.1 * torch.linalg.norm(
                 before.float()), key
     first = shipped.manifest()["Ant"]
+    assert cli.main(["train", "task=Ant", "device=cpu", "resume=auto", "num_envs=32",
+                     "max_iterations=2", f"train_dir={tmp_path}", "experiment=tuned"]) == 0
+    tuned = torch.load(tmp_path / "tuned" / "nn" / "last.pth", weights_only=False)
+    assert tuned["epoch"] == 2
     summary = json.loads((tmp_path / "tuned" / "summary.json").read_text())
     assert summary["fine_tuned_from"] == {k: first[k] for k in shipped.LINEAGE}
     monkeypatch.setattr(shipped, "folder", lambda: str(tmp_path / "policies"))

@@ -305,6 +305,9 @@ class MyriadAgent(a2c_continuous.A2CAgent):
         self.settled_epoch = 0              # the first epoch whose mean reward counts as a best
         self.nonfinite_actions = 0          # env-steps whose action had a NaN or inf
         self.contact_overflow_steps = 0     # env-steps that found more contacts than slots
+        # the shipped policy this run was fine-tuned from (`shipped.lineage`), kept through
+        # resumes: shipping the run counts that policy's training too
+        self.fine_tuned_from = None
         self.checkpoint_epoch = None        # the epoch nn/last.pth holds
         self.frames_not_counted = 0         # this epoch's env-steps, before rl_games adds them
         self.stop_signal = None
@@ -478,6 +481,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             "best_saved_reward": self.best_saved_reward,
             "nonfinite_actions": self.nonfinite_actions,
             "contact_overflow_steps": self.contact_overflow_steps,
+            "fine_tuned_from": self.fine_tuned_from,
             "task": getattr(self.vec_env.env, "training_state", dict)(),
             "task_by_rank": self.task_states,    # several processes: as of the last epoch's end
             "rng": {"torch": torch.get_rng_state(), "cuda": cuda,
@@ -508,6 +512,7 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             if self.minibatch_step is not None:
                 self.minibatch_step.set_learning_rate(self.last_lr)
         self.contact_overflow_steps = ours.get("contact_overflow_steps", 0)
+        self.fine_tuned_from = ours.get("fine_tuned_from")
         task = self.own_task_state(ours)
         if task:
             self.vec_env.env.load_training_state(task)
@@ -743,4 +748,5 @@ class MyriadAgent(a2c_continuous.A2CAgent):
             "contact_overflow_steps": self.contact_overflow_steps,
             **{k: round(v, 4) for k, v in getattr(self, "metrics", {}).items()},
             "checkpoint": os.path.join(self.nn_dir, "last.pth"),
-            "checkpoint_epoch": self.checkpoint_epoch})
+            "checkpoint_epoch": self.checkpoint_epoch,
+            **({"fine_tuned_from": self.fine_tuned_from} if self.fine_tuned_from else {})})

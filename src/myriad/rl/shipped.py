@@ -91,8 +91,8 @@ def checkpoint_for(task: str) -> str:
 
 def lineage(task: str) -> dict:
     """What `task`'s shipped policy had been trained for, as a run fine-tuned from it records
-    it (summary.json's `fine_tuned_from`): its command, revision, machine, date, env-steps and
-    wall time, each the sum over the runs it came from."""
+    it (in its checkpoints and summary.json: `fine_tuned_from`): its command, revision, machine,
+    date, and the env-steps and wall time of all the runs it came from."""
     entry = manifest()[task]
     return {k: entry.get(k) for k in LINEAGE}
 
@@ -231,12 +231,11 @@ def ship(checkpoint: str, command: str | None = None, episodes: int = 100,
         del progress["mean_reward"]
     summary |= {k: float(v) if k in ("wall_s", "mean_reward") else int(v)
                 for k, v in progress.items() if v is not None}
-    before = summary.get("fine_tuned_from")
+    before = (state.get("myriad") or {}).get("fine_tuned_from")
     if before:      # a fine-tune of a shipped policy: the policy's training is both runs
         command = command or f"{before['command']}; then {summary.get('command')}"
         for key in ("env_steps", "wall_s"):
-            if summary.get(key) is not None and before.get(key) is not None:
-                summary[key] += before[key]
+            summary[key] += before[key]
     task = checkpoint_task(checkpoint)
     figures = {}
     with tempfile.TemporaryDirectory() as tmp:

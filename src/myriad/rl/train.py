@@ -117,10 +117,7 @@ def train(task, train_cfg: dict, run: dict, seed: int, checkpoint: str | None = 
             # curriculum restarted at level 0 would spend the first episodes climbing back
             kept = restore_task_state(task, weights)
             if shipped.is_shipped(checkpoint):
-                # the summary says what the policy had been trained for before: shipping this
-                # run's policy counts both parts (`shipped.ship`)
-                agent.run_cfg["describe"]["fine_tuned_from"] = shipped.lineage(
-                    agent.run_cfg["describe"]["task"])
+                agent.fine_tuned_from = shipped.lineage(run["describe"]["task"])
             print(f"fine-tuning from {checkpoint}: its networks and normalizers"
                   f"{' and the task state (' + ', '.join(kept) + ')' if kept else ''}, a fresh "
                   "optimizer, epoch 0", flush=True)
